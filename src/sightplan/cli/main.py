@@ -1,0 +1,45 @@
+"""The ``sightplan`` command line: thin commands over the library."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+from rich.console import Console
+
+from .errors import friendly_errors
+
+app = typer.Typer(add_completion=False, no_args_is_help=True,
+                  help="Create and evaluate reality capture plans against building models.")
+console = Console()
+
+from . import evaluate_cmd, info_cmd  # noqa: E402,F401  (registers the commands)
+
+
+@app.command()
+@friendly_errors
+def cameras(search: Annotated[str, typer.Argument(help="Filter by name")] = "") -> None:
+    """List the built-in camera catalogue."""
+    from rich.table import Table
+
+    from ..camera.catalogue import list_cameras
+
+    table = Table("id", "name", "model", "image (px)", "focal (px)", "FOV (°)")
+    for cam_id, cam in list_cameras():
+        label = f"{cam_id} {cam.name}".lower()
+        if search.lower() not in label:
+            continue
+        if cam.kind == "pinhole":
+            table.add_row(cam_id, cam.name, "pinhole", f"{cam.width}×{cam.height}", f"{cam.fx:.0f}",
+                          f"{cam.hfov_deg:.1f}×{cam.vfov_deg:.1f}")
+        else:
+            table.add_row(cam_id, cam.name, "equirectangular", f"{cam.width}×{cam.height}", "—", "360×180")
+    console.print(table)
+
+
+def main() -> None:  # pragma: no cover
+    app()
+
+
+_ = Path  # re-exported for the command modules' annotations

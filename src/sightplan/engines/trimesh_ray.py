@@ -1,0 +1,43 @@
+"""Visibility with trimesh's pure-numpy ray tracer: slow, independent of Embree.
+
+It exists to cross-check the Embree engine on small scenes and as the plain baseline
+of the benchmark; it is not meant for real plans.
+"""
+
+from __future__ import annotations
+
+import threading
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..errors import EngineError
+from .base import Engine
+
+
+class TrimeshEngine(Engine):
+    """First hits from ``trimesh.ray.ray_triangle`` (numpy + an R-tree of triangles)."""
+
+    name = "trimesh"
+
+    def __init__(self, scene, features=None, **kwargs) -> None:
+        kwargs.setdefault("threads", 1)
+        super().__init__(scene, features, **kwargs)
+        try:
+            import trimesh
+            from trimesh.ray.ray_triangle import RayMeshIntersector
+        except ImportError as exc:  # pragma: no cover
+            raise EngineError(f"the trimesh engine needs trimesh and rtree ({exc})") from None
+        self._empty = len(scene.faces) == 0
+        if not self._empty:
+            mesh = trimesh.Trimesh(self.local_vertices, scene.faces, process=False, validate=False)
+            self._ray = RayMeshIntersector(mesh)
+        self._lock = threading.Lock()
+
+    def first_hit(self, origins: NDArray[np.float32], directions: NDArray[np.float32]) -> NDArray[np.int32]:
+        if self._empty:
+            return np.full(len(directions), -1, np.int32)
+        o = np.ascontiguousarray(np.broadcast_to(origins, directions.shape), dtype=np.float64)
+        with self._lock:  # trimesh's caches are not thread-safe
+            hit = self._ray.intersects_first(o, directions.astype(np.float64))
+        return np.asarray(hit, dtype=np.int32)

@@ -1,0 +1,9 @@
+"""Metrics: pure functions of Observations and parameters (METRICS.md)."""
+
+from .elements import ElementMetrics, element_metrics
+from .params import MetricParams
+from .plan import Metrics, PlanMetrics, compute_metrics
+from .stability import FrameMetrics, frame_metrics, stable_feature_counts
+
+__all__ = ["ElementMetrics", "FrameMetrics", "MetricParams", "Metrics", "PlanMetrics", "compute_metrics",
+           "element_metrics", "frame_metrics", "stable_feature_counts"]
