@@ -19,15 +19,24 @@ def _fmt(x: float | None, spec: str) -> str:
 
 
 def summary_table(ev, title: str) -> Table:
-    """A Table-2-like summary of the plan metrics."""
+    """The plan metrics, one per row, as in the paper's Table 2."""
     p = ev.metrics.plan
-    t = Table(title=title, title_justify="left")
-    for col in ("VC %", "V̄C %", "VR", "R (m/px)", "O (°)", "T", "stable %", "z", "frames", "time (s)", "s/frame"):
-        t.add_column(col, justify="right")
     pct = lambda x: None if x is None else 100 * x  # noqa: E731
-    t.add_row(_fmt(pct(p.VC), ".2f"), _fmt(pct(p.VC_bar), ".2f"), _fmt(p.VR, ".2f"), _fmt(p.R, ".4f"), _fmt(p.O, ".2f"),
-              _fmt(p.T, ".1f"), _fmt(pct(p.stable_share), ".1f"), str(p.z), str(p.n_frames),
-              f"{ev.timings['total_s']:.1f}", f"{ev.timings['s_per_frame']:.3f}")
+    t = Table("metric", "value", "unit", "meaning", title=title, title_justify="left")
+    rows = [
+        ("VC", _fmt(pct(p.VC), ".2f"), "%", f"visual coverage: {p.n_visible} of {p.z} elements seen by ≥ Ω px"),
+        ("V̄C", _fmt(pct(p.VC_bar), ".2f"), "%", f"relative visual coverage: of the {p.n_observed} observed elements"),
+        ("VR", _fmt(p.VR, ".2f"), "frames", "redundant visibility per visible element"),
+        ("R", _fmt(p.R, ".4f"), "m/px", "back-projection resolution (surface sampling distance)"),
+        ("O", _fmt(p.O, ".2f"), "°", "viewpoint orientation (0° = head-on)"),
+        ("T", _fmt(p.T, ".1f"), "features", "stability: stable features per frame"),
+        ("stable", _fmt(pct(p.stable_share), ".1f"), "%", "frames with ≥ Λ stable features"),
+        ("time", f"{ev.timings['total_s']:.1f}", "s",
+         f"{p.n_frames} frames, {ev.timings['frames_cast']} cast ({ev.timings['s_per_frame']:.3f} s each), "
+         f"{ev.cache_hits} from the cache"),
+    ]
+    for row in rows:
+        t.add_row(*row)
     return t
 
 
@@ -43,6 +52,7 @@ def evaluate(
     date: Annotated[str | None, typer.Option(help="Capture date YYYY-MM-DD: only elements built by then exist")] = None,
     schedule: Annotated[Path | None, typer.Option(help="CSV schedule: global_id (or name), start, finish")] = None,
     date_basis: Annotated[str, typer.Option(help="Which schedule date builds an element: finish or start")] = "finish",
+    unscheduled: Annotated[str, typer.Option(help="Elements no schedule dates: present at every date, or absent")] = "present",
     engine: Annotated[EngineName, typer.Option(help="Visibility engine")] = "auto",
     scale: Annotated[float, typer.Option(help="Resolution scale s: cast (s·W)×(s·H) rays and scale counts")] = 1.0,
     omega: Annotated[float, typer.Option(help="Visibility threshold Ω in pixels")] = 625.0,
@@ -54,6 +64,7 @@ def evaluate(
     features: Annotated[Path | None, typer.Option(help="Use this saved feature set (.npz) instead of sampling")] = None,
     d_max: Annotated[float, typer.Option(help="D_max: farthest visible surface (m)")] = 1000.0,
     transform: Annotated[Path | None, typer.Option(help="JSON 4×4 similarity from the poses' frame to the model's")] = None,
+    save_plan: Annotated[Path | None, typer.Option(help="Also write the evaluated plan as sightplan JSON")] = None,
     out: Annotated[Path, typer.Option(help="Output folder for report.json, elements.csv, frames.csv")] = Path("sightplan-out"),
     cache: Annotated[bool, typer.Option(help="Reuse the model and per-frame caches")] = True,
     threads: Annotated[int | None, typer.Option(help="Worker threads (default: all cores)")] = None,
@@ -88,7 +99,9 @@ def evaluate(
         console.print(f"schedule: {link['linked']} elements linked, {link['unlinked']} unlinked, "
                       f"{len(link['unknown_ids'])} rows name unknown ids")
     if date is not None:
-        scene = scene.at(date, basis=date_basis)  # type: ignore[arg-type]
+        if unscheduled not in ("present", "absent"):
+            raise SightplanError(f"--unscheduled must be 'present' or 'absent', got {unscheduled!r}")
+        scene = scene.at(date, basis=date_basis, unscheduled=unscheduled)  # type: ignore[arg-type]
         console.print(f"capture date {date}: {int(scene.targets.sum())} target elements built")
     if plan is None:
         the_plan = ring_plan(scene, get_camera(camera), n_frames=ring_frames, distance_m=ring_distance)
@@ -96,6 +109,10 @@ def evaluate(
     else:
         the_plan = load_plan(plan, camera=get_camera(camera) if camera else None, transform=transform)
         plan_label = plan
+    if save_plan is not None:
+        from ..plan.format import write_plan
+
+        write_plan(the_plan, save_plan)
     feature_set = FeatureSet.load(features) if features is not None else None
     with Progress(TextColumn("[bold]casting frames"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
                   TimeRemainingColumn(), console=console, transient=False) as bar:

@@ -1,0 +1,164 @@
+"""The command line end to end, and bad input: one clear line, a non-zero exit, no traceback."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from sightplan.model.load import sample_model_path
+
+
+def run_cli(*args: str, cwd: Path) -> subprocess.CompletedProcess:
+    env = {**os.environ, "COLUMNS": "120"}
+    return subprocess.run([sys.executable, "-m", "sightplan", *args], capture_output=True, text=True, cwd=cwd, env=env,
+                          timeout=600)
+
+
+def assert_clean_error(res: subprocess.CompletedProcess, *words: str) -> None:
+    assert res.returncode != 0, res.stdout
+    assert "Traceback" not in res.stderr + res.stdout
+    err = res.stderr.strip()
+    assert err.startswith("error:"), err
+    for w in words:
+        assert w.lower() in err.lower(), err
+
+
+@pytest.fixture(scope="module")
+def sample_run(tmp_path_factory) -> Path:
+    """One evaluation of the bundled sample with a small camera, its outputs kept for the tests below."""
+    out = tmp_path_factory.mktemp("sample")
+    res = run_cli("evaluate", "sample", "--camera", "p4p", "--ring-frames", "8", "--scale", "0.1",
+                  "--save-plan", str(out / "ring.json"), "--out", str(out / "result"), cwd=out)
+    assert res.returncode == 0, res.stderr
+    return out
+
+
+def test_evaluate_writes_report_and_tables(sample_run):
+    report = json.loads((sample_run / "result" / "report.json").read_text())
+    m = report["metrics"]
+    assert m["frames"] == 8 and m["z"] > 100
+    assert 0 < m["VC_pct"] <= 100 and m["VC_bar_pct"] >= m["VC_pct"]
+    assert report["parameters"]["omega"] == 625 and report["parameters"]["scale"] == 0.1
+    elements = (sample_run / "result" / "elements.csv").read_text().splitlines()
+    assert elements[0].startswith("index,global_id,name,ifc_class,discipline,storey,visibility,VR_i")
+    assert len(elements) - 1 == m["z"]
+    visible = sum(1 for line in elements[1:] if ",visible," in line)
+    assert visible == m["visible"]
+    frames = (sample_run / "result" / "frames.csv").read_text().splitlines()
+    assert len(frames) == 1 + 8
+
+
+def test_saved_plan_re_evaluates_identically(sample_run):
+    res = run_cli("evaluate", "sample", str(sample_run / "ring.json"), "--scale", "0.1", "--out",
+                  str(sample_run / "again"), cwd=sample_run)
+    assert res.returncode == 0, res.stderr
+    a = json.loads((sample_run / "result" / "report.json").read_text())["metrics"]
+    b = json.loads((sample_run / "again" / "report.json").read_text())["metrics"]
+    assert a == b
+
+
+def test_info_summarises_the_sample(tmp_path):
+    res = run_cli("info", "sample", "--json", cwd=tmp_path)
+    assert res.returncode == 0, res.stderr
+    s = json.loads(res.stdout)
+    assert s["triangles"] > 10000
+
+
+def test_truncated_ifc(tmp_path):
+    bad = tmp_path / "broken.ifc"
+    bad.write_bytes(sample_model_path().read_bytes()[:20000])
+    assert_clean_error(run_cli("evaluate", str(bad), "--no-cache", cwd=tmp_path), "broken.ifc")
+
+
+def test_not_an_ifc(tmp_path):
+    bad = tmp_path / "notes.ifc"
+    bad.write_text("this is not a model\n")
+    assert_clean_error(run_cli("info", str(bad), "--no-cache", cwd=tmp_path), "notes.ifc")
+
+
+def test_missing_file(tmp_path):
+    assert_clean_error(run_cli("info", str(tmp_path / "nope.ifc"), cwd=tmp_path), "nope.ifc")
+
+
+def test_unknown_camera(tmp_path):
+    assert_clean_error(run_cli("evaluate", "sample", "--camera", "phantom 9 ultra", cwd=tmp_path), "camera")
+
+
+def _plan_json(sample_run: Path) -> dict:
+    return json.loads((sample_run / "ring.json").read_text())
+
+
+def test_plan_with_nan_position(sample_run, tmp_path):
+    d = _plan_json(sample_run)
+    d["frames"][3]["position"][1] = float("nan")
+    p = tmp_path / "nan.json"
+    p.write_text(json.dumps(d))  # json writes NaN, as some tools do
+    assert_clean_error(run_cli("evaluate", "sample", str(p), cwd=tmp_path), "frame 3")
+
+
+def test_plan_with_non_orthonormal_rotation(sample_run, tmp_path):
+    d = _plan_json(sample_run)
+    d["frames"][2]["rotation"][0][0] += 0.2
+    p = tmp_path / "skew.json"
+    p.write_text(json.dumps(d))
+    assert_clean_error(run_cli("evaluate", "sample", str(p), cwd=tmp_path), "frame 2", "orthonormal")
+
+
+def test_plan_from_a_newer_format_version(sample_run, tmp_path):
+    d = _plan_json(sample_run)
+    d["version"] = 7
+    p = tmp_path / "future.json"
+    p.write_text(json.dumps(d))
+    assert_clean_error(run_cli("evaluate", "sample", str(p), cwd=tmp_path), "newer")
+
+
+def test_empty_model(tmp_path):
+    import trimesh
+
+    empty = tmp_path / "empty.obj"
+    trimesh.Trimesh(np.zeros((0, 3)), np.zeros((0, 3), int)).export(empty)
+    if empty.stat().st_size == 0:
+        empty.write_text("# no geometry\n")
+    assert_clean_error(run_cli("evaluate", str(empty), "--no-cache", cwd=tmp_path), "empty.obj")
+
+
+def test_date_before_anything_is_built(tmp_path):
+    from sightplan.model.load import load_model
+
+    scene, _ = load_model("sample")
+    csv = tmp_path / "schedule.csv"
+    rows = [f"{gid},2025-03-01,2025-06-30" for gid in scene.elements.global_id[:20]]
+    csv.write_text("global_id,start,finish\n" + "\n".join(rows) + "\n")
+    res = run_cli("evaluate", "sample", "--schedule", str(csv), "--date", "2024-01-01", "--scale", "0.05",
+                  "--ring-frames", "2", cwd=tmp_path)
+    # unscheduled elements exist at every date by default, so this evaluates; only the 20 are missing
+    assert res.returncode == 0, res.stderr
+    res = run_cli("evaluate", "sample", "--schedule", str(csv), "--date", "2024-01-01", "--unscheduled", "absent",
+                  cwd=tmp_path)
+    assert_clean_error(res, "no element", "2024-01-01", "2025-06-30")
+
+
+def test_schedule_that_links_nothing(tmp_path):
+    csv = tmp_path / "schedule.csv"
+    csv.write_text("global_id,start,finish\n0000000000000000000000,2025-01-01,2025-02-01\n")
+    assert_clean_error(run_cli("evaluate", "sample", "--schedule", str(csv), cwd=tmp_path), "links no element")
+
+
+def test_impossible_camera_in_plan(sample_run, tmp_path):
+    d = _plan_json(sample_run)
+    cam = next(iter(d["cameras"]))
+    d["cameras"][cam]["fx"] = -10
+    p = tmp_path / "cam.json"
+    p.write_text(json.dumps(d))
+    assert_clean_error(run_cli("evaluate", "sample", str(p), cwd=tmp_path), "focal")
+
+
+def test_python_m_entry_point_has_help(tmp_path):
+    res = run_cli("--help", cwd=tmp_path)
+    assert res.returncode == 0 and "evaluate" in res.stdout
