@@ -1,0 +1,80 @@
+"""One entry point for every model file: :func:`load_model` dispatches by extension and caches.
+
+``"sample"`` as a path means the bundled buildingSMART Duplex (IFC2X3, CC BY 4.0).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import replace
+from importlib import resources
+from pathlib import Path
+
+from ..errors import ModelError
+from . import cache as _cache
+from .scene import Scene
+from .summary import LoadReport
+
+IFC_EXTENSIONS: tuple[str, ...] = (".ifc", ".ifczip")
+MESH_EXTENSIONS: tuple[str, ...] = (".obj", ".ply", ".stl", ".gltf", ".glb")
+SUPPORTED_EXTENSIONS: tuple[str, ...] = IFC_EXTENSIONS + MESH_EXTENSIONS
+SAMPLE = "sample"
+
+
+def sample_model_path() -> Path:
+    """Path of the bundled Duplex IFC (buildingSMART Duplex_A_20110907, CC BY 4.0)."""
+    return Path(str(resources.files("sightplan") / "data" / "duplex.ifc"))
+
+
+def resolve_model_path(path: str | Path) -> Path:
+    """``path`` as a Path, with the literal ``"sample"`` meaning :func:`sample_model_path`."""
+    return sample_model_path() if str(path) == SAMPLE else Path(path).expanduser()
+
+
+def _options_and_loader(path: Path, options: dict):
+    ext = path.suffix.lower()
+    if ext in IFC_EXTENSIONS:
+        from .ifc import ifc_options, load_ifc
+
+        hashed = ifc_options(**{k: v for k, v in options.items() if k != "num_threads"})
+        return hashed, load_ifc
+    if ext in MESH_EXTENSIONS:
+        from .mesh import load_mesh, mesh_options
+
+        return mesh_options(path, **options), load_mesh
+    supported = ", ".join(SUPPORTED_EXTENSIONS)
+    raise ModelError(f"{path.name}: unsupported model format {ext or '(no extension)'!r}; supported: {supported}")
+
+
+def load_model(
+    path: str | Path, *, cache: bool = True, cache_dir: str | Path | None = None, **options
+) -> tuple[Scene, LoadReport]:
+    """Load an IFC or mesh file (or ``"sample"``) as a :class:`Scene` in metres, with its load report.
+
+    ``options`` go to :func:`~sightplan.model.ifc.load_ifc` (occluders,
+    include_occluders_as_targets, num_threads) or :func:`~sightplan.model.mesh.load_mesh`
+    (elements, scale, up). With ``cache``, the tessellated scene is stored under
+    ``cache_dir`` (default ``$SIGHTPLAN_CACHE`` or ``~/.cache/sightplan/scenes``) keyed by
+    the file's content and the options, and read back on the next load.
+    """
+    t0 = time.perf_counter()
+    path = resolve_model_path(path)
+    if not path.is_file():
+        raise ModelError(f"model file not found: {path}")
+    try:
+        hashed, loader = _options_and_loader(path, options)
+    except TypeError as exc:
+        raise ModelError(f"{path.name}: invalid loader option: {exc}") from exc
+    if cache:
+        key = _cache.content_hash(path, hashed)
+        hit = _cache.load_scene(key, cache_dir)
+        if hit is not None:
+            scene, report = hit
+            return scene, replace(report, elapsed_s=time.perf_counter() - t0, from_cache=True)
+    scene, report = loader(path, **options)
+    if cache:
+        try:
+            _cache.save_scene(scene, report, cache_dir)
+        except OSError as exc:  # a read-only or full cache directory must not fail the load
+            report = replace(report, warnings=report.warnings + (f"scene cache not written: {exc}",))
+    return scene, report

@@ -1,0 +1,119 @@
+"""What a load produced: the :class:`LoadReport` and a JSON-ready summary of a scene.
+
+Every IFC product of the file is accounted for in exactly one place of the report::
+
+    n_products == n_elements + len(skipped) + sum(excluded.values()) + sum(containers.values())
+"""
+
+from __future__ import annotations
+
+from collections import Counter
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+
+from .scene import Scene
+
+
+@dataclass(frozen=True)
+class SkippedProduct:
+    """A product that should have been an element but yielded no triangles."""
+
+    global_id: str
+    ifc_class: str
+    name: str
+    reason: str  # "no representation", "no Body representation (only Axis)", "geometry failed", ...
+
+
+@dataclass(frozen=True)
+class LoadReport:
+    """How a model file became a :class:`Scene`.
+
+    schema: 'IFC2X3', 'IFC4', ... or the mesh format ('obj', 'glb', ...).
+    unit_scale: metres per file length unit (0.0254 for inches); the scene is always metres.
+    n_products: IfcProduct instances in the file (mesh: objects/nodes in the file).
+    n_elements: rows of the scene's element table; n_targets of them count in the metrics.
+    n_triangles: faces of the scene.
+    skipped: products with no usable geometry, never dropped silently.
+    excluded: products left out by class (IfcSpace, IfcOpeningElement, ...), count by class.
+    containers: spatial containers and aggregates without geometry of their own, whose
+        parts are the elements (IfcBuildingStorey, IfcElementAssembly, IfcStair, ...), by class.
+    warnings: anything else the user should know, one line each.
+    elapsed_s: wall-clock seconds of the load (of the cache read when ``from_cache``).
+    """
+
+    source: str
+    schema: str
+    unit_scale: float
+    n_products: int
+    n_elements: int
+    n_targets: int
+    n_triangles: int
+    skipped: tuple[SkippedProduct, ...] = ()
+    excluded: dict[str, int] = field(default_factory=dict)
+    containers: dict[str, int] = field(default_factory=dict)
+    warnings: tuple[str, ...] = ()
+    elapsed_s: float = 0.0
+    from_cache: bool = False
+
+    def to_dict(self) -> dict:
+        """Plain JSON-serialisable dict (skipped products as dicts)."""
+        d = asdict(self)
+        d["skipped"] = [asdict(s) for s in self.skipped]
+        d["warnings"] = list(self.warnings)
+        return d
+
+    @classmethod
+    def from_dict(cls, d: dict) -> LoadReport:
+        d = dict(d)
+        d["skipped"] = tuple(SkippedProduct(**s) for s in d.get("skipped", ()))
+        d["warnings"] = tuple(d.get("warnings", ()))
+        d["excluded"] = {str(k): int(v) for k, v in d.get("excluded", {}).items()}
+        d["containers"] = {str(k): int(v) for k, v in d.get("containers", {}).items()}
+        return cls(**d)
+
+
+def _counts(keys: np.ndarray, targets: np.ndarray) -> dict[str, dict[str, int]]:
+    """{key: {"elements": n, "targets": t, "occluders": n - t}} sorted by descending count."""
+    total = Counter(keys.tolist())
+    tgt = Counter(keys[targets].tolist())
+    rows = sorted(total.items(), key=lambda kv: (-kv[1], kv[0]))
+    return {k: {"elements": n, "targets": tgt.get(k, 0), "occluders": n - tgt.get(k, 0)} for k, n in rows}
+
+
+def summarize(scene: Scene, report: LoadReport) -> dict:
+    """A JSON-serialisable description of a loaded model, for ``sightplan info``.
+
+    Keys: source, schema, unit_scale, elements / targets / occluders (counts),
+    triangles, bounds_m ({"min": [x, y, z], "max": [...], "size": [...]}, metres),
+    by_class / by_discipline / by_storey ({name: {"elements", "targets", "occluders"}};
+    '' means unclassified / no storey), excluded and containers ({class: count}),
+    skipped ([{global_id, ifc_class, name, reason}]), warnings, georeference and
+    site_location (dict or None), elapsed_s, from_cache.
+    """
+    el = scene.elements
+    targets = np.asarray(el.is_target, bool)
+    lo, hi = scene.bounds()
+    n_tri = np.bincount(scene.face_element, minlength=len(el))
+    return {
+        "source": report.source or scene.source,
+        "schema": report.schema,
+        "unit_scale": float(report.unit_scale),
+        "elements": int(len(el)),
+        "targets": int(targets.sum()),
+        "occluders": int((~targets).sum()),
+        "triangles": int(len(scene.faces)),
+        "bounds_m": {"min": lo.round(4).tolist(), "max": hi.round(4).tolist(), "size": (hi - lo).round(4).tolist()},
+        "by_class": _counts(el.ifc_class, targets),
+        "by_discipline": _counts(el.discipline, targets),
+        "by_storey": _counts(el.storey, targets),
+        "elements_without_triangles": int((n_tri == 0).sum()),
+        "excluded": dict(report.excluded),
+        "containers": dict(report.containers),
+        "skipped": [asdict(s) for s in report.skipped],
+        "warnings": list(report.warnings),
+        "georeference": scene.metadata.get("georeference"),
+        "site_location": scene.metadata.get("site_location"),
+        "elapsed_s": round(float(report.elapsed_s), 3),
+        "from_cache": bool(report.from_cache),
+    }
