@@ -141,6 +141,10 @@ def camera_from_dict(d: dict) -> Camera:
     if not isinstance(d, dict):
         raise CameraError(f"a camera must be an object, got {type(d).__name__}")
     model = d.get("model")
+    for key in ("width", "height"):
+        value = d.get(key)
+        if isinstance(value, bool) or (isinstance(value, float) and not value.is_integer()):
+            raise CameraError(f"{model} camera field {key!r} must be a whole number of pixels, got {value!r}")
     try:
         if model == "pinhole":
             return PinholeCamera(int(d["width"]), int(d["height"]), float(d["fx"]), float(d["fy"]),

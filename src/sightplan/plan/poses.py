@@ -101,6 +101,6 @@ def check_rotations(R: NDArray, what: str = "frame") -> NDArray[np.float64]:
     bad = (err > ORTHONORMAL_TOL) | (det < 0)
     if bad.any():
         i = int(np.flatnonzero(bad)[0])
-        why = "a reflection (determinant −1)" if det[i] < 0 else f"not orthonormal (‖RᵀR − I‖ = {err[i]:.2g})"
+        why = f"a reflection (determinant {det[i]:.3g})" if det[i] < 0 else f"not orthonormal (‖RᵀR − I‖ = {err[i]:.2g})"
         raise PlanError(f"{what} {i} has a rotation that is {why}")
     return R

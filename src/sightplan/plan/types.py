@@ -22,7 +22,7 @@ class Mission:
     stop: int
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class Plan:
     """Frames in capture order (missions concatenated in flight order).
 

@@ -1,0 +1,224 @@
+"""The camera catalogue: named drone and 360° cameras, and OpenSfM's sensor tables.
+
+- Built-in entries (``data/cameras.json``) carry the manufacturers' published specs.
+  Pinhole entries become :class:`PinholeCamera` with square pixels
+  (``fx = fy = focal_mm / sensor_width_mm · width`` px), the principal point at the image
+  centre and no distortion.
+- Names match case-, space- and punctuation-insensitively against each entry's id, name
+  and aliases: ``"p4p"``, ``"phantom4pro"`` and ``"DJI Phantom 4 Pro"`` are one camera.
+- A name the catalogue lacks is looked up as EXIF ``"Make Model"`` (``"DJI FC6540"``) in
+  OpenSfM's sensor tables (``data/sensor_data*.json``, BSD-2, see the licence note there),
+  which give the sensor width in mm and often the resolution; the lens focal length must
+  then be given (``focal_mm=``).
+"""
+
+from __future__ import annotations
+
+import difflib
+import json
+import re
+from dataclasses import dataclass
+from functools import lru_cache
+from importlib import resources
+from typing import Any
+
+from ..errors import CameraError
+from .models import Camera, CameraKind, EquirectangularCamera, PinholeCamera, camera_from_dict
+
+
+@dataclass(frozen=True)
+class CatalogueEntry:
+    """One built-in camera.
+
+    width, height: image size in px. focal_mm, sensor_width_mm, sensor_height_mm: lens and
+    sensor in mm, None for equirectangular cameras. source: where the numbers come from.
+    """
+
+    id: str
+    name: str
+    kind: CameraKind
+    width: int
+    height: int
+    focal_mm: float | None
+    sensor_width_mm: float | None
+    sensor_height_mm: float | None
+    aliases: tuple[str, ...]
+    source: str
+
+    def camera(self, focal_mm: float | None = None) -> Camera:
+        """The camera model; ``focal_mm`` replaces the lens of a pinhole entry (e.g. P1 with 24 mm)."""
+        if self.kind == "equirectangular":
+            if focal_mm is not None:
+                raise CameraError(f"{self.name} is a 360° camera: it takes no focal_mm")
+            return EquirectangularCamera(self.width, self.height, self.name)
+        f = self.focal_mm if focal_mm is None else float(focal_mm)
+        name = self.name if focal_mm is None else f"{self.name} ({f:g} mm)"
+        return PinholeCamera.from_sensor(self.sensor_width_mm, f, self.width, self.height, name=name)
+
+
+@dataclass(frozen=True)
+class SensorInfo:
+    """A row of OpenSfM's sensor tables.
+
+    key: the table's ``"Make Model"``. sensor_width_mm, sensor_height_mm: sensor size in mm
+    (height None where only the short table knows the camera). width, height: the
+    sensor's resolution in px, None where unknown.
+    """
+
+    key: str
+    sensor_width_mm: float
+    sensor_height_mm: float | None
+    width: int | None
+    height: int | None
+
+
+def _normalise(name: str) -> str:
+    return re.sub(r"[^a-z0-9]", "", str(name).lower())
+
+
+def _read_data(filename: str) -> Any:
+    return json.loads(resources.files("sightplan").joinpath("data", filename).read_text(encoding="utf-8"))
+
+
+@lru_cache(maxsize=1)
+def _catalogue() -> tuple[tuple[CatalogueEntry, ...], dict[str, CatalogueEntry]]:
+    entries = []
+    for e in _read_data("cameras.json")["cameras"]:
+        entries.append(CatalogueEntry(
+            id=e["id"], name=e["name"], kind=e["model"], width=int(e["width"]), height=int(e["height"]),
+            focal_mm=e.get("focal_mm"), sensor_width_mm=e.get("sensor_width_mm"),
+            sensor_height_mm=e.get("sensor_height_mm"), aliases=tuple(e.get("aliases", ())), source=e.get("source", ""),
+        ))
+    index: dict[str, CatalogueEntry] = {}
+    for entry in entries:
+        for key in (entry.id, entry.name, *entry.aliases):
+            index.setdefault(_normalise(key), entry)
+    return tuple(entries), index
+
+
+@lru_cache(maxsize=1)
+def _sensor_tables() -> dict[str, SensorInfo]:
+    """Normalised "Make Model" → SensorInfo, the detailed table winning over the short one."""
+    table: dict[str, SensorInfo] = {}
+    for key, width_mm in _read_data("sensor_data.json").items():
+        table[_normalise(key)] = SensorInfo(key, float(width_mm), None, None, None)
+    for key, row in _read_data("sensor_data_detailed.json").items():
+        res_w, res_h = row.get("Sensor res. (width)"), row.get("Sensor res. (height)")
+        table[_normalise(key)] = SensorInfo(
+            key, float(row["Sensor width (mm)"]), row.get("Sensor height (mm)"),
+            int(res_w) if res_w else None, int(res_h) if res_h else None,
+        )
+    return table
+
+
+def list_cameras() -> list[CatalogueEntry]:
+    """The built-in cameras, in catalogue order."""
+    return list(_catalogue()[0])
+
+
+def lookup_sensor(make_model: str) -> SensorInfo | None:
+    """OpenSfM's sensor-table row for an EXIF ``"Make Model"`` such as ``"DJI FC6310"``, or None."""
+    return _sensor_tables().get(_normalise(make_model))
+
+
+def _suggestions(name: str) -> list[str]:
+    _, index = _catalogue()
+    sensors = _sensor_tables()
+    display = {k: e.id for k, e in index.items()}
+    display.update({k: s.key for k, s in sensors.items() if k not in display})
+    close = difflib.get_close_matches(_normalise(name), list(display), n=8, cutoff=0.6)
+    return list(dict.fromkeys(display[k] for k in close))[:5]
+
+
+def get_camera(name: str, *, focal_mm: float | None = None, width: int | None = None, height: int | None = None) -> Camera:
+    """The camera called ``name`` in the catalogue, else in OpenSfM's sensor tables.
+
+    focal_mm: lens focal length in mm; replaces a catalogue lens, and is required for a
+    sensor-table camera. width, height: image size in px for a sensor-table camera whose
+    resolution the table lacks (or to override it).
+    """
+    entry = _catalogue()[1].get(_normalise(name))
+    if entry is not None:
+        if width is not None or height is not None:
+            raise CameraError(f"{entry.name} has a fixed image size; use camera.scaled(s) for a lower resolution")
+        return entry.camera(focal_mm)
+    sensor = lookup_sensor(name)
+    if sensor is None:
+        hint = _suggestions(name)
+        also = f"; did you mean {', '.join(map(repr, hint))}?" if hint else ""
+        raise CameraError(f"unknown camera {name!r}{also} (`sightplan cameras` lists the built-in ones)")
+    if focal_mm is None:
+        raise CameraError(
+            f"the sensor table knows {sensor.key!r} ({sensor.sensor_width_mm:g} mm wide sensor) but not its lens: "
+            "give its focal length in mm (focal_mm=)"
+        )
+    w, h = width or sensor.width, height or sensor.height
+    if w is None or h is None:
+        raise CameraError(f"the sensor table does not know the resolution of {sensor.key!r}: give width= and height= in px")
+    return PinholeCamera.from_sensor(sensor.sensor_width_mm, float(focal_mm), int(w), int(h),
+                                     name=f"{sensor.key} ({float(focal_mm):g} mm)")
+
+
+def _number(spec: dict, key: str) -> float:
+    value = spec[key]
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise CameraError(f"camera field {key!r} must be a number, got {value!r}")
+    return float(value)
+
+
+def _pixels(spec: dict, key: str) -> int:
+    value = _number(spec, key)
+    if value != int(value):
+        raise CameraError(f"camera field {key!r} must be whole pixels, got {value!r}")
+    return int(value)
+
+
+_SENSOR_KEYS = {"sensor_width_mm", "focal_mm", "width", "height"}
+_INTRINSIC_KEYS = {"fx", "fy", "cx", "cy", "width", "height"}
+
+
+def parse_camera_spec(spec: str | dict | Camera) -> Camera:
+    """A camera from any of the forms a user may write.
+
+    - a catalogue (or sensor-table) name: ``"p4p"``;
+    - ``{"catalogue": "p1", "focal_mm": 24}``;
+    - a camera dict as written by ``Camera.to_dict``: ``{"model": "pinhole", ...}``;
+    - a physical camera: ``{"sensor_width_mm", "focal_mm", "width", "height"}`` (+ optional
+      ``"sensor_height_mm"``, ``"name"``), mm and px;
+    - intrinsics in px: ``{"fx", "fy", "cx", "cy", "width", "height", "convention"}`` with
+      convention ``"opencv"`` (pixel centres at integers, shifted by +½) or ``"sightplan"``
+      (pixel centres at +½, as COLMAP).
+    """
+    if isinstance(spec, (PinholeCamera, EquirectangularCamera)):
+        return spec
+    if isinstance(spec, str):
+        return get_camera(spec)
+    if not isinstance(spec, dict):
+        raise CameraError(f"a camera spec must be a name or an object, got {type(spec).__name__}")
+    name = str(spec.get("name", ""))
+    if "model" in spec:
+        return camera_from_dict(spec)
+    if "catalogue" in spec:
+        focal = _number(spec, "focal_mm") if "focal_mm" in spec else None
+        return get_camera(str(spec["catalogue"]), focal_mm=focal)
+    if _SENSOR_KEYS <= set(spec):
+        sh = _number(spec, "sensor_height_mm") if "sensor_height_mm" in spec else None
+        return PinholeCamera.from_sensor(_number(spec, "sensor_width_mm"), _number(spec, "focal_mm"),
+                                         _pixels(spec, "width"), _pixels(spec, "height"), sh, name)
+    if _INTRINSIC_KEYS <= set(spec):
+        fx, fy, cx, cy = (_number(spec, k) for k in ("fx", "fy", "cx", "cy"))
+        w, h = _pixels(spec, "width"), _pixels(spec, "height")
+        convention = spec.get("convention")
+        if convention == "opencv":
+            return PinholeCamera.from_opencv(fx, fy, cx, cy, w, h, name)
+        if convention == "sightplan":
+            return PinholeCamera(w, h, fx, fy, cx, cy, name)
+        raise CameraError(
+            f"camera intrinsics need \"convention\": \"opencv\" (pixel centres at integers) or \"sightplan\" "
+            f"(pixel centres at +0.5, as COLMAP), got {convention!r}"
+        )
+    raise CameraError(
+        f"a camera spec with fields {sorted(spec)} matches no known form: give a catalogue name, "
+        "{'model': 'pinhole'|'equirectangular', ...}, {'sensor_width_mm', 'focal_mm', 'width', 'height'} "
+        "or {'fx', 'fy', 'cx', 'cy', 'width', 'height', 'convention'}"
+    )
