@@ -122,7 +122,7 @@ def main(argv=None) -> int:
     print(f"{'scale 0.25 error %':>22}: " + ", ".join(f"{k} {v:.2f}" for k, v in err.items() if v is not None))
     quarter["error_vs_full_pct"] = err
     results["cases"].append(quarter)
-    pano = walk_plan(scene, get_camera("insta360-one-rs-1inch"), args.frames_360)
+    pano = walk_plan(scene, get_camera("one-rs-1inch"), args.frames_360)
     r360, _ = run_case("360° 21 MP", scene, pano, full_settings)
     results["cases"].append(r360)
     # baseline: trimesh's numpy ray tracer on a few frames at 0.1 scale, per ray

@@ -162,3 +162,12 @@ def test_impossible_camera_in_plan(sample_run, tmp_path):
 def test_python_m_entry_point_has_help(tmp_path):
     res = run_cli("--help", cwd=tmp_path)
     assert res.returncode == 0 and "evaluate" in res.stdout
+
+
+def test_cameras_lists_the_catalogue(tmp_path):
+    res = run_cli("cameras", cwd=tmp_path)
+    assert res.returncode == 0, res.stderr
+    # the Phantom 4 Pro: 8.8 mm on a 13.2 mm wide sensor at 5472 px → fx = 3648 px
+    line = next(x for x in res.stdout.splitlines() if "p4p" in x)
+    assert "5472×3648" in line and "3648" in line
+    assert "equirectangular" in res.stdout

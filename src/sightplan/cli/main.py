@@ -24,17 +24,19 @@ def cameras(search: Annotated[str, typer.Argument(help="Filter by name")] = "") 
     from rich.table import Table
 
     from ..camera.catalogue import list_cameras
+    from ..camera.models import PinholeCamera
 
-    table = Table("id", "name", "model", "image (px)", "focal (px)", "FOV (°)")
-    for cam_id, cam in list_cameras():
-        label = f"{cam_id} {cam.name}".lower()
-        if search.lower() not in label:
+    table = Table("id", "name", "model", "image (px)", "focal (px)", "FOV (°)", "aliases")
+    for entry in list_cameras():
+        if search.lower() not in f"{entry.id} {entry.name} {' '.join(entry.aliases)}".lower():
             continue
-        if cam.kind == "pinhole":
-            table.add_row(cam_id, cam.name, "pinhole", f"{cam.width}×{cam.height}", f"{cam.fx:.0f}",
-                          f"{cam.hfov_deg:.1f}×{cam.vfov_deg:.1f}")
+        cam = entry.camera()
+        if isinstance(cam, PinholeCamera):
+            table.add_row(entry.id, entry.name, "pinhole", f"{cam.width}×{cam.height}", f"{cam.fx:.0f}",
+                          f"{cam.hfov_deg:.1f}×{cam.vfov_deg:.1f}", ", ".join(entry.aliases))
         else:
-            table.add_row(cam_id, cam.name, "equirectangular", f"{cam.width}×{cam.height}", "—", "360×180")
+            table.add_row(entry.id, entry.name, "equirectangular", f"{cam.width}×{cam.height}", "—", "360×180",
+                          ", ".join(entry.aliases))
     console.print(table)
 
 

@@ -145,6 +145,32 @@ class Engine(ABC):
                                     self.d_max, count, depth, angle)
         return count, depth, angle
 
+    def element_map(self, camera: Camera, R_world_camera: NDArray, C_world: NDArray, scale: float = 1.0
+                    ) -> tuple[NDArray[np.int32], NDArray[np.float64]]:
+        """(H, W) int32 element id per pixel (−1: nothing within d_max) and (H, W) distance in metres.
+
+        The simulated view of one frame; it holds a whole image, so use it for pictures and
+        checks, not for evaluation (:meth:`observe` never keeps more than a chunk).
+        """
+        cam = camera.scaled(scale) if scale != 1 else camera
+        R = np.ascontiguousarray(R_world_camera, dtype=np.float64)
+        C = np.asarray(C_world, dtype=np.float64) - self.centre
+        n_px = cam.width * cam.height
+        dirs = np.empty((n_px, 3), np.float32)
+        if isinstance(cam, EquirectangularCamera):
+            kernels.equirect_directions(0, n_px, cam.width, cam.height, R, dirs)
+        else:
+            kernels.pinhole_directions(0, n_px, cam.width, cam.fx, cam.fy, cam.cx, cam.cy, R, dirs)
+        origin = np.broadcast_to(C.astype(np.float32), dirs.shape)
+        prim = self.first_hit(origin, dirs)
+        hit = prim >= 0
+        t = np.full(n_px, np.inf)
+        n = self._face_normal[prim[hit]]
+        t[hit] = (self._face_offset[prim[hit]] - n @ C) / np.einsum("ij,ij->i", n, dirs[hit].astype(np.float64))
+        hit &= (t <= self.d_max) & (t >= 0)
+        ids = np.where(hit, self._face_element[np.maximum(prim, 0)], -1).astype(np.int32)
+        return ids.reshape(cam.height, cam.width), np.where(hit, t, np.inf).reshape(cam.height, cam.width)
+
     # -------------------------------------------------------------- features
     def visible_features(self, camera: Camera, R_world_camera: NDArray, C_world: NDArray) -> NDArray[np.int32]:
         """(q,) int32 indices of the features observed from this pose (METRICS.md §5.2).

@@ -19,6 +19,7 @@ class TrimeshEngine(Engine):
     """First hits from ``trimesh.ray.ray_triangle`` (numpy + an R-tree of triangles)."""
 
     name = "trimesh"
+    BATCH_RAYS = 1024
 
     def __init__(self, scene, features=None, **kwargs) -> None:
         kwargs.setdefault("threads", 1)
@@ -38,6 +39,11 @@ class TrimeshEngine(Engine):
         if self._empty:
             return np.full(len(directions), -1, np.int32)
         o = np.ascontiguousarray(np.broadcast_to(origins, directions.shape), dtype=np.float64)
+        d = directions.astype(np.float64)
+        out = np.empty(len(d), np.int32)
+        # ray_triangle materialises every (ray, candidate triangle) pair: small batches bound its memory
+        step = self.BATCH_RAYS
         with self._lock:  # trimesh's caches are not thread-safe
-            hit = self._ray.intersects_first(o, directions.astype(np.float64))
-        return np.asarray(hit, dtype=np.int32)
+            for i in range(0, len(d), step):
+                out[i:i + step] = self._ray.intersects_first(o[i:i + step], d[i:i + step])
+        return out
