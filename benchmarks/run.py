@@ -125,10 +125,10 @@ def main(argv=None) -> int:
     pano = walk_plan(scene, get_camera("one-rs-1inch"), args.frames_360)
     r360, _ = run_case("360° 21 MP", scene, pano, full_settings)
     results["cases"].append(r360)
-    # baseline: trimesh's numpy ray tracer on a few frames at 0.1 scale, per ray
+    # baseline: trimesh's numpy ray tracer on a few frames at 0.02 scale, per ray
     sub = plan.subset(np.linspace(0, len(plan) - 1, args.baseline_frames).astype(int))
-    base, _ = run_case("baseline trimesh @0.1", scene, sub, EvaluationSettings(engine="trimesh", scale=0.1))
-    emb, _ = run_case("embree @0.1 (same)", scene, sub, EvaluationSettings(engine="embree", scale=0.1))
+    base, _ = run_case("baseline trimesh @0.02", scene, sub, EvaluationSettings(engine="trimesh", scale=0.02))
+    emb, _ = run_case("embree @0.02 (same)", scene, sub, EvaluationSettings(engine="embree", scale=0.02))
     base_frame_s = drone_cam.width * drone_cam.height / base["rays_per_s"]
     ratio = {"paper_s_per_frame": PAPER_S_PER_FRAME_P1,
              "speedup_vs_paper": PAPER_S_PER_FRAME_P1 / full["s_per_frame"],

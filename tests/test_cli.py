@@ -171,3 +171,31 @@ def test_cameras_lists_the_catalogue(tmp_path):
     line = next(x for x in res.stdout.splitlines() if "p4p" in x)
     assert "5472×3648" in line and "3648" in line
     assert "equirectangular" in res.stdout
+
+
+def test_a_plan_keeps_its_own_camera(tmp_path):
+    """A saved plan is evaluated with the camera it names, not the CLI's default camera."""
+    saved = tmp_path / "m3e.json"
+    res = run_cli("evaluate", "sample", "--camera", "m3e", "--ring-frames", "3", "--scale", "0.05",
+                  "--save-plan", str(saved), "--out", str(tmp_path / "a"), cwd=tmp_path)
+    assert res.returncode == 0, res.stderr
+    res = run_cli("evaluate", "sample", str(saved), "--scale", "0.05", "--out", str(tmp_path / "b"), cwd=tmp_path)
+    assert res.returncode == 0, res.stderr
+    report = json.loads((tmp_path / "b" / "report.json").read_text())
+    (cam,) = report["plan"]["cameras"].values()
+    assert cam["width"] == 5280 and cam["height"] == 3956  # the Mavic 3 Enterprise, not the Phantom 4 Pro
+    a = json.loads((tmp_path / "a" / "report.json").read_text())["metrics"]
+    assert report["metrics"] == a
+
+
+def test_schependomlaan_steel_evaluates_end_to_end(tmp_path):
+    from conftest import shared_file
+
+    steel = shared_file("schependomlaan", "BERNTS-Staalconstructie.ifc")
+    res = run_cli("evaluate", str(steel), "--ring-frames", "6", "--scale", "0.1", "--out", str(tmp_path / "r"),
+                  cwd=tmp_path)
+    assert res.returncode == 0, res.stderr
+    report = json.loads((tmp_path / "r" / "report.json").read_text())
+    assert report["model"]["targets"] == 965  # 742 beams, 56 columns and the other steel members
+    assert report["metrics"]["observed"] > 300
+    assert 0 < report["metrics"]["VC_pct"] < 100

@@ -161,3 +161,43 @@ def test_observations_from_a_newer_version_are_refused(scene, plan, tmp_path):
 def test_empty_plan_is_refused(scene, plan):
     with pytest.raises(SightplanError, match="no frames"):
         evaluate(scene, plan.subset([]), cache_dir=False)
+
+
+def test_overview_picture_shows_each_visibility_class(scene, plan, tmp_path):
+    import matplotlib.image as mpimg
+
+    from sightplan.engines import make_engine
+    from sightplan.report.overview import UNSEEN, VISIBLE, render_overview, visibility_colours
+
+    ev = evaluate(scene, plan, cache_dir=False)
+    em = ev.metrics.elements
+    assert em.visible[0] and em.visible[1]
+    colours = visibility_colours(em)
+    colours[1] = UNSEEN  # paint box b as unseen to see both classes in the picture
+    with make_engine("embree", scene) as eng:
+        path = render_overview(eng, colours, plan, tmp_path / "overview.png", title="test")
+    img = mpimg.imread(path)[..., :3]
+    hue = img / np.maximum(img.max(axis=2, keepdims=True), 1e-6)  # undo the shading's brightness
+
+    def share(rgb):
+        ref = np.asarray(rgb) / max(rgb)
+        return np.mean(np.abs(hue - ref).max(axis=2) < 0.08)
+
+    assert share(VISIBLE) > 0.002 and share(UNSEEN) > 0.002
+
+
+def test_shaded_view_matches_a_known_wall():
+    """A head-on wall: the shading cosine is the ray's cosine to the axis, the distance d/cos."""
+    from sightplan.engines import make_engine
+
+    V = np.array([[-2, 10, 0], [2, 10, 0], [2, 10, 3], [-2, 10, 3]], float)
+    wall = Scene.from_arrays(V, [[0, 1, 2], [0, 2, 3]], [0, 0], ElementTable.build(["w"]))
+    cam = PinholeCamera(40, 30, 20, 20, 20, 15)
+    with make_engine("embree", wall) as eng:
+        ids, t, cos = eng.shaded_view(cam, R_from_gimbal(0, 0)[0], np.array([0, 0, 1.5]))
+    u, v = np.meshgrid(np.arange(40) + 0.5, np.arange(30) + 0.5)
+    ray_cos = 1 / np.sqrt(((u - 20) / 20) ** 2 + ((v - 15) / 20) ** 2 + 1)
+    hit = ids == 0
+    assert hit.sum() == 8 * 6  # ±2 m at 10 m is ±4 px at f = 20; 0..3 m around 1.5 m is ±3 px
+    np.testing.assert_allclose(cos[hit], ray_cos[hit], atol=1e-6)
+    np.testing.assert_allclose(t[hit], 10 / ray_cos[hit], rtol=1e-6)

@@ -46,7 +46,9 @@ def evaluate(
     model: Annotated[str, typer.Argument(help="IFC or mesh file; 'sample' for the bundled Duplex model")],
     plan: Annotated[str | None, typer.Argument(help="Plan file (sightplan JSON, poses CSV, COLMAP model, OpenSfM "
                                                      "reconstruction.json); omit for a ring of frames")] = None,
-    camera: Annotated[str, typer.Option(help="Camera for the ring plan or a poses CSV (catalogue id)")] = "p4p",
+    camera: Annotated[str | None, typer.Option(
+        help="Camera (catalogue id) of the ring plan (default p4p) or of a poses CSV; given with a PLAN that has "
+             "cameras of its own, it replaces them")] = None,
     ring_frames: Annotated[int, typer.Option(help="Frames in the ring plan when no PLAN is given")] = 36,
     ring_distance: Annotated[float, typer.Option(help="Ring clearance from the model's box (m)")] = 15.0,
     date: Annotated[str | None, typer.Option(help="Capture date YYYY-MM-DD: only elements built by then exist")] = None,
@@ -67,6 +69,7 @@ def evaluate(
     save_plan: Annotated[Path | None, typer.Option(help="Also write the evaluated plan as sightplan JSON")] = None,
     out: Annotated[Path, typer.Option(help="Output folder for report.json, elements.csv, frames.csv")] = Path("sightplan-out"),
     cache: Annotated[bool, typer.Option(help="Reuse the model and per-frame caches")] = True,
+    picture: Annotated[bool, typer.Option(help="Also write overview.png: the model coloured by visibility")] = True,
     threads: Annotated[int | None, typer.Option(help="Worker threads (default: all cores)")] = None,
 ) -> None:
     """Evaluate a capture plan against a model: VC, V̄C, VR, R, O, T, per element and per frame."""
@@ -104,11 +107,14 @@ def evaluate(
         scene = scene.at(date, basis=date_basis, unscheduled=unscheduled)  # type: ignore[arg-type]
         console.print(f"capture date {date}: {int(scene.targets.sum())} target elements built")
     if plan is None:
-        the_plan = ring_plan(scene, get_camera(camera), n_frames=ring_frames, distance_m=ring_distance)
-        plan_label = f"ring of {ring_frames} frames ({camera})"
+        ring_camera = camera or "p4p"
+        the_plan = ring_plan(scene, get_camera(ring_camera), n_frames=ring_frames, distance_m=ring_distance)
+        plan_label = f"ring of {ring_frames} frames ({ring_camera})"
     else:
         the_plan = load_plan(plan, camera=get_camera(camera) if camera else None, transform=transform)
         plan_label = plan
+        for warning in the_plan.parameters.get("warnings", []):
+            console.print(f"[yellow]warning:[/] {warning}", highlight=False)
     if save_plan is not None:
         from ..plan.format import write_plan
 
@@ -121,6 +127,15 @@ def evaluate(
                             cache_dir=None if cache else False,
                             progress=lambda i, n: bar.update(task, completed=i))
     paths = write_report(ev, scene, the_plan, out, model_path=str(model), plan_path=str(plan or ""))
+    if picture:
+        from ..engines import make_engine
+        from ..report.overview import render_overview, visibility_colours
+
+        vc = ev.metrics.plan.VC
+        title = f"{Path(str(model)).name} — {plan_label}: VC {_fmt(None if vc is None else 100 * vc, '.1f')} %"
+        with console.status("drawing the overview…"), make_engine(ev.engine, scene, threads=threads) as eng:
+            paths["overview"] = render_overview(eng, visibility_colours(ev.metrics.elements), the_plan,
+                                                Path(out) / "overview.png", title=title)
     console.print(summary_table(ev, f"{Path(str(model)).name} × {plan_label} — engine {ev.engine}, "
                                     f"{ev.n_features:,} features, {ev.cache_hits} frames from cache"))
     console.print("wrote " + ", ".join(str(p) for p in paths.values()))

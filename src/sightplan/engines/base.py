@@ -152,6 +152,12 @@ class Engine(ABC):
         The simulated view of one frame; it holds a whole image, so use it for pictures and
         checks, not for evaluation (:meth:`observe` never keeps more than a chunk).
         """
+        ids, t, _ = self.shaded_view(camera, R_world_camera, C_world, scale)
+        return ids, t
+
+    def shaded_view(self, camera: Camera, R_world_camera: NDArray, C_world: NDArray, scale: float = 1.0
+                    ) -> tuple[NDArray[np.int32], NDArray[np.float64], NDArray[np.float64]]:
+        """:meth:`element_map` plus (H, W) |cos| between each ray and its hit triangle's normal (0 on a miss)."""
         cam = camera.scaled(scale) if scale != 1 else camera
         R = np.ascontiguousarray(R_world_camera, dtype=np.float64)
         C = np.asarray(C_world, dtype=np.float64) - self.centre
@@ -161,15 +167,18 @@ class Engine(ABC):
             kernels.equirect_directions(0, n_px, cam.width, cam.height, R, dirs)
         else:
             kernels.pinhole_directions(0, n_px, cam.width, cam.fx, cam.fy, cam.cx, cam.cy, R, dirs)
-        origin = np.broadcast_to(C.astype(np.float32), dirs.shape)
-        prim = self.first_hit(origin, dirs)
+        prim = self.first_hit(np.broadcast_to(C.astype(np.float32), dirs.shape), dirs)
         hit = prim >= 0
         t = np.full(n_px, np.inf)
+        cos = np.zeros(n_px)
         n = self._face_normal[prim[hit]]
-        t[hit] = (self._face_offset[prim[hit]] - n @ C) / np.einsum("ij,ij->i", n, dirs[hit].astype(np.float64))
+        dn = np.einsum("ij,ij->i", n, dirs[hit].astype(np.float64))
+        t[hit] = (self._face_offset[prim[hit]] - n @ C) / dn
+        cos[hit] = np.abs(dn)
         hit &= (t <= self.d_max) & (t >= 0)
         ids = np.where(hit, self._face_element[np.maximum(prim, 0)], -1).astype(np.int32)
-        return ids.reshape(cam.height, cam.width), np.where(hit, t, np.inf).reshape(cam.height, cam.width)
+        shape = (cam.height, cam.width)
+        return ids.reshape(shape), np.where(hit, t, np.inf).reshape(shape), np.where(hit, cos, 0.0).reshape(shape)
 
     # -------------------------------------------------------------- features
     def visible_features(self, camera: Camera, R_world_camera: NDArray, C_world: NDArray) -> NDArray[np.int32]:
