@@ -199,3 +199,16 @@ def test_schependomlaan_steel_evaluates_end_to_end(tmp_path):
     assert report["model"]["targets"] == 965  # 742 beams, 56 columns and the other steel members
     assert report["metrics"]["observed"] > 300
     assert 0 < report["metrics"]["VC_pct"] < 100
+
+
+def test_saved_features_give_the_same_result(tmp_path):
+    """A feature set saved by one run and given to another reproduces T exactly."""
+    feats = tmp_path / "features.npz"
+    common = ("--ring-frames", "6", "--scale", "0.05", "--no-picture", "--no-cache")
+    res = run_cli("evaluate", "sample", *common, "--save-features", str(feats), "--out", str(tmp_path / "a"), cwd=tmp_path)
+    assert res.returncode == 0, res.stderr
+    res = run_cli("evaluate", "sample", *common, "--features", str(feats), "--seed", "99", "--out", str(tmp_path / "b"),
+                  cwd=tmp_path)
+    assert res.returncode == 0, res.stderr
+    a, b = (json.loads((tmp_path / d / "report.json").read_text())["metrics"] for d in "ab")
+    assert a["T"] == b["T"] and a["features"] == b["features"] > 1000

@@ -32,6 +32,7 @@ def summary_table(ev, title: str) -> Table:
         ("T", _fmt(p.T, ".1f"), "features", "stability: stable features per frame"),
         ("stable", _fmt(pct(p.stable_share), ".1f"), "%", "frames with ≥ Λ stable features"),
         ("time", f"{ev.timings['total_s']:.1f}", "s",
+         f"{p.n_frames} frames, all from the cache" if not ev.timings["frames_cast"] else
          f"{p.n_frames} frames, {ev.timings['frames_cast']} cast ({ev.timings['s_per_frame']:.3f} s each), "
          f"{ev.cache_hits} from the cache"),
     ]
@@ -64,6 +65,7 @@ def evaluate(
     feature_density: Annotated[float, typer.Option(help="Surface features per m²")] = 1.0,
     seed: Annotated[int, typer.Option(help="Seed of the feature sampling")] = 0,
     features: Annotated[Path | None, typer.Option(help="Use this saved feature set (.npz) instead of sampling")] = None,
+    save_features: Annotated[Path | None, typer.Option(help="Write the simulated feature set (.npz) for reuse")] = None,
     d_max: Annotated[float, typer.Option(help="D_max: farthest visible surface (m)")] = 1000.0,
     transform: Annotated[Path | None, typer.Option(help="JSON 4×4 similarity from the poses' frame to the model's")] = None,
     save_plan: Annotated[Path | None, typer.Option(help="Also write the evaluated plan as sightplan JSON")] = None,
@@ -120,6 +122,11 @@ def evaluate(
 
         write_plan(the_plan, save_plan)
     feature_set = FeatureSet.load(features) if features is not None else None
+    if save_features is not None:
+        from ..observations.features import sample_features
+
+        feature_set = feature_set or sample_features(scene, feature_density, seed)
+        feature_set.save(save_features)
     with Progress(TextColumn("[bold]casting frames"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
                   TimeRemainingColumn(), console=console, transient=False) as bar:
         task = bar.add_task("frames", total=len(the_plan))

@@ -47,7 +47,7 @@ class Engine(ABC):
         self.scene = scene
         self.features = features
         self.d_max = float(d_max)
-        self.threads = max(1, threads or min(4, os.cpu_count() or 1))
+        self.threads = max(1, threads or min(32, os.cpu_count() or 1))
         self.chunk_rays = int(chunk_rays)
         self.n_elements = scene.n_elements
         # engines work in a frame centred on the model so float32 rays keep millimetres

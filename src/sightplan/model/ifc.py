@@ -16,6 +16,7 @@ Coordinates are world coordinates in metres whatever the file's length unit.
 
 from __future__ import annotations
 
+import os
 import time
 from collections import Counter
 from collections.abc import Iterable
@@ -231,13 +232,13 @@ def load_ifc(
     *,
     occluders: Iterable[str] = DEFAULT_OCCLUDERS,
     include_occluders_as_targets: bool = False,
-    num_threads: int = 2,
+    num_threads: int | None = None,
 ) -> tuple[Scene, LoadReport]:
     """Load an IFC file (.ifc, .ifczip) as a Scene in world metres, with its :class:`LoadReport`.
 
     Elements are ordered by STEP id, so the element index is stable between loads.
     ``occluders``: IFC classes (with subtypes) loaded with ``is_target=False`` unless
-    ``include_occluders_as_targets``. ``num_threads``: tessellation threads.
+    ``include_occluders_as_targets``. ``num_threads``: tessellation threads (default: every core).
     ``scene.metadata``: ``georeference`` (see :func:`georeference`), ``site_location``,
     ``schema``, ``unit_scale``. Raises :class:`ModelError` for unreadable files and for
     models without any element geometry.
@@ -256,7 +257,7 @@ def load_ifc(
         return [n for n in names if lineage(schema, n)]
 
     excluded_names = in_schema(EXCLUDED_CLASSES)
-    shapes = _tessellate(f, excluded_names + in_schema(CONTAINER_CLASSES), num_threads)
+    shapes = _tessellate(f, excluded_names + in_schema(CONTAINER_CLASSES), num_threads or os.cpu_count() or 1)
 
     products = sorted(f.by_type("IfcProduct"), key=lambda p: p.id())
     excluded: Counter[str] = Counter()
