@@ -212,3 +212,11 @@ def test_saved_features_give_the_same_result(tmp_path):
     assert res.returncode == 0, res.stderr
     a, b = (json.loads((tmp_path / d / "report.json").read_text())["metrics"] for d in "ab")
     assert a["T"] == b["T"] and a["features"] == b["features"] > 1000
+
+
+def test_info_prints_readable_tables(tmp_path):
+    res = run_cli("info", "sample", cwd=tmp_path)
+    assert res.returncode == 0, res.stderr
+    walls = next(line for line in res.stdout.splitlines() if "IfcWallStandardCase" in line)
+    assert [c for c in walls.replace("│", " ").split()][1:] == ["56", "56", "0"]  # 56 walls, all targets
+    assert "IfcOpeningElement" in res.stdout and "Level 1" in res.stdout

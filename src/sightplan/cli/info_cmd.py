@@ -29,18 +29,46 @@ def info(
     if as_json:
         typer.echo(json.dumps(s, indent=2, default=str))
         return
-    console.print_json(json.dumps({k: v for k, v in s.items() if not isinstance(v, dict | list)}, default=str))
-    for key, value in s.items():
-        if isinstance(value, dict) and value and all(isinstance(v, int | float) for v in value.values()):
-            t = Table(key.replace("_", " "), "count", title_justify="left")
-            for name, count in sorted(value.items(), key=lambda kv: -kv[1]):
-                t.add_row(str(name), str(count))
+    print_summary(s)
+
+
+def _kv_table(title: str, items: dict) -> Table:
+    t = Table("", "", title=title, title_justify="left", show_header=False)
+    for k, v in items.items():
+        t.add_row(str(k).replace("_", " "), f"{v:.6g}" if isinstance(v, float) else str(v))
+    return t
+
+
+def print_summary(s: dict) -> None:
+    """The model summary as readable tables."""
+    facts = {k: v for k, v in s.items() if not isinstance(v, dict | list) and v is not None}
+    console.print(_kv_table("model", facts))
+    lo, hi = s["bounds_m"]["min"], s["bounds_m"]["max"]
+    size = [h - lo_ for lo_, h in zip(lo, hi)]
+    console.print(f"bounds (m): min {lo}, max {hi}, size {[round(x, 2) for x in size]}")
+    for key in ("by_class", "by_discipline", "by_storey"):
+        t = Table(key.removeprefix("by_"), "elements", "targets", "occluders", title=key.replace("_", " "), title_justify="left")
+        for name, row in sorted(s[key].items(), key=lambda kv: -kv[1]["elements"]):
+            t.add_row(name or "—", *(str(row[c]) for c in ("elements", "targets", "occluders")))
+        console.print(t)
+    for key in ("excluded", "containers"):
+        if s.get(key):
+            t = Table("class", "count", title=f"{key} (not elements)", title_justify="left")
+            for name, count in sorted(s[key].items(), key=lambda kv: -kv[1]):
+                t.add_row(name, str(count))
             console.print(t)
-        elif isinstance(value, list) and value:
-            t = Table(*(list(value[0]) if isinstance(value[0], dict) else ["value"]), title=key.replace("_", " "),
-                      title_justify="left")
-            for row in value[:50]:
-                t.add_row(*([str(v) for v in row.values()] if isinstance(row, dict) else [str(row)]))
-            if len(value) > 50:
-                t.add_row(f"… {len(value) - 50} more", *[""] * (len(t.columns) - 1))
-            console.print(t)
+    for key in ("georeference", "site_location"):
+        if s.get(key):
+            console.print(_kv_table(key.replace("_", " "), s[key]))
+    skipped = s.get("skipped") or []
+    if skipped:
+        t = Table(*skipped[0].keys(), title=f"products without geometry ({len(skipped)})", title_justify="left")
+        for row in skipped[:50]:
+            t.add_row(*(str(v) for v in row.values()))
+        if len(skipped) > 50:
+            t.add_row(f"… {len(skipped) - 50} more", *[""] * (len(t.columns) - 1))
+        console.print(t)
+    else:
+        console.print("every product with a Body representation was tessellated (no product skipped)")
+    for w in s.get("warnings") or []:
+        console.print(f"[yellow]warning:[/] {w}", highlight=False)
