@@ -220,3 +220,22 @@ def test_info_prints_readable_tables(tmp_path):
     walls = next(line for line in res.stdout.splitlines() if "IfcWallStandardCase" in line)
     assert [c for c in walls.replace("│", " ").split()][1:] == ["56", "56", "0"]  # 56 walls, all targets
     assert "IfcOpeningElement" in res.stdout and "Level 1" in res.stdout
+
+
+def test_transform_moves_a_flown_capture_into_the_model_frame(sample_run, tmp_path):
+    """Poses shifted by +100 m in x and given with the inverse shift evaluate like the originals."""
+    d = _plan_json(sample_run)
+    for f in d["frames"]:
+        f["position"][0] += 100.0
+    shifted = tmp_path / "shifted.json"
+    shifted.write_text(json.dumps(d))
+    T = tmp_path / "T.json"
+    T.write_text(json.dumps({"scale": 1.0, "rotation": np.eye(3).tolist(), "translation": [-100.0, 0, 0]}))
+    res = run_cli("evaluate", "sample", str(shifted), "--transform", str(T), "--scale", "0.1", "--no-picture",
+                  "--out", str(tmp_path / "t"), cwd=tmp_path)
+    assert res.returncode == 0, res.stderr
+    a = json.loads((sample_run / "result" / "report.json").read_text())["metrics"]
+    b = json.loads((tmp_path / "t" / "report.json").read_text())["metrics"]
+    assert b == a and b["visible"] > 10
+    T.write_text("[[1, 0], [0, 1]]")
+    assert_clean_error(run_cli("evaluate", "sample", str(shifted), "--transform", str(T), cwd=tmp_path), "transform")

@@ -197,20 +197,29 @@ class Scene:
         """The scene as it stands at the end of ``date``.
 
         An element exists when its schedule date (``finish`` by default, ``start`` as an
-        option) is on or before ``date``. Elements that no schedule dates exist at every
-        date (``unscheduled="present"``) or never (``"absent"``).
+        option) is on or before ``date``; an element with only the other date falls back
+        to it. Elements that no schedule dates exist at every date (``unscheduled="present"``)
+        or never (``"absent"``). Call it on the undated scene: a dated scene has lost the
+        faces of what was not yet built.
         """
-        try:
-            day = np.datetime64(date, "D")
-        except ValueError as exc:
-            raise ScheduleError(f"capture date {date!r} is not a date (expected YYYY-MM-DD)") from exc
+        from .dates import parse_day
+
+        if basis not in ("finish", "start"):
+            raise ScheduleError(f"date basis must be 'finish' or 'start', got {basis!r}")
+        if unscheduled not in ("present", "absent"):
+            raise ScheduleError(f"unscheduled elements must be 'present' or 'absent', got {unscheduled!r}")
+        if self.date is not None:
+            raise ScheduleError(f"this scene is already at {self.date}; call at() on the undated scene")
+        day = parse_day(date)
         end_of_day = (day + np.timedelta64(1, "D")).astype("datetime64[s]")
-        when = self.elements.finish if basis == "finish" else self.elements.start
+        first, second = (self.elements.finish, self.elements.start) if basis == "finish" else \
+            (self.elements.start, self.elements.finish)
+        when = np.where(np.isnat(first), second, first)
         dated = ~np.isnat(when)
         built = np.where(dated, when < end_of_day, unscheduled == "present")
         scene = self.with_present(built)
         if not scene.targets.any():
-            first = when[dated].min() if dated.any() else None
-            hint = f"; the first element is built on {str(first)[:10]}" if first is not None else ""
+            first_day = when[dated & self.elements.is_target].min() if (dated & self.elements.is_target).any() else None
+            hint = f"; the first element is built on {str(first_day)[:10]}" if first_day is not None else ""
             raise ScheduleError(f"no element of the model exists on {day}{hint}")
         return replace(scene, date=day)

@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import ScheduleError
+from .dates import parse_datetime
 from .scene import Scene
 
 _ID_COLS = ("global_id", "globalid", "guid")
@@ -22,10 +23,7 @@ def _date(text: str, where: str) -> np.datetime64:
     text = (text or "").strip()
     if not text:
         return np.datetime64("NaT")
-    try:
-        return np.datetime64(text.replace(" ", "T")[:19], "s")
-    except ValueError:
-        raise ScheduleError(f"{where}: {text!r} is not a date (expected YYYY-MM-DD)") from None
+    return parse_datetime(text, where)
 
 
 def apply_csv_schedule(scene: Scene, path: str | Path) -> tuple[Scene, dict]:
@@ -48,23 +46,27 @@ def apply_csv_schedule(scene: Scene, path: str | Path) -> tuple[Scene, dict]:
         raise ScheduleError(f"{path}: a CSV schedule needs columns global_id (or name), start and finish")
     finish_col = cols.get("finish") or cols["end"]
     keys = scene.elements.global_id if id_col else scene.elements.name
-    index = {k: i for i, k in enumerate(keys.tolist())}
+    index: dict[str, list[int]] = {}
+    for i, k in enumerate(keys.tolist()):
+        index.setdefault(k, []).append(i)  # a name may stand for several elements: the row dates them all
     start = scene.elements.start.copy()
     finish = scene.elements.finish.copy()
     linked: set[int] = set()
     unknown = []
     for line, row in enumerate(rows, start=2):
         key = (row.get(key_col) or "").strip()
-        i = index.get(key)
-        if i is None:
+        idx = index.get(key)
+        if idx is None:
             unknown.append(key)
             continue
-        start[i] = _date(row.get(cols["start"], ""), f"{path}:{line}")
-        finish[i] = _date(row.get(finish_col, ""), f"{path}:{line}")
-        linked.add(i)
+        start[idx] = _date(row.get(cols["start"], ""), f"{path}:{line}")
+        finish[idx] = _date(row.get(finish_col, ""), f"{path}:{line}")
+        linked.update(idx)
     if not linked:
         raise ScheduleError(f"the schedule {Path(path).name} links no element of the model "
                             f"({len(unknown)} rows name ids the model does not have)")
     elements = scene.elements.with_dates(start, finish)
+    shared = sum(1 for idx in index.values() if len(idx) > 1) if not id_col else 0
     return replace(scene, elements=elements), {"linked": len(linked), "unknown_ids": unknown,
-                                               "unlinked": int(scene.n_elements - len(linked))}
+                                               "unlinked": int(scene.n_elements - len(linked)),
+                                               "names_shared_by_several_elements": shared}

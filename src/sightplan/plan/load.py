@@ -10,6 +10,7 @@ Formats (the :data:`PlanFormat` names, shared with the CLI and the web API):
 
 from __future__ import annotations
 
+import json
 from dataclasses import replace
 from pathlib import Path
 from typing import Literal, get_args
@@ -67,6 +68,29 @@ def apply_similarity(plan: Plan, T_model_source: ArrayLike) -> Plan:
     )
 
 
+def read_transform(path: str | Path) -> np.ndarray:
+    """A (4, 4) similarity from a JSON file: a 4×4 list, ``{"matrix": 4×4}``, or
+    ``{"scale": s, "rotation": 3×3, "translation": [x, y, z]}`` (source → model frame)."""
+    path = Path(path)
+    try:
+        d = json.loads(path.read_text(encoding="utf-8"))
+    except OSError as exc:
+        raise PlanError(f"cannot read the transform {path}: {exc.strerror}") from None
+    except (ValueError, UnicodeDecodeError) as exc:
+        raise PlanError(f"{path.name} is not a JSON transform: {exc}") from None
+    try:
+        if isinstance(d, dict) and "matrix" in d:
+            d = d["matrix"]
+        if isinstance(d, dict):
+            T = np.eye(4)
+            T[:3, :3] = float(d.get("scale", 1.0)) * np.asarray(d["rotation"], float).reshape(3, 3)
+            T[:3, 3] = np.asarray(d["translation"], float).reshape(3)
+            return T
+        return np.asarray(d, float)
+    except (KeyError, TypeError, ValueError) as exc:
+        raise PlanError(f"{path.name}: a transform is a 4×4 matrix or scale/rotation/translation ({exc})") from None
+
+
 def detect_format(path: str | Path) -> PlanFormat:
     """The format of ``path`` from its name (and, for .json, nothing more: see :func:`load_plan`)."""
     path = Path(path)
@@ -99,14 +123,14 @@ def load_plan(
     *,
     fmt: PlanFormat | Literal["auto"] = "auto",
     camera: Camera | str | dict | None = None,
-    transform: ArrayLike | None = None,
+    transform: ArrayLike | str | Path | None = None,
 ) -> Plan:
     """A Plan from any supported file or folder.
 
     camera: the camera of CSV rows without one; for the other formats it replaces every
     camera of the file (recorded in ``plan.parameters["warnings"]``). Catalogue name,
     spec dict (:func:`parse_camera_spec`) or camera model.
-    transform: optional (4, 4) similarity from the file's frame to the model frame
+    transform: optional (4, 4) similarity (or a JSON file of one, :func:`read_transform`) from the file's frame to the model frame
     (:func:`apply_similarity`).
     """
     if fmt != "auto" and fmt not in PLAN_FORMATS:
@@ -130,5 +154,7 @@ def load_plan(
         plan = replace(plan, cameras={cid: cam}, frame_camera=np.full(len(plan), cid, dtype=object),
                        parameters={**plan.parameters, "warnings": warnings})
     if transform is not None:
+        if isinstance(transform, str | Path):
+            transform = read_transform(transform)
         plan = apply_similarity(plan, transform)
     return plan
