@@ -211,7 +211,7 @@ def test_saved_features_give_the_same_result(tmp_path):
                   cwd=tmp_path)
     assert res.returncode == 0, res.stderr
     a, b = (json.loads((tmp_path / d / "report.json").read_text())["metrics"] for d in "ab")
-    assert a["T"] == b["T"] and a["features"] == b["features"] > 1000
+    assert a["T"] == b["T"] > 0 and a["features"] == b["features"] > 1000
 
 
 def test_info_prints_readable_tables(tmp_path):

@@ -201,3 +201,34 @@ def test_shaded_view_matches_a_known_wall():
     assert hit.sum() == 8 * 6  # ±2 m at 10 m is ±4 px at f = 20; 0..3 m around 1.5 m is ±3 px
     np.testing.assert_allclose(cos[hit], ray_cos[hit], atol=1e-6)
     np.testing.assert_allclose(t[hit], 10 / ray_cos[hit], rtol=1e-6)
+
+
+def test_merging_refuses_batches_that_do_not_belong_together(scene, plan):
+    from sightplan.observations.features import sample_features
+
+    a = evaluate(scene, plan.subset([0, 1]), cache_dir=False).observations
+    other_seed = evaluate(scene, plan.subset([2]), features=sample_features(scene, 1.0, seed=5), cache_dir=False)
+    assert other_seed.observations.n_features == a.n_features  # same count: only the key tells them apart
+    with pytest.raises(ObservationsError, match="different features"):
+        Observations.concatenate([a, other_seed.observations])
+    coarse = evaluate(scene, plan.subset([2]), EvaluationSettings(scale=0.5), cache_dir=False).observations
+    with pytest.raises(ObservationsError, match="different scale"):
+        Observations.concatenate([a, coarse])
+    later = evaluate(scene.at("2024-01-15"), plan.subset([2]), cache_dir=False).observations
+    with pytest.raises(ObservationsError, match="capture dates"):
+        Observations.concatenate([a, later])
+
+
+def test_features_of_another_scene_are_refused(scene, plan):
+    from sightplan.observations.features import sample_features
+
+    undated = sample_features(scene)
+    with pytest.raises(SightplanError, match="another scene"):
+        evaluate(scene.at("2024-01-15"), plan, features=undated, cache_dir=False)
+
+
+@pytest.mark.parametrize("kwargs", [{"d_max": float("inf")}, {"feature_density": float("nan")}, {"feature_seed": -1},
+                                    {"scale": 0.0}])
+def test_settings_that_are_not_numbers_are_refused(kwargs):
+    with pytest.raises(SightplanError):
+        EvaluationSettings(**kwargs)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -9,7 +10,9 @@ from pathlib import Path
 
 import numpy as np
 
+from . import __version__
 from .engines import D_MAX_M, EngineName, make_engine
+from .engines.base import OCCLUSION_TOLERANCE_M
 from .errors import SightplanError
 from .metrics import MetricParams, Metrics, compute_metrics
 from .model.scene import Scene
@@ -19,6 +22,9 @@ from .observations.table import FrameObservation, Observations
 from .plan.types import Plan
 
 ProgressCallback = Callable[[int, int], None]
+
+# Bump when what a frame's observation means changes (kernels, tolerances): cached frames are then recast.
+OBSERVATION_RULES = f"v1 occlusion={OCCLUSION_TOLERANCE_M}"
 
 
 @dataclass(frozen=True)
@@ -36,8 +42,12 @@ class EvaluationSettings:
     def __post_init__(self) -> None:
         if not 0 < self.scale <= 1:
             raise SightplanError(f"resolution scale must be in (0, 1], got {self.scale}")
-        if not self.d_max > 0:
-            raise SightplanError(f"D_max must be positive, got {self.d_max}")
+        if not (self.d_max > 0 and math.isfinite(self.d_max)):
+            raise SightplanError(f"D_max must be a positive number of metres, got {self.d_max}")
+        if not (self.feature_density >= 0 and math.isfinite(self.feature_density)):
+            raise SightplanError(f"feature density must be a number ≥ 0 per m², got {self.feature_density}")
+        if self.feature_seed < 0:
+            raise SightplanError(f"the feature seed must be ≥ 0, got {self.feature_seed}")
 
 
 @dataclass(frozen=True)
@@ -66,11 +76,15 @@ def observe_plan(
     t0 = time.perf_counter()
     if features is None:
         features = sample_features(scene, settings.feature_density, settings.feature_seed)
+    elif features.params.get("scene") not in (None, scene.key):
+        raise SightplanError("the feature set was sampled on another scene (another model, options or capture date); "
+                             "sample it again for this one")
     timings["features_s"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     engine = make_engine(settings.engine, scene, features, d_max=settings.d_max, threads=settings.threads)
     timings["engine_build_s"] = time.perf_counter() - t0
-    context = FrameCache.context_key(scene.key, features.key, engine.name, settings.scale, settings.d_max)
+    context = FrameCache.context_key(__version__, OBSERVATION_RULES, scene.key, features.key, engine.name,
+                                     settings.scale, settings.d_max)
     keys = plan.frame_keys() if cache is not None else [None] * len(plan)
     frames: list[FrameObservation] = []
     t0 = time.perf_counter()

@@ -34,6 +34,8 @@ class EmbreeEngine(Engine):
         if len(scene.faces):
             _TriangleMesh(self._scene, self.local_vertices.astype(np.float32), scene.faces.astype(np.int32))
         self._empty = len(scene.faces) == 0
+        if not self._empty:  # commit the BVH now, once, rather than lazily from several threads
+            self.first_hit(np.zeros((1, 3), np.float32), np.array([[0, 0, 1]], np.float32))
 
     def first_hit(self, origins: NDArray[np.float32], directions: NDArray[np.float32]) -> NDArray[np.int32]:
         if self._empty:

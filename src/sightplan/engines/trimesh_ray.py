@@ -22,7 +22,7 @@ class TrimeshEngine(Engine):
     BATCH_RAYS = 1024
 
     def __init__(self, scene, features=None, **kwargs) -> None:
-        kwargs.setdefault("threads", 1)
+        kwargs["threads"] = 1  # its caches are not thread-safe: one thread, no pool
         super().__init__(scene, features, **kwargs)
         try:
             import trimesh

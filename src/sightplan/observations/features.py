@@ -171,7 +171,7 @@ def surface_features(scene: Scene, density_per_m2: float, seed: int) -> tuple[ND
 
 def sample_features(scene: Scene, density_per_m2: float = 1.0, seed: int = 0, corners: bool = True) -> FeatureSet:
     """All simulated features of the scene (targets and occluders alike), offset 1 mm along their normals."""
-    if density_per_m2 < 0:
+    if not (density_per_m2 >= 0 and np.isfinite(density_per_m2)):
         raise ObservationsError(f"feature density must be ≥ 0 per m², got {density_per_m2}")
     parts = [corner_features(scene)] if corners else []
     parts.append(surface_features(scene, density_per_m2, seed))

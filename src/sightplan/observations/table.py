@@ -149,10 +149,14 @@ class Observations:
         if not parts:
             raise ObservationsError("nothing to merge")
         first = parts[0]
+        context = ("scene", "features", "engine", "scale", "d_max")
         for p in parts[1:]:
             same = p.n_elements == first.n_elements and p.n_features == first.n_features
-            if not same or not np.array_equal(p.is_target, first.is_target):
-                raise ObservationsError("cannot merge observations of different scenes or feature sets")
+            if not same or not np.array_equal(p.is_target, first.is_target) or not np.array_equal(p.present, first.present):
+                raise ObservationsError("cannot merge observations of different scenes or capture dates")
+            differs = [k for k in context if p.meta.get(k) != first.meta.get(k)]
+            if differs:
+                raise ObservationsError(f"cannot merge observations made with a different {', '.join(differs)}")
         offsets = np.cumsum([0] + [p.n_frames for p in parts[:-1]])
         return replace(
             first,
@@ -184,10 +188,14 @@ class Observations:
             with np.load(path, allow_pickle=False) as z:
                 header = json.loads(str(z["header"]))
                 arrays = {k: z[k] for k in cls._ARRAYS}
-        except (OSError, ValueError, KeyError) as exc:
+            if not isinstance(header, dict) or header.get("format") != "sightplan-observations":
+                raise ObservationsError(f"{path} is not a sightplan observations file")
+            if header.get("version", 0) > FORMAT_VERSION:
+                raise ObservationsError(f"{path} was written by a newer sightplan "
+                                        f"(format {header['version']} > {FORMAT_VERSION})")
+            return cls(n_frames=int(header["n_frames"]), n_features=int(header["n_features"]),
+                       meta=header.get("meta", {}), **arrays)
+        except ObservationsError:
+            raise
+        except (OSError, ValueError, KeyError, TypeError) as exc:
             raise ObservationsError(f"{path} is not a sightplan observations file: {exc}") from None
-        if header.get("format") != "sightplan-observations":
-            raise ObservationsError(f"{path} is not a sightplan observations file")
-        if header.get("version", 0) > FORMAT_VERSION:
-            raise ObservationsError(f"{path} was written by a newer sightplan (format {header['version']} > {FORMAT_VERSION})")
-        return cls(n_frames=header["n_frames"], n_features=header["n_features"], meta=header.get("meta", {}), **arrays)
