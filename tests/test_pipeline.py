@@ -167,7 +167,8 @@ def test_overview_picture_shows_each_visibility_class(scene, plan, tmp_path):
     import matplotlib.image as mpimg
 
     from sightplan.engines import make_engine
-    from sightplan.report.overview import UNSEEN, VISIBLE, render_overview, visibility_colours
+    from sightplan.engines.views import overview_view
+    from sightplan.report.overview import UNSEEN, VISIBLE, draw_overview, visibility_colours
 
     ev = evaluate(scene, plan, cache_dir=False)
     em = ev.metrics.elements
@@ -175,7 +176,10 @@ def test_overview_picture_shows_each_visibility_class(scene, plan, tmp_path):
     colours = visibility_colours(em)
     colours[1] = UNSEEN  # paint box b as unseen to see both classes in the picture
     with make_engine("embree", scene) as eng:
-        path = render_overview(eng, colours, plan, tmp_path / "overview.png", title="test")
+        view = overview_view(eng, plan.C_world)
+    u, v = view.project(plan.C_world)
+    assert len(u) == len(plan) and (0 <= u).all() and (u < 1200).all() and (0 <= v).all() and (v < 800).all()
+    path = draw_overview(view, colours, tmp_path / "overview.png", plan.C_world, title="test")
     img = mpimg.imread(path)[..., :3]
     hue = img / np.maximum(img.max(axis=2, keepdims=True), 1e-6)  # undo the shading's brightness
 

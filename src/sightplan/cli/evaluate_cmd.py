@@ -136,13 +136,15 @@ def evaluate(
     paths = write_report(ev, scene, the_plan, out, model_path=str(model), plan_path=str(plan or ""))
     if picture:
         from ..engines import make_engine
-        from ..report.overview import render_overview, visibility_colours
+        from ..engines.views import overview_view
+        from ..report.overview import draw_overview, visibility_colours
 
         vc = ev.metrics.plan.VC
         title = f"{Path(str(model)).name} — {plan_label}: VC {_fmt(None if vc is None else 100 * vc, '.1f')} %"
         with console.status("drawing the overview…"), make_engine(ev.engine, scene, threads=threads) as eng:
-            paths["overview"] = render_overview(eng, visibility_colours(ev.metrics.elements), the_plan,
-                                                Path(out) / "overview.png", title=title)
+            view = overview_view(eng, the_plan.C_world)
+        paths["overview"] = draw_overview(view, visibility_colours(ev.metrics.elements), Path(out) / "overview.png",
+                                          the_plan.C_world, title=title)
     console.print(summary_table(ev, f"{Path(str(model)).name} × {plan_label} — engine {ev.engine}, "
                                     f"{ev.n_features:,} features, {ev.cache_hits} frames from cache"))
     console.print("wrote " + ", ".join(str(p) for p in paths.values()))

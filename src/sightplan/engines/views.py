@@ -1,0 +1,59 @@
+"""Whole-image views of a scene, for pictures: the engine stage's part of the overview.
+
+The report stage colours a :class:`SceneView` without touching the engine again.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..camera.models import PinholeCamera
+from ..plan.poses import R_from_gimbal
+from .base import Engine
+
+
+@dataclass(frozen=True)
+class SceneView:
+    """element: (H, W) int32 id per pixel (−1 background); shade: (H, W) |cos| of ray and surface;
+    camera, R_world_camera (3, 3), C_world (3,): the view's pose, to project more points into it."""
+
+    element: NDArray[np.int32]
+    shade: NDArray[np.float64]
+    camera: PinholeCamera
+    R_world_camera: NDArray[np.float64]
+    C_world: NDArray[np.float64]
+
+    def project(self, points: NDArray) -> tuple[NDArray, NDArray]:
+        """(k,) column and row (pixel-centre convention) of the (k, 3) points in front of the camera."""
+        rel = (np.asarray(points, float).reshape(-1, 3) - self.C_world) @ self.R_world_camera
+        front = rel[:, 2] > 0
+        cam = self.camera
+        return (cam.fx * rel[front, 0] / rel[front, 2] + cam.cx - 0.5,
+                cam.fy * rel[front, 1] / rel[front, 2] + cam.cy - 0.5)
+
+
+def overview_pose(points: NDArray, width: int = 1200, height: int = 800) -> tuple[PinholeCamera, NDArray, NDArray]:
+    """A camera looking down at 35° from the south-west, as close as it can be with all (k, 3) points in view."""
+    lo, hi = points.min(axis=0), points.max(axis=0)
+    centre = (lo + hi) / 2
+    cam = PinholeCamera(width, height, 1.1 * width, 1.1 * width, width / 2, height / 2, "overview")
+    R = R_from_gimbal(45.0, -35.0, 0.0)[0]
+    rel = (points - centre) @ R  # coordinates in camera axes, camera at the centre
+    # a point fits when |x| / (z + d) ≤ (W/2)/fx (and likewise for y): solve for the distance d
+    d = max(np.max(np.abs(rel[:, 0]) * cam.fx / (0.47 * width) - rel[:, 2]),
+            np.max(np.abs(rel[:, 1]) * cam.fy / (0.47 * height) - rel[:, 2]), 1.0)
+    return cam, R, centre - d * R[:, 2]
+
+
+def overview_view(engine: Engine, extra_points: NDArray | None = None) -> SceneView:
+    """The overview of the engine's scene framing the model's box and ``extra_points`` (e.g. camera centres)."""
+    lo, hi = engine.scene.bounds()
+    points = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
+    if extra_points is not None and len(extra_points):
+        points = np.concatenate([points, np.asarray(extra_points, float).reshape(-1, 3)])
+    cam, R, C = overview_pose(points)
+    ids, _, cos = engine.shaded_view(cam, R, C)
+    return SceneView(ids, cos, cam, R, C)
