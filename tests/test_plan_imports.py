@@ -337,3 +337,17 @@ def test_colmap_binary_written_by_hand(tmp_path):
     _check_colmap_plan(load_plan(tmp_path / "images.bin"), R, C, names)
     text = load_plan(tmp_path / "text")
     assert np.array_equal(load_plan(tmp_path).C_world, text.C_world)  # repr() text is lossless
+
+
+def test_csv_with_times_out_of_order_is_sorted_by_capture_time(tmp_path):
+    from sightplan.plan.load import load_plan
+
+    csv = tmp_path / "poses.csv"
+    csv.write_text("name,x,y,z,heading_deg,pitch_deg,time\n"
+                   "b,1,0,10,0,-90,2024-05-01T10:00:05\n"
+                   "a,0,0,10,0,-90,2024-05-01T10:00:00\n"
+                   "c,2,0,10,0,-90,2024-05-01T10:00:09\n")
+    plan = load_plan(csv, camera="p4p")
+    assert list(plan.frame_names) == ["a", "b", "c"]
+    np.testing.assert_allclose(plan.C_world[:, 0], [0, 1, 2])
+    assert any("capture-time order" in w for w in plan.parameters["warnings"])

@@ -40,7 +40,7 @@ EXCLUDED_CLASSES: tuple[str, ...] = (
     "IfcOpeningElement",
     "IfcVirtualElement",
     "IfcAnnotation",
-    "IfcGrid",  # METRICS.md §1
+    "IfcGrid",  # not physical, like the classes METRICS.md §1 names
     "IfcSpatialZone",
     "IfcExternalSpatialElement",  # space-like volumes
     "IfcPort",

@@ -68,6 +68,17 @@ def apply_similarity(plan: Plan, T_model_source: ArrayLike) -> Plan:
     )
 
 
+def in_capture_order(plan: Plan) -> Plan:
+    """A flown capture with a time on every frame, sorted by it (tracks follow capture time, METRICS.md §5.3)."""
+    t = plan.capture_time
+    if len(t) < 2 or not np.isfinite(t).all() or np.all(np.diff(t) >= 0):
+        return plan
+    order = np.argsort(t, kind="stable")
+    params = dict(plan.parameters)
+    params["warnings"] = [*params.get("warnings", []), "frames were not in capture-time order: sorted by time"]
+    return replace(plan.subset(order), parameters=params)
+
+
 def read_transform(path: str | Path) -> np.ndarray:
     """A (4, 4) similarity from a JSON file: a 4×4 list, ``{"matrix": 4×4}``, or
     ``{"scale": s, "rotation": 3×3, "translation": [x, y, z]}`` (source → model frame)."""
@@ -143,7 +154,7 @@ def load_plan(
         find_colmap_model(path)  # clear error before anything else
         plan = read_colmap(path)
     elif kind == "csv":
-        plan = read_csv_plan(path, camera=camera)
+        plan = in_capture_order(read_csv_plan(path, camera=camera))
     else:
         plan = _from_json(path, fmt)
     if camera is not None and kind != "csv":
