@@ -92,3 +92,16 @@ def test_default_cache_dir(monkeypatch, tmp_path):
     assert default_cache_dir() == tmp_path / "c"
     monkeypatch.delenv("SIGHTPLAN_CACHE")
     assert default_cache_dir().parts[-3:] == (".cache", "sightplan", "scenes")
+
+
+def test_cache_hit_reports_the_path_it_was_asked_for(tmp_path):
+    import shutil
+
+    from sightplan.model.load import load_model, sample_model_path
+
+    copy = tmp_path / "my-house.ifc"
+    shutil.copy(sample_model_path(), copy)
+    load_model("sample", cache_dir=tmp_path / "c")
+    scene, report = load_model(copy, cache_dir=tmp_path / "c")
+    assert report.from_cache
+    assert scene.source == str(copy) and report.source == str(copy)

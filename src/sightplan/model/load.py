@@ -69,8 +69,9 @@ def load_model(
         key = _cache.content_hash(path, hashed)
         hit = _cache.load_scene(key, cache_dir)
         if hit is not None:
-            scene, report = hit
-            return scene, replace(report, elapsed_s=time.perf_counter() - t0, from_cache=True)
+            scene, report = hit  # the same bytes may have been cached from another path
+            return replace(scene, source=str(path)), replace(report, source=str(path),
+                                                             elapsed_s=time.perf_counter() - t0, from_cache=True)
     scene, report = loader(path, **options)
     if cache:
         try:
