@@ -323,3 +323,11 @@ def test_failed_geometry_is_reported(tmp_path):
     assert wall.GlobalId not in set(scene.elements.global_id)
     [failed] = [s for s in report.skipped if s.global_id == wall.GlobalId]
     assert failed.reason == "geometry failed or empty"
+
+
+def test_tessellation_reports_progress(tmp_path):
+    from sightplan.model.load import load_model
+
+    seen: list[float] = []
+    load_model("sample", cache=False, progress=seen.append)
+    assert len(seen) > 10 and seen == sorted(seen) and seen[0] < 0.2 and seen[-1] == pytest.approx(1.0, abs=0.02)

@@ -11,6 +11,7 @@ from rich.table import Table
 
 from ..engines.base import EngineName
 from .errors import friendly_errors
+from .loading import load_with_progress
 from .main import app, console
 
 
@@ -80,7 +81,6 @@ def evaluate(
     from ..evaluate import EvaluationSettings
     from ..evaluate import evaluate as run_evaluation
     from ..metrics import MetricParams
-    from ..model.load import load_model
     from ..observations.features import FeatureSet
     from ..plan.load import load_plan
     from ..plan.ring import ring_plan
@@ -91,8 +91,7 @@ def evaluate(
     settings = EvaluationSettings(engine=engine, scale=scale, d_max=d_max, feature_density=feature_density,
                                   feature_seed=seed, threads=threads,
                                   metric=MetricParams(omega=omega, k=k, min_track=min_track, min_features=min_features))
-    with console.status("loading the model…"):
-        scene, load_report = load_model(model, cache=cache)
+    scene, load_report = load_with_progress(console, model, cache)
     console.print(f"model: {scene.source or model} — {int(scene.targets.sum())} target elements, "
                   f"{len(scene.faces):,} triangles"
                   + (f", {len(load_report.skipped)} products without geometry (see `sightplan info`)"

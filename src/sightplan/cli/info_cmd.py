@@ -9,6 +9,7 @@ import typer
 from rich.table import Table
 
 from .errors import friendly_errors
+from .loading import load_with_progress
 from .main import app, console
 
 
@@ -20,11 +21,9 @@ def info(
     cache: Annotated[bool, typer.Option(help="Reuse the model cache")] = True,
 ) -> None:
     """Summarise a model: elements by class, discipline and storey; bounds; triangles; the load report."""
-    from ..model.load import load_model
     from ..model.summary import summarize
 
-    with console.status("loading the model…"):
-        scene, report = load_model(model, cache=cache)
+    scene, report = load_with_progress(console, model, cache)
     s = summarize(scene, report)
     if as_json:
         typer.echo(json.dumps(s, indent=2, default=str))

@@ -19,7 +19,7 @@ from __future__ import annotations
 import os
 import time
 from collections import Counter
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from pathlib import Path
 
 import ifcopenshell
@@ -85,7 +85,8 @@ def _open(path: Path) -> ifcopenshell.file:
         raise ModelError(f"{path.name} cannot be read as IFC: {exc}") from exc
 
 
-def _tessellate(f: ifcopenshell.file, skip_classes: list[str], num_threads: int) -> dict[int, tuple[np.ndarray, np.ndarray]]:
+def _tessellate(f: ifcopenshell.file, skip_classes: list[str], num_threads: int,
+                progress: Callable[[float], None] | None = None) -> dict[int, tuple[np.ndarray, np.ndarray]]:
     """{product step id: ((n, 3) float64 world metres, (m, 3) int32 local indices)} for every product with triangles."""
     settings = ifcopenshell.geom.settings()
     settings.set("use-world-coords", True)
@@ -103,12 +104,16 @@ def _tessellate(f: ifcopenshell.file, skip_classes: list[str], num_threads: int)
             faces = np.frombuffer(geom.faces_buffer, dtype=np.int32).reshape(-1, 3)
             if len(faces) and shape.id not in shapes:
                 shapes[shape.id] = (verts, faces)
+            if progress is not None:
+                progress(it.progress() / 100.0)
             if not it.next():
                 break
     except ModelError:
         raise
     except Exception as exc:  # the geometry kernel may raise anything; report it as the model's fault
         raise ModelError(f"IfcOpenShell could not tessellate the model: {exc}") from exc
+    if progress is not None:
+        progress(1.0)  # the kernel's own count includes products it skips, so it may stop short of 100 %
     return shapes
 
 
@@ -233,8 +238,11 @@ def load_ifc(
     occluders: Iterable[str] = DEFAULT_OCCLUDERS,
     include_occluders_as_targets: bool = False,
     num_threads: int | None = None,
+    progress: Callable[[float], None] | None = None,
 ) -> tuple[Scene, LoadReport]:
     """Load an IFC file (.ifc, .ifczip) as a Scene in world metres, with its :class:`LoadReport`.
+
+    ``progress``: called with the tessellated share (0..1) as the work goes on.
 
     Elements are ordered by STEP id, so the element index is stable between loads.
     ``occluders``: IFC classes (with subtypes) loaded with ``is_target=False`` unless
@@ -257,7 +265,7 @@ def load_ifc(
         return [n for n in names if lineage(schema, n)]
 
     excluded_names = in_schema(EXCLUDED_CLASSES)
-    shapes = _tessellate(f, excluded_names + in_schema(CONTAINER_CLASSES), num_threads or os.cpu_count() or 1)
+    shapes = _tessellate(f, excluded_names + in_schema(CONTAINER_CLASSES), num_threads or os.cpu_count() or 1, progress)
 
     products = sorted(f.by_type("IfcProduct"), key=lambda p: p.id())
     excluded: Counter[str] = Counter()

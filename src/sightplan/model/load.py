@@ -36,11 +36,12 @@ def _options_and_loader(path: Path, options: dict):
     if ext in IFC_EXTENSIONS:
         from .ifc import ifc_options, load_ifc
 
-        hashed = ifc_options(**{k: v for k, v in options.items() if k != "num_threads"})
+        hashed = ifc_options(**{k: v for k, v in options.items() if k not in ("num_threads", "progress")})
         return hashed, load_ifc
     if ext in MESH_EXTENSIONS:
         from .mesh import load_mesh, mesh_options
 
+        options.pop("progress", None)  # meshes load in one step
         return mesh_options(path, **options), load_mesh
     supported = ", ".join(SUPPORTED_EXTENSIONS)
     raise ModelError(f"{path.name}: unsupported model format {ext or '(no extension)'!r}; supported: {supported}")
