@@ -239,3 +239,24 @@ def test_transform_moves_a_flown_capture_into_the_model_frame(sample_run, tmp_pa
     assert b == a and b["visible"] > 10
     T.write_text("[[1, 0], [0, 1]]")
     assert_clean_error(run_cli("evaluate", "sample", str(shifted), "--transform", str(T), cwd=tmp_path), "transform")
+
+
+def test_mesh_elements_are_picked_by_the_user(tmp_path):
+    import trimesh
+
+    a = trimesh.creation.box((4000, 4000, 3000), trimesh.transformations.translation_matrix((0, 0, 1500)))
+    b = trimesh.creation.box((2000, 2000, 2000), trimesh.transformations.translation_matrix((8000, 0, 1000)))
+    glb = tmp_path / "site.glb"
+    trimesh.Scene({"house": a, "shed": b}).export(glb)
+    counts = {}
+    for grouping in ("objects", "components", "faces"):
+        res = run_cli("info", str(glb), "--json", "--mesh-elements", grouping, "--mesh-scale", "0.001", "--no-cache",
+                      cwd=tmp_path)
+        assert res.returncode == 0, res.stderr
+        counts[grouping] = json.loads(res.stdout)["targets"]
+    assert counts == {"objects": 2, "components": 2, "faces": 24}  # two boxes of 12 triangles
+    res = run_cli("evaluate", str(glb), "--mesh-elements", "objects", "--mesh-scale", "0.001", "--ring-frames", "8",
+                  "--scale", "0.1", "--no-picture", "--out", str(tmp_path / "r"), cwd=tmp_path)
+    assert res.returncode == 0, res.stderr
+    report = json.loads((tmp_path / "r" / "report.json").read_text())
+    assert report["metrics"]["VC_pct"] == 100.0  # a ring around two boxes sees both

@@ -10,6 +10,7 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 from rich.table import Table
 
 from ..engines.base import EngineName
+from ..model.mesh import MeshGrouping
 from .errors import friendly_errors
 from .loading import load_with_progress
 from .main import app, console
@@ -71,6 +72,9 @@ def evaluate(
     transform: Annotated[Path | None, typer.Option(help="JSON 4×4 similarity from the poses' frame to the model's")] = None,
     save_plan: Annotated[Path | None, typer.Option(help="Also write the evaluated plan as sightplan JSON")] = None,
     out: Annotated[Path, typer.Option(help="Output folder for report.json, elements.csv, frames.csv")] = Path("sightplan-out"),
+    mesh_elements: Annotated[MeshGrouping, typer.Option(
+        help="For a mesh: its elements are the file's objects/nodes, connected components, or single faces")] = "objects",
+    mesh_scale: Annotated[float, typer.Option(help="For a mesh: metres per file unit (0.001 for millimetres)")] = 1.0,
     cache: Annotated[bool, typer.Option(help="Reuse the model and per-frame caches")] = True,
     picture: Annotated[bool, typer.Option(help="Also write overview.png: the model coloured by visibility")] = True,
     threads: Annotated[int | None, typer.Option(help="Worker threads (default: all cores)")] = None,
@@ -91,7 +95,7 @@ def evaluate(
     settings = EvaluationSettings(engine=engine, scale=scale, d_max=d_max, feature_density=feature_density,
                                   feature_seed=seed, threads=threads,
                                   metric=MetricParams(omega=omega, k=k, min_track=min_track, min_features=min_features))
-    scene, load_report = load_with_progress(console, model, cache)
+    scene, load_report = load_with_progress(console, model, cache, mesh_elements, mesh_scale)
     console.print(f"model: {scene.source or model} — {int(scene.targets.sum())} target elements, "
                   f"{len(scene.faces):,} triangles"
                   + (f", {len(load_report.skipped)} products without geometry (see `sightplan info`)"

@@ -8,6 +8,7 @@ from typing import Annotated
 import typer
 from rich.table import Table
 
+from ..model.mesh import MeshGrouping
 from .errors import friendly_errors
 from .loading import load_with_progress
 from .main import app, console
@@ -18,12 +19,15 @@ from .main import app, console
 def info(
     model: Annotated[str, typer.Argument(help="IFC or mesh file; 'sample' for the bundled Duplex model")],
     as_json: Annotated[bool, typer.Option("--json", help="Print the summary as JSON")] = False,
+    mesh_elements: Annotated[MeshGrouping, typer.Option(
+        help="For a mesh: its elements are the file's objects/nodes, connected components, or single faces")] = "objects",
+    mesh_scale: Annotated[float, typer.Option(help="For a mesh: metres per file unit (0.001 for millimetres)")] = 1.0,
     cache: Annotated[bool, typer.Option(help="Reuse the model cache")] = True,
 ) -> None:
     """Summarise a model: elements by class, discipline and storey; bounds; triangles; the load report."""
     from ..model.summary import summarize
 
-    scene, report = load_with_progress(console, model, cache)
+    scene, report = load_with_progress(console, model, cache, mesh_elements, mesh_scale)
     s = summarize(scene, report)
     if as_json:
         typer.echo(json.dumps(s, indent=2, default=str))

@@ -6,14 +6,17 @@ from rich.console import Console
 from rich.progress import BarColumn, Progress, TaskProgressColumn, TextColumn, TimeElapsedColumn
 
 
-def load_with_progress(console: Console, model: str, cache: bool):
-    """(scene, report) of ``model``; a cache hit shows no bar."""
-    from ..model.load import load_model, resolve_model_path
+def load_with_progress(console: Console, model: str, cache: bool, mesh_elements: str = "objects",
+                       mesh_scale: float = 1.0):
+    """(scene, report) of ``model``; a cache hit shows no bar. ``mesh_*`` apply to mesh files only."""
+    from ..model.load import MESH_EXTENSIONS, load_model, resolve_model_path
 
     name = resolve_model_path(model).name
     with Progress(TextColumn(f"[bold]loading {name}"), BarColumn(), TaskProgressColumn(), TimeElapsedColumn(),
                   console=console, transient=True) as bar:
         task = bar.add_task("tessellating", total=1.0)
         is_ifc = name.lower().endswith((".ifc", ".ifczip"))
-        extra = {"progress": lambda share: bar.update(task, completed=share)} if is_ifc else {}
+        extra: dict = {"progress": lambda share: bar.update(task, completed=share)} if is_ifc else {}
+        if name.lower().endswith(tuple(MESH_EXTENSIONS)):
+            extra = {"elements": mesh_elements, "scale": mesh_scale}
         return load_model(model, cache=cache, **extra)
