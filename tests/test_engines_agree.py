@@ -83,3 +83,18 @@ def test_metrics_agree_between_engines(duplex, small_plan):
     assert a.n_visible > 10 and a.T > 0
     for k in ("VC", "VC_bar", "VR", "R", "O", "T"):
         assert getattr(b, k) == pytest.approx(getattr(a, k), rel=0.005), k
+
+
+def test_storey_cutaways_show_each_storey_from_above():
+    from sightplan.engines.views import storey_views
+
+    scene, _ = load_model("sample")
+    views = storey_views(scene, "embree")
+    assert [name for name, _ in views] == ["T/FDN", "Level 1", "Level 2", "Roof"]  # lowest floor first
+    for name, view in views:
+        shown = np.unique(view.element[view.element >= 0])
+        assert (scene.elements.storey[shown] == name).any(), name
+        assert view.R_world_camera[2, 2] < -0.8  # looking down
+    level1 = dict(views)["Level 1"]
+    upper = scene.elements.storey[np.unique(level1.element[level1.element >= 0])]
+    assert "Level 2" not in set(upper) and "Roof" not in set(upper)  # what is above the cut is gone

@@ -236,3 +236,11 @@ def test_features_of_another_scene_are_refused(scene, plan):
 def test_settings_that_are_not_numbers_are_refused(kwargs):
     with pytest.raises(SightplanError):
         EvaluationSettings(**kwargs)
+
+
+def test_no_storey_cutaways_without_storeys(scene, tmp_path):
+    from sightplan.engines.views import storey_views
+    from sightplan.report.overview import draw_storeys
+
+    assert storey_views(scene, "embree") == []
+    assert draw_storeys([], np.zeros((4, 3)), tmp_path / "s.png") is None

@@ -139,15 +139,19 @@ def evaluate(
     paths = write_report(ev, scene, the_plan, out, model_path=str(model), plan_path=str(plan or ""))
     if picture:
         from ..engines import make_engine
-        from ..engines.views import overview_view
-        from ..report.overview import draw_overview, visibility_colours
+        from ..engines.views import overview_view, storey_views
+        from ..report.overview import draw_overview, draw_storeys, visibility_colours
 
         vc = ev.metrics.plan.VC
         title = f"{Path(str(model)).name} — {plan_label}: VC {_fmt(None if vc is None else 100 * vc, '.1f')} %"
         with console.status("drawing the overview…"), make_engine(ev.engine, scene, threads=threads) as eng:
             view = overview_view(eng, the_plan.C_world)
-        paths["overview"] = draw_overview(view, visibility_colours(ev.metrics.elements), Path(out) / "overview.png",
-                                          the_plan.C_world, title=title)
+            storeys = storey_views(scene, ev.engine, threads)
+        colours = visibility_colours(ev.metrics.elements)
+        paths["overview"] = draw_overview(view, colours, Path(out) / "overview.png", the_plan.C_world, title=title)
+        storeys_png = draw_storeys(storeys, colours, Path(out) / "storeys.png", title=f"{title} — storey cutaways")
+        if storeys_png is not None:
+            paths["storeys"] = storeys_png
     console.print(summary_table(ev, f"{Path(str(model)).name} × {plan_label} — engine {ev.engine}, "
                                     f"{ev.n_features:,} features, {ev.cache_hits} frames from cache"))
     console.print("wrote " + ", ".join(str(p) for p in paths.values()))

@@ -57,3 +57,51 @@ def overview_view(engine: Engine, extra_points: NDArray | None = None) -> SceneV
     cam, R, C = overview_pose(points)
     ids, _, cos = engine.shaded_view(cam, R, C)
     return SceneView(ids, cos, cam, R, C)
+
+
+CUT_ABOVE_FLOOR_M = 1.2
+
+
+def storey_views(scene, engine_name: str = "auto", threads: int | None = None, max_storeys: int = 6
+                 ) -> list[tuple[str, SceneView]]:
+    """Cutaway views, one per storey (lowest first): the elements that start below
+    ``CUT_ABOVE_FLOOR_M`` above the storey's floor, seen from above at 60°.
+
+    A storey's floor is the lowest point of its target elements. Walls of the storey stand
+    at full height; slabs, roofs and storeys above are removed, so interior elements show.
+    Scenes without storey names (meshes) give no views.
+    """
+    from .registry import make_engine
+
+    storeys = scene.elements.storey
+    tri_z = scene.vertices[scene.faces][:, :, 2]
+    n = scene.n_elements
+    el_min = np.full(n, np.inf)
+    el_max = np.full(n, -np.inf)
+    np.minimum.at(el_min, scene.face_element, tri_z.min(axis=1))
+    np.maximum.at(el_max, scene.face_element, tri_z.max(axis=1))
+    floors = {}
+    for name in set(storeys[scene.targets].tolist()) - {""}:
+        members = scene.targets & (storeys == name) & np.isfinite(el_min)
+        if members.any():
+            floors[name] = float(el_min[members].min())
+    views = []
+    for name, floor in sorted(floors.items(), key=lambda kv: kv[1])[:max_storeys]:
+        keep = scene.present & (el_min < floor + CUT_ABOVE_FLOOR_M)
+        cut = scene.with_present(keep)
+        if len(cut.faces) == 0:
+            continue
+        members = keep & (storeys == name)
+        sel = members[cut.face_element]
+        pts = cut.vertices[cut.faces[sel]].reshape(-1, 3) if sel.any() else cut.vertices[cut.faces].reshape(-1, 3)
+        cam, _, _ = overview_pose(pts)  # only for the camera model
+        R = R_from_gimbal(45.0, -60.0, 0.0)[0]
+        lo, hi = pts.min(axis=0), pts.max(axis=0)
+        rel = (pts - (lo + hi) / 2) @ R
+        d = max(np.max(np.abs(rel[:, 0]) * cam.fx / (0.47 * cam.width) - rel[:, 2]),
+                np.max(np.abs(rel[:, 1]) * cam.fy / (0.47 * cam.height) - rel[:, 2]), 1.0)
+        C = (lo + hi) / 2 - d * R[:, 2]
+        with make_engine(engine_name, cut, threads=threads) as eng:
+            ids, _, cos = eng.shaded_view(cam, R, C)
+        views.append((name, SceneView(ids, cos, cam, R, C)))
+    return views

@@ -56,3 +56,34 @@ def draw_overview(view: SceneView, colours: NDArray, path: str | Path, camera_ce
     out = Path(path)
     fig.savefig(out)
     return out
+
+
+def draw_storeys(views: list[tuple[str, SceneView]], colours: NDArray, path: str | Path, title: str = "") -> Path | None:
+    """Write one PNG with a cutaway panel per storey, elements in their (z, 3) colours; None without storeys."""
+    if not views:
+        return None
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+    from matplotlib.patches import Rectangle
+
+    cols = min(3, len(views))
+    rows = int(np.ceil(len(views) / cols))
+    cam = views[0][1].camera
+    fig = Figure(figsize=(cols * cam.width / 200, rows * cam.height / 200 + 0.4), dpi=100)
+    FigureCanvasAgg(fig)
+    for k, (name, view) in enumerate(views):
+        ax = fig.add_subplot(rows, cols, k + 1)
+        hit = view.element >= 0
+        img = np.ones((view.camera.height, view.camera.width, 3)) * BACKGROUND
+        img[hit] = colours[view.element[hit]] * (0.4 + 0.6 * view.shade[hit])[:, None]
+        ax.imshow(img, interpolation="nearest")
+        ax.set_title(name, fontsize=9)
+        ax.set_axis_off()
+    handles = [Rectangle((0, 0), 1, 1, color=c) for c in (VISIBLE, OBSERVED_ONLY, UNSEEN, OCCLUDER)]
+    fig.legend(handles, ["visible (≥ Ω px)", "observed only", "unseen", "occluder"], loc="lower center", ncol=4,
+               fontsize=8)
+    fig.suptitle(title, fontsize=10)
+    fig.tight_layout(rect=(0, 0.05, 1, 0.97))
+    out = Path(path)
+    fig.savefig(out)
+    return out
