@@ -1,0 +1,55 @@
+"""Orbit (circular) template: rings around the model, the camera aimed at its centre."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ...camera.models import Camera, PinholeCamera
+from ...errors import PlanError
+from ...model.scene import Scene
+from ..poses import R_from_gimbal
+from ..types import Mission, Plan
+from .spacing import waypoint_spacing
+
+
+def orbit(scene: Scene, camera: Camera, radii_m: list[float], heights_m: list[float], step_deg: float | None = None,
+          overlap: float | None = 0.8) -> Plan:
+    """One ring per (radius, height) pair, frames every ``step_deg`` or by ``overlap``.
+
+    radii_m: horizontal distances from the box's centre; heights_m: camera heights (model
+    frame). With ``overlap``, the step keeps that share of the horizontal field of view in
+    common at the distance to the box's centre (eq. 11 with g = radius); ``step_deg``
+    overrides it. Each ring is a mission; frames aim at the box's centre.
+    """
+    if len(radii_m) != len(heights_m) or not radii_m:
+        raise PlanError("give one height per ring radius (and at least one ring)")
+    lo, hi = scene.bounds()
+    centre = (lo + hi) / 2
+    half_diag = float(np.hypot(*(hi - lo)[:2]) / 2)
+    C, heading, pitch, missions = [], [], [], []
+    for k, (r, z) in enumerate(zip(radii_m, heights_m)):
+        if not r > half_diag:
+            raise PlanError(f"ring {k}: radius {r} m is inside the model's footprint (half diagonal {half_diag:.1f} m)")
+        if step_deg is not None:
+            step = float(step_deg)
+        else:
+            if not isinstance(camera, PinholeCamera) or overlap is None:
+                raise PlanError("a step by overlap needs a perspective camera; give step_deg instead")
+            step = math.degrees(waypoint_spacing(r, camera.hfov_deg, overlap) / r)
+        if not 0 < step <= 180:
+            raise PlanError(f"ring {k}: the angular step must be in (0°, 180°], got {step}")
+        n = max(3, math.ceil(360.0 / step - 1e-9))
+        az = np.arange(n) * 2 * np.pi / n
+        c = np.stack([centre[0] + r * np.sin(az), centre[1] + r * np.cos(az), np.full(n, float(z))], axis=1)
+        v = centre - c
+        first = len(C)
+        C.extend(c.tolist())
+        heading.extend(np.degrees(np.arctan2(v[:, 0], v[:, 1])).tolist())
+        pitch.extend(np.degrees(np.arctan2(v[:, 2], np.hypot(v[:, 0], v[:, 1]))).tolist())
+        missions.append(Mission(f"ring {k + 1}", first, len(C)))
+    C = np.asarray(C)
+    return Plan.build(camera, R_from_gimbal(heading, pitch, 0.0), C, missions=tuple(missions), waypoints=C,
+                      parameters={"template": "orbit", "radii_m": list(map(float, radii_m)),
+                                  "heights_m": list(map(float, heights_m)), "step_deg": step_deg, "overlap": overlap})

@@ -1,0 +1,114 @@
+"""Plan templates: eq. 11 spacing on worked examples, waypoint counts by hand, view directions."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+import trimesh
+
+from sightplan.camera.catalogue import get_camera
+from sightplan.errors import PlanError
+from sightplan.evaluate import EvaluationSettings, evaluate
+from sightplan.model.scene import ElementTable, Scene
+from sightplan.plan.templates import facade_grid, orbit, waypoint_spacing
+
+P4P = get_camera("p4p")  # 8.8 mm on 13.2 × 8.8 mm, 5472 × 3648: tan(hfov/2) = 0.75, tan(vfov/2) = 0.5
+
+
+def box_scene(size=(20.0, 10.0, 8.0), corner=(0.0, 0.0, 0.0)) -> Scene:
+    m = trimesh.creation.box(size, trimesh.transformations.translation_matrix(np.add(corner, np.divide(size, 2))))
+    return Scene.from_arrays(m.vertices, m.faces, np.zeros(len(m.faces)), ElementTable.build(["box"]))
+
+
+def test_spacing_matches_eq_11_and_the_qgroundcontrol_rule():
+    # eq. 11: s = 2·g·tan(Φ/2)·(1 − l)
+    assert waypoint_spacing(10, P4P.hfov_deg, 0.8) == pytest.approx(2 * 10 * 0.75 * 0.2)  # 3.0 m
+    assert waypoint_spacing(10, P4P.vfov_deg, 0.8) == pytest.approx(2 * 10 * 0.5 * 0.2)  # 2.0 m
+    # QGroundControl: footprint = distance × sensor width / focal length, spacing = footprint × (1 − overlap)
+    footprint = 25.0 * 13.2 / 8.8
+    assert waypoint_spacing(25, P4P.hfov_deg, 0.7) == pytest.approx(footprint * 0.3)
+
+
+@pytest.mark.parametrize(("g", "fov", "overlap"), [(10, 70, 1.0), (10, 70, 1.2), (0, 70, 0.5), (10, 0, 0.5),
+                                                   (float("nan"), 70, 0.5), (10, 70, -0.1)])
+def test_spacing_refuses_impossible_input(g, fov, overlap):
+    with pytest.raises(PlanError):
+        waypoint_spacing(g, fov, overlap)
+
+
+def test_facade_grid_count_for_a_box_by_hand():
+    plan = facade_grid(box_scene(), P4P, safety_distance_m=10, overlap=0.8)
+    # s_h = 3 m, s_v = 2 m. 20 m sides: ceil(20/3) + 1 = 8 columns; 10 m sides: ceil(10/3) + 1 = 5 columns.
+    # Layers on 8 m: ceil(8/2) + 1 = 5, plus the top row: 6 frames per column.
+    assert [m.stop - m.start for m in plan.missions] == [8 * 6, 5 * 6, 8 * 6, 5 * 6]
+    assert len(plan) == 156
+    assert plan.parameters["spacing_horizontal_m"] == pytest.approx(3.0)
+    assert plan.parameters["spacing_vertical_m"] == pytest.approx(2.0)
+
+
+def test_facade_grid_keeps_the_safety_distance_and_looks_at_the_facade():
+    g = 10.0
+    plan = facade_grid(box_scene(), P4P, safety_distance_m=g, overlap=0.8)
+    C, R = plan.C_world, plan.R_world_camera
+    lo, hi = np.zeros(3), np.array([20.0, 10.0, 8.0])
+    outside = np.maximum(lo[:2] - C[:, :2], 0) + np.maximum(C[:, :2] - hi[:2], 0)
+    np.testing.assert_allclose(np.linalg.norm(outside, axis=1), g)  # every waypoint is g from its side
+    fwd = R[:, :, 2]
+    top = np.isclose(C[:, 2], hi[2] + g)
+    assert top.sum() == 8 + 5 + 8 + 5  # one top waypoint per column
+    np.testing.assert_allclose(np.degrees(np.arcsin(fwd[top, 2])), -45.0)
+    south = plan.subset(range(plan.missions[0].start, plan.missions[0].stop))
+    level = ~np.isclose(south.C_world[:, 2], hi[2] + g)
+    inner = level & (south.C_world[:, 0] > 0.1) & (south.C_world[:, 0] < 19.9)
+    np.testing.assert_allclose(south.R_world_camera[inner][:, :, 2], np.tile([0, 1, 0], (inner.sum(), 1)), atol=1e-12)
+    west_end = level & np.isclose(south.C_world[:, 0], 0)  # first column turns 45° toward the south-west corner
+    np.testing.assert_allclose(south.R_world_camera[west_end][:, :, 2], np.tile([-math.sqrt(0.5), math.sqrt(0.5), 0],
+                                                                                 (west_end.sum(), 1)), atol=1e-12)
+
+
+def test_facade_grid_flies_a_snake_between_neighbouring_waypoints():
+    plan = facade_grid(box_scene(), P4P, safety_distance_m=10, overlap=0.8)
+    for m in plan.missions:
+        steps = np.linalg.norm(np.diff(plan.C_world[m.start:m.stop], axis=0), axis=1)
+        assert steps.max() <= 10.0 + 1e-9  # a layer step (2 m), a column step (≤ 3 m) or up to the top row (g)
+
+
+def test_facade_grid_sees_every_side_of_the_box():
+    scene = box_scene()
+    ev = evaluate(scene, facade_grid(scene, P4P, 10, 0.8), EvaluationSettings(scale=0.1), cache_dir=False)
+    assert ev.metrics.plan.VC == 1.0
+    assert ev.metrics.plan.O < 30  # mostly canonical views
+
+
+def test_facade_grid_refuses_a_flat_model_and_a_360_camera():
+    flat = box_scene(size=(20.0, 10.0, 1e-9))
+    with pytest.raises(PlanError, match="no extent"):
+        facade_grid(flat, P4P, 10)
+    with pytest.raises(PlanError, match="pinhole"):
+        facade_grid(box_scene(), get_camera("theta-z1"), 10)
+
+
+def test_orbit_rings_by_overlap():
+    scene = box_scene()
+    plan = orbit(scene, P4P, radii_m=[30, 50], heights_m=[5, 20], overlap=0.8)
+    # step = s / r = 2·tan(hfov/2)·(1 − l) rad = 0.3 rad = 17.19°, whatever the radius: ceil(360 / 17.19) = 21
+    assert [m.stop - m.start for m in plan.missions] == [21, 21]
+    centre = np.array([10.0, 5.0, 4.0])
+    for m, r, z in zip(plan.missions, (30, 50), (5, 20)):
+        C = plan.C_world[m.start:m.stop]
+        np.testing.assert_allclose(np.hypot(C[:, 0] - 10, C[:, 1] - 5), r)
+        np.testing.assert_allclose(C[:, 2], z)
+        to_centre = centre - C
+        to_centre /= np.linalg.norm(to_centre, axis=1, keepdims=True)
+        np.testing.assert_allclose(plan.R_world_camera[m.start:m.stop][:, :, 2], to_centre, atol=1e-12)
+
+
+def test_orbit_by_step_and_bad_rings():
+    scene = box_scene()
+    assert len(orbit(scene, P4P, [30], [5], step_deg=10)) == 36
+    with pytest.raises(PlanError, match="inside the model's footprint"):
+        orbit(scene, P4P, [5], [5])
+    with pytest.raises(PlanError, match="one height per ring"):
+        orbit(scene, P4P, [30, 40], [5])
