@@ -260,3 +260,26 @@ def test_mesh_elements_are_picked_by_the_user(tmp_path):
     assert res.returncode == 0, res.stderr
     report = json.loads((tmp_path / "r" / "report.json").read_text())
     assert report["metrics"]["VC_pct"] == 100.0  # a ring around two boxes sees both
+
+
+def test_plan_facade_then_evaluate(tmp_path):
+    import math
+
+    from sightplan.model.load import load_model
+
+    out = tmp_path / "facade.json"
+    res = run_cli("plan", "facade", "sample", "-o", str(out), "--safety-distance", "8", "--overlap", "0.8", cwd=tmp_path)
+    assert res.returncode == 0, res.stderr
+    d = json.loads(out.read_text())
+    lo, hi = load_model("sample")[0].bounds()
+    sx, sy, sz = hi - lo
+    s_h, s_v = 2 * 8 * 0.75 * 0.2, 2 * 8 * 0.5 * 0.2  # eq. 11 with the Phantom 4 Pro: 2.4 m and 1.6 m
+    per_col = math.ceil(sz / s_v) + 1 + 1  # layers plus the top row
+    cols = [math.ceil(sx / s_h) + 1, math.ceil(sy / s_h) + 1] * 2
+    assert [m["frames"][1] - m["frames"][0] for m in d["missions"]] == [c * per_col for c in cols]
+    res = run_cli("evaluate", "sample", str(out), "--scale", "0.05", "--no-picture", "--out", str(tmp_path / "r"),
+                  cwd=tmp_path)
+    assert res.returncode == 0, res.stderr
+    assert json.loads((tmp_path / "r" / "report.json").read_text())["metrics"]["frames"] == len(d["frames"])
+    assert_clean_error(run_cli("plan", "orbit", "sample", "-o", str(out), cwd=tmp_path), "--radius")
+    assert_clean_error(run_cli("plan", "facade", "sample", "--overlap", "1.0", cwd=tmp_path), "overlap")
