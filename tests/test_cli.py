@@ -283,3 +283,16 @@ def test_plan_facade_then_evaluate(tmp_path):
     assert json.loads((tmp_path / "r" / "report.json").read_text())["metrics"]["frames"] == len(d["frames"])
     assert_clean_error(run_cli("plan", "orbit", "sample", "-o", str(out), cwd=tmp_path), "--radius")
     assert_clean_error(run_cli("plan", "facade", "sample", "--overlap", "1.0", cwd=tmp_path), "overlap")
+
+
+def test_plan_route_and_lawnmower(tmp_path):
+    out = tmp_path / "route.json"
+    res = run_cli("plan", "route", "sample", "--camera", "theta-z1", "--point", "1,-20,0.5", "--point", "1,3,0.5",
+                  "--step", "1", "-o", str(out), cwd=tmp_path)
+    assert res.returncode == 0, res.stderr
+    assert len(json.loads(out.read_text())["frames"]) == 24  # 23 m walked, a frame every metre, both ends
+    assert_clean_error(run_cli("plan", "route", "sample", "--point", "1,2", "--point", "3,4,5", "--step", "1",
+                               cwd=tmp_path), "'1,2'", "x,y,z")
+    res = run_cli("plan", "lawnmower", "sample", "--gsd", "0.005", "-o", str(tmp_path / "lm.json"), cwd=tmp_path)
+    assert res.returncode == 0, res.stderr
+    assert "gsd on top 0.005 m" in res.stdout

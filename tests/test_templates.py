@@ -112,3 +112,47 @@ def test_orbit_by_step_and_bad_rings():
         orbit(scene, P4P, [5], [5])
     with pytest.raises(PlanError, match="one height per ring"):
         orbit(scene, P4P, [30, 40], [5])
+
+
+def test_lawnmower_grid_by_hand():
+    from sightplan.plan.templates import lawnmower
+
+    plan = lawnmower(box_scene(), P4P, altitude_m=38.0, front_overlap=0.8, side_overlap=0.7)
+    # 30 m above the 8 m top: along a line 2·30·0.5·0.2 = 6 m, across 2·30·0.75·0.3 = 13.5 m
+    assert plan.parameters["spacing_along_m"] == pytest.approx(6.0)
+    assert plan.parameters["spacing_across_m"] == pytest.approx(13.5)
+    # lines over 20 m: ceil(20/13.5) + 1 = 3; frames over 10 m: ceil(10/6) + 1 = 3
+    assert len(plan) == 9
+    np.testing.assert_allclose(plan.C_world[:, 2], 38.0)
+    np.testing.assert_allclose(plan.C_world[:3, 1], [0, 5, 10])  # first line northward…
+    np.testing.assert_allclose(plan.C_world[3:6, 1], [10, 5, 0])  # …second line back south
+    np.testing.assert_allclose(plan.R_world_camera[:, :, 2], np.tile([0, 0, -1], (9, 1)), atol=1e-12)  # nadir
+    np.testing.assert_allclose(-plan.R_world_camera[:, :, 1], np.tile([0, 1, 0], (9, 1)), atol=1e-12)  # image top north
+
+
+def test_lawnmower_by_ground_sampling_distance_and_bad_altitudes():
+    from sightplan.plan.templates import lawnmower
+
+    plan = lawnmower(box_scene(), P4P, gsd_m=0.01)
+    assert plan.parameters["clearance_m"] == pytest.approx(0.01 * 3648)  # GSD × focal in px
+    assert plan.parameters["altitude_m"] == pytest.approx(8 + 36.48)
+    with pytest.raises(PlanError, match="does not clear"):
+        lawnmower(box_scene(), P4P, altitude_m=5)
+    with pytest.raises(PlanError, match="either an altitude"):
+        lawnmower(box_scene(), P4P)
+
+
+def test_indoor_route_samples_the_polyline():
+    from sightplan.plan.templates import indoor_route
+
+    cam = get_camera("theta-z1")
+    plan = indoor_route(cam, [[0, 0, 1.6], [10, 0, 1.6], [10, 5, 1.6]], step_m=2.0)
+    # 15 m of route every ≤ 2 m: ceil(7.5) + 1 = 9 frames, 1.875 m apart, both ends included
+    assert len(plan) == 9
+    np.testing.assert_allclose(plan.C_world[0], [0, 0, 1.6])
+    np.testing.assert_allclose(plan.C_world[-1], [10, 5, 1.6])
+    np.testing.assert_allclose(plan.C_world[6], [10, 1.25, 1.6])  # 11.25 m along: 1.25 m up the second leg
+    np.testing.assert_allclose(plan.R_world_camera[1][:, 2], [1, 0, 0], atol=1e-12)  # first leg runs east
+    np.testing.assert_allclose(plan.R_world_camera[6][:, 2], [0, 1, 0], atol=1e-12)  # second leg runs north
+    with pytest.raises(PlanError, match="repeats"):
+        indoor_route(cam, [[0, 0, 1.6], [0, 0, 1.6]], 1.0)
