@@ -1,0 +1,144 @@
+"""Exact distances from points and segments to triangles (numba kernels, brute force over triangles)."""
+
+from __future__ import annotations
+
+import math
+
+import numba as nb
+import numpy as np
+
+
+@nb.njit(cache=True, inline="always")
+def _dot(a0, a1, a2, b0, b1, b2):
+    return a0 * b0 + a1 * b1 + a2 * b2
+
+
+@nb.njit(cache=True)
+def point_triangle_sq(p, a, b, c):
+    """Squared distance from point p to triangle abc (closest-point by Voronoi regions)."""
+    ab = b - a
+    ac = c - a
+    ap = p - a
+    d1 = _dot(ab[0], ab[1], ab[2], ap[0], ap[1], ap[2])
+    d2 = _dot(ac[0], ac[1], ac[2], ap[0], ap[1], ap[2])
+    if d1 <= 0.0 and d2 <= 0.0:
+        q = a
+    else:
+        bp = p - b
+        d3 = _dot(ab[0], ab[1], ab[2], bp[0], bp[1], bp[2])
+        d4 = _dot(ac[0], ac[1], ac[2], bp[0], bp[1], bp[2])
+        cp = p - c
+        d5 = _dot(ab[0], ab[1], ab[2], cp[0], cp[1], cp[2])
+        d6 = _dot(ac[0], ac[1], ac[2], cp[0], cp[1], cp[2])
+        vc = d1 * d4 - d3 * d2
+        vb = d5 * d2 - d1 * d6
+        va = d3 * d6 - d5 * d4
+        if d3 >= 0.0 and d4 <= d3:
+            q = b
+        elif vc <= 0.0 and d1 >= 0.0 and d3 <= 0.0:
+            q = a + ab * (d1 / (d1 - d3))
+        elif d6 >= 0.0 and d5 <= d6:
+            q = c
+        elif vb <= 0.0 and d2 >= 0.0 and d6 <= 0.0:
+            q = a + ac * (d2 / (d2 - d6))
+        elif va <= 0.0 and (d4 - d3) >= 0.0 and (d5 - d6) >= 0.0:
+            q = b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)))
+        else:
+            den = va + vb + vc
+            if den == 0.0:  # degenerate triangle: fall back to its vertices
+                return min(np.sum((p - a) ** 2), np.sum((p - b) ** 2), np.sum((p - c) ** 2))
+            q = a + ab * (vb / den) + ac * (vc / den)
+    d = p - q
+    return _dot(d[0], d[1], d[2], d[0], d[1], d[2])
+
+
+@nb.njit(cache=True)
+def segment_segment_sq(p1, q1, p2, q2):
+    """Squared distance between segments p1q1 and p2q2."""
+    d1 = q1 - p1
+    d2 = q2 - p2
+    r = p1 - p2
+    a = np.sum(d1 * d1)
+    e = np.sum(d2 * d2)
+    f = np.sum(d2 * r)
+    eps = 1e-18
+    if a <= eps and e <= eps:
+        return np.sum(r * r)
+    if a <= eps:
+        s = 0.0
+        t = min(max(f / e, 0.0), 1.0)
+    else:
+        c = np.sum(d1 * r)
+        if e <= eps:
+            t = 0.0
+            s = min(max(-c / a, 0.0), 1.0)
+        else:
+            b = np.sum(d1 * d2)
+            den = a * e - b * b
+            s = min(max((b * f - c * e) / den, 0.0), 1.0) if den > eps else 0.0
+            t = (b * s + f) / e
+            if t < 0.0:
+                t = 0.0
+                s = min(max(-c / a, 0.0), 1.0)
+            elif t > 1.0:
+                t = 1.0
+                s = min(max((b - c) / a, 0.0), 1.0)
+    d = (p1 + d1 * s) - (p2 + d2 * t)
+    return np.sum(d * d)
+
+
+@nb.njit(cache=True)
+def segment_hits_triangle(p, q, a, b, c):
+    """Whether segment pq crosses triangle abc (Möller–Trumbore on the segment's parameter range)."""
+    d = q - p
+    e1 = b - a
+    e2 = c - a
+    h = np.cross(d, e2)
+    det = np.sum(e1 * h)
+    if abs(det) < 1e-15:
+        return False
+    inv = 1.0 / det
+    s = p - a
+    u = inv * np.sum(s * h)
+    if u < 0.0 or u > 1.0:
+        return False
+    qv = np.cross(s, e1)
+    v = inv * np.sum(d * qv)
+    if v < 0.0 or u + v > 1.0:
+        return False
+    t = inv * np.sum(e2 * qv)
+    return 0.0 <= t <= 1.0
+
+
+@nb.njit(cache=True, parallel=True)
+def min_point_distances(points, tri):
+    """(n,) distance from each point to the nearest of the (F, 3, 3) triangles."""
+    out = np.empty(points.shape[0])
+    for i in nb.prange(points.shape[0]):
+        best = np.inf
+        for f in range(tri.shape[0]):
+            dsq = point_triangle_sq(points[i], tri[f, 0], tri[f, 1], tri[f, 2])
+            if dsq < best:
+                best = dsq
+        out[i] = math.sqrt(best)
+    return out
+
+
+@nb.njit(cache=True, parallel=True)
+def min_segment_distances(p, q, tri):
+    """(m,) distance from each segment p[i]q[i] to the nearest of the (F, 3, 3) triangles."""
+    out = np.empty(p.shape[0])
+    for i in nb.prange(p.shape[0]):
+        best = np.inf
+        for f in range(tri.shape[0]):
+            a, b, c = tri[f, 0], tri[f, 1], tri[f, 2]
+            if segment_hits_triangle(p[i], q[i], a, b, c):
+                best = 0.0
+                break
+            dsq = min(point_triangle_sq(p[i], a, b, c), point_triangle_sq(q[i], a, b, c),
+                      segment_segment_sq(p[i], q[i], a, b), segment_segment_sq(p[i], q[i], b, c),
+                      segment_segment_sq(p[i], q[i], c, a))
+            if dsq < best:
+                best = dsq
+        out[i] = math.sqrt(best)
+    return out

@@ -1,0 +1,64 @@
+"""Safety distance: exact distances from waypoints and segments to the model's triangles."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import trimesh
+
+from sightplan.camera.catalogue import get_camera
+from sightplan.model.scene import ElementTable, Scene
+from sightplan.plan.checks import check_safety, point_distances, segment_distances
+from sightplan.plan.poses import R_from_gimbal
+from sightplan.plan.templates import facade_grid
+from sightplan.plan.types import Mission, Plan
+
+BOX = trimesh.creation.box((20.0, 10.0, 8.0), trimesh.transformations.translation_matrix((10.0, 5.0, 4.0)))
+
+
+@pytest.fixture(scope="module")
+def box() -> Scene:
+    return Scene.from_arrays(BOX.vertices, BOX.faces, np.zeros(len(BOX.faces)), ElementTable.build(["box"]))
+
+
+def test_point_distances_to_a_box(box):
+    pts = [[5, -3, 4],        # 3 m in front of the south face
+           [-3, -4, 4],       # beside the south-west vertical edge: hypot(3, 4) = 5 m
+           [-1, -2, 10],      # off the top south-west corner: sqrt(1 + 4 + 4) = 3 m
+           [10, 5, 4],        # inside, 4 m below the top and above the bottom: nearest face 4 m away
+           [10, 5, 20]]       # 12 m above the roof
+    np.testing.assert_allclose(point_distances(box, pts), [3, 5, 3, 4, 12], atol=1e-12)
+
+
+def test_point_distances_agree_with_trimesh(box):
+    rng = np.random.default_rng(7)
+    pts = rng.uniform(-15, 35, (300, 3))
+    _, expected, _ = trimesh.proximity.closest_point(BOX, pts)
+    np.testing.assert_allclose(point_distances(box, pts), expected, atol=1e-9)
+
+
+def test_segment_distances_to_a_box(box):
+    start = [[-5, -2, 4],    # along the south face, 2 m away
+             [-5, 5, 4],     # straight through the box
+             [-10, -10, 12], # far at both ends, crossing over the roof (z = 8) at z = 12
+             [0, -6, 0]]     # a vertical segment 6 m south of the south-west edge region
+    end = [[25, -2, 4], [25, 5, 4], [30, 20, 12], [0, -6, 30]]
+    d = segment_distances(box, start, end)
+    assert d[0] == pytest.approx(2.0)
+    assert d[1] == 0.0
+    assert d[2] == pytest.approx(4.0)
+    assert d[3] == pytest.approx(6.0)
+
+
+def test_check_safety_finds_the_one_violation(box):
+    plan = facade_grid(box, get_camera("p4p"), safety_distance_m=10, overlap=0.8)
+    ok = check_safety(box, plan, minimum_m=9.99)
+    assert ok.ok and ok.waypoint_m.min() == pytest.approx(10.0)
+    # a plan built to break the rule exactly once: its middle segment cuts the corner of the box
+    C = np.array([[-5.0, -5.0, 4.0], [-5.0, 3.0, 4.0], [3.0, -5.0, 4.0], [3.0, -12.0, 4.0]])
+    plan = Plan.build(get_camera("p4p"), R_from_gimbal([0] * 4, [0] * 4), C, missions=(Mission("m", 0, 4),))
+    rep = check_safety(box, plan, minimum_m=4.0)
+    # waypoints: 5·√2 = 7.07, 5, 5, 12 m away; the middle segment passes the (0, 0) edge at 1·√2 = 1.41 m
+    np.testing.assert_allclose(rep.waypoint_m, [np.hypot(5, 5), 5, 5, 12])
+    np.testing.assert_allclose(rep.segment_m, [5, np.sqrt(2), 5])
+    assert rep.violations == ("segment 1→2 passes 1.41 m from the model",)
