@@ -110,14 +110,31 @@ def segment_hits_triangle(p, q, a, b, c):
     return 0.0 <= t <= 1.0
 
 
+@nb.njit(cache=True, inline="always")
+def _gap_sq(lo_a, hi_a, lo_b, hi_b):
+    """Squared distance between two axis-aligned boxes (0 when they overlap): a lower bound."""
+    g = 0.0
+    for k in range(3):
+        d = max(lo_b[k] - hi_a[k], lo_a[k] - hi_b[k], 0.0)
+        g += d * d
+    return g
+
+
 @nb.njit(cache=True, parallel=True)
-def min_point_distances(points, tri):
-    """(n,) distance from each point to the nearest of the (F, 3, 3) triangles."""
+def min_point_distances(points, tri, tri_lo, tri_hi, upper_sq):
+    """(n,) distance from each point to the nearest of the (F, 3, 3) triangles.
+
+    tri_lo, tri_hi: (F, 3) triangle bounding boxes; upper_sq: (n,) a known upper bound of
+    each squared distance (to a vertex, say): triangles whose box lies farther are skipped.
+    """
     out = np.empty(points.shape[0])
     for i in nb.prange(points.shape[0]):
-        best = np.inf
+        best = upper_sq[i]
+        p = points[i]
         for f in range(tri.shape[0]):
-            dsq = point_triangle_sq(points[i], tri[f, 0], tri[f, 1], tri[f, 2])
+            if _gap_sq(p, p, tri_lo[f], tri_hi[f]) >= best:
+                continue
+            dsq = point_triangle_sq(p, tri[f, 0], tri[f, 1], tri[f, 2])
             if dsq < best:
                 best = dsq
         out[i] = math.sqrt(best)
@@ -125,12 +142,16 @@ def min_point_distances(points, tri):
 
 
 @nb.njit(cache=True, parallel=True)
-def min_segment_distances(p, q, tri):
-    """(m,) distance from each segment p[i]q[i] to the nearest of the (F, 3, 3) triangles."""
+def min_segment_distances(p, q, tri, tri_lo, tri_hi, upper_sq):
+    """(m,) distance from each segment p[i]q[i] to the nearest of the (F, 3, 3) triangles (boxes as above)."""
     out = np.empty(p.shape[0])
     for i in nb.prange(p.shape[0]):
-        best = np.inf
+        best = upper_sq[i]
+        s_lo = np.minimum(p[i], q[i])
+        s_hi = np.maximum(p[i], q[i])
         for f in range(tri.shape[0]):
+            if _gap_sq(s_lo, s_hi, tri_lo[f], tri_hi[f]) >= best:
+                continue
             a, b, c = tri[f, 0], tri[f, 1], tri[f, 2]
             if segment_hits_triangle(p[i], q[i], a, b, c):
                 best = 0.0

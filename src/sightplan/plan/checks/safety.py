@@ -30,8 +30,10 @@ class SafetyReport:
         return not self.violations
 
 
-def _triangles(scene: Scene) -> NDArray[np.float64]:
-    return np.ascontiguousarray(scene.vertices[scene.faces], dtype=np.float64)
+def _triangles(scene: Scene) -> tuple[NDArray, NDArray, NDArray]:
+    """(F, 3, 3) triangles and their (F, 3) bounding boxes."""
+    tri = np.ascontiguousarray(scene.vertices[scene.faces], dtype=np.float64)
+    return tri, np.ascontiguousarray(tri.min(axis=1)), np.ascontiguousarray(tri.max(axis=1))
 
 
 def point_distances(scene: Scene, points: NDArray) -> NDArray[np.float64]:
@@ -39,7 +41,11 @@ def point_distances(scene: Scene, points: NDArray) -> NDArray[np.float64]:
     pts = np.ascontiguousarray(np.asarray(points, float).reshape(-1, 3))
     if len(scene.faces) == 0:
         return np.full(len(pts), np.inf)
-    return min_point_distances(pts, _triangles(scene))
+    from scipy.spatial import cKDTree
+
+    used = scene.vertices[np.unique(scene.faces)]
+    nearest_vertex, _ = cKDTree(used).query(pts)  # the nearest vertex bounds the distance from above
+    return min_point_distances(pts, *_triangles(scene), (nearest_vertex * (1 + 1e-9) + 1e-9) ** 2)
 
 
 def segment_distances(scene: Scene, start: NDArray, end: NDArray) -> NDArray[np.float64]:
@@ -48,7 +54,8 @@ def segment_distances(scene: Scene, start: NDArray, end: NDArray) -> NDArray[np.
     q = np.ascontiguousarray(np.asarray(end, float).reshape(-1, 3))
     if len(scene.faces) == 0:
         return np.full(len(p), np.inf)
-    return min_segment_distances(p, q, _triangles(scene))
+    ends = np.minimum(point_distances(scene, p), point_distances(scene, q))  # a segment is no farther than its ends
+    return min_segment_distances(p, q, *_triangles(scene), (ends * (1 + 1e-9) + 1e-9) ** 2)
 
 
 def check_safety(scene: Scene, plan: Plan, minimum_m: float) -> SafetyReport:
