@@ -62,3 +62,43 @@ def test_check_safety_finds_the_one_violation(box):
     np.testing.assert_allclose(rep.waypoint_m, [np.hypot(5, 5), 5, 5, 12])
     np.testing.assert_allclose(rep.segment_m, [5, np.sqrt(2), 5])
     assert rep.violations == ("segment 1→2 passes 1.41 m from the model",)
+
+
+def _plan(points):
+    C = np.asarray(points, float)
+    return Plan.build(get_camera("p4p"), R_from_gimbal([0] * len(C), [0] * len(C)), C)
+
+
+def test_line_of_sight_breaks_exactly_once_each_way(box):
+    from sightplan.plan.checks import check_line_of_sight
+
+    gs = np.array([-10.0, -10.0, 1.5])
+    plan = _plan([[-10, 30, 10],     # west of the box, clear sight, 40 m away
+                  [30, 20, 4],       # the sight line crosses the box: hidden
+                  [-10, 290, 5]])    # 300 m away: beyond a 200 m radius
+    rep = check_line_of_sight(box, plan, radius_m=200, ground_station=gs, engine="embree")
+    np.testing.assert_allclose(rep.distance_m, [np.linalg.norm([0, 40, 8.5]), np.linalg.norm([40, 30, 2.5]),
+                                                np.linalg.norm([0, 300, 3.5])])
+    assert list(rep.in_range) == [True, True, False]
+    assert list(rep.unblocked) == [True, False, True]
+    assert rep.mission_ok == (False,)
+    assert len(rep.violations) == 2
+
+
+def test_default_ground_station_is_the_regions_south_west_corner(box):
+    from sightplan.plan.checks import default_ground_station
+
+    plan = _plan([[-5, 12, 4], [25, -3, 4]])
+    np.testing.assert_allclose(default_ground_station(box, plan), [-5, -3, 1.5])
+
+
+def test_altitude_limit_follows_the_structure(box):
+    from sightplan.plan.checks import check_altitude
+
+    plan = _plan([[10, 5, 125],      # over the 8 m box: limit 8 + 120 = 128, fine
+                  [600, 5, 130],     # 590 m away from it: limit 0 + 120, 10 m too high
+                  [600, 5, 119]])    # below 120 m: fine
+    rep = check_altitude(box, plan)
+    np.testing.assert_allclose(rep.limit_z, [128, 120, 120])
+    np.testing.assert_allclose(rep.over_m, [-3, 10, -1])
+    assert rep.violations == ("waypoint 1 is 10.0 m above the altitude limit",)
