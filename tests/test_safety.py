@@ -7,6 +7,7 @@ import pytest
 import trimesh
 
 from sightplan.camera.catalogue import get_camera
+from sightplan.errors import PlanError
 from sightplan.model.scene import ElementTable, Scene
 from sightplan.plan.checks import check_safety, point_distances, segment_distances
 from sightplan.plan.poses import R_from_gimbal
@@ -102,3 +103,34 @@ def test_altitude_limit_follows_the_structure(box):
     np.testing.assert_allclose(rep.limit_z, [128, 120, 120])
     np.testing.assert_allclose(rep.over_m, [-3, 10, -1])
     assert rep.violations == ("waypoint 1 is 10.0 m above the altitude limit",)
+
+
+def test_leg_and_mission_times_by_hand():
+    from sightplan.plan.checks.battery import AIRCRAFT, leg_time, mission_time
+
+    p4p = AIRCRAFT["p4p"]  # 8 m/s, 3 m/s up/down, 2 m/s², 2 s per photo
+    # 100 m: accelerating and braking take 8²/2 = 32 m, so 100/8 + 8/2 = 16.5 s; 16 m never reaches 8 m/s: 2·√(16/2)
+    np.testing.assert_allclose(leg_time([100.0, 16.0], 8.0, 2.0), [16.5, 2 * np.sqrt(8)])
+    t, dist = mission_time(np.array([[0, 100, 0], [0, 100, 30]], float), np.zeros(3), p4p)
+    # out 100 m (16.5 s), climb 30 m (30/3 + 3/2 = 11.5 s), back 100 m while descending (max(16.5, 11.5)), 2 photos
+    assert t == pytest.approx(16.5 + 11.5 + 16.5 + 2 * 2)
+    assert dist == pytest.approx(100 + 30 + np.hypot(100, 30))
+
+
+def test_battery_split_covers_every_waypoint_and_fits_each_battery():
+    from sightplan.plan.checks.battery import Aircraft, mission_time, split_by_battery
+
+    ac = Aircraft("test", 8.0, 3.0, 2.0, flight_time_s=200.0, capture_s=2.0, reserve=0.25)  # 150 s usable
+    C = np.stack([np.full(40, 20.0), np.arange(40) * 5.0, np.full(40, 10.0)], axis=1)  # a 195 m line, 5 m apart
+    gs = np.zeros(3)
+    plan, times = split_by_battery(_plan(C), gs, ac)
+    assert len(plan.missions) > 1
+    assert [m.start for m in plan.missions][0] == 0 and plan.missions[-1].stop == 40
+    assert all(a.stop == b.start for a, b in zip(plan.missions, plan.missions[1:]))  # no waypoint left out
+    for m, t in zip(plan.missions, times):
+        assert t.time_s <= ac.usable_s
+        assert t.time_s == pytest.approx(mission_time(C[m.start:m.stop], gs, ac)[0])
+        if m.stop < 40:  # greedy: one more waypoint would not fit
+            assert mission_time(C[m.start:m.stop + 1], gs, ac)[0] > ac.usable_s
+    with pytest.raises(PlanError, match="cannot be reached"):
+        split_by_battery(_plan([[5000.0, 0, 10]]), gs, ac)

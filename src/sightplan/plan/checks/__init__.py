@@ -1,7 +1,8 @@
 """Feasibility checks of a plan against the model (flight safety)."""
 
 from .airspace import AltitudeReport, LineOfSightReport, check_altitude, check_line_of_sight, default_ground_station
+from .battery import AIRCRAFT, Aircraft, MissionTime, mission_time, split_by_battery
 from .safety import SafetyReport, check_safety, point_distances, segment_distances
 
-__all__ = ["AltitudeReport", "LineOfSightReport", "SafetyReport", "check_altitude", "check_line_of_sight",
+__all__ = ["AIRCRAFT", "Aircraft", "MissionTime", "mission_time", "split_by_battery", "AltitudeReport", "LineOfSightReport", "SafetyReport", "check_altitude", "check_line_of_sight",
            "check_safety", "default_ground_station", "point_distances", "segment_distances"]
