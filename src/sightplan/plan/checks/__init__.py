@@ -4,5 +4,8 @@ from .airspace import AltitudeReport, LineOfSightReport, check_altitude, check_l
 from .battery import AIRCRAFT, Aircraft, MissionTime, mission_time, split_by_battery
 from .safety import SafetyReport, check_safety, point_distances, segment_distances
 
-__all__ = ["AIRCRAFT", "Aircraft", "MissionTime", "mission_time", "split_by_battery", "AltitudeReport", "LineOfSightReport", "SafetyReport", "check_altitude", "check_line_of_sight",
-           "check_safety", "default_ground_station", "point_distances", "segment_distances"]
+__all__ = [
+    "AIRCRAFT", "Aircraft", "AltitudeReport", "LineOfSightReport", "MissionTime", "SafetyReport", "check_altitude",
+    "check_line_of_sight", "check_safety", "default_ground_station", "mission_time", "point_distances",
+    "segment_distances", "split_by_battery",
+]
