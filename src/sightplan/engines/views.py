@@ -35,17 +35,23 @@ class SceneView:
                 cam.fy * rel[front, 1] / rel[front, 2] + cam.cy - 0.5)
 
 
-def overview_pose(points: NDArray, width: int = 1200, height: int = 800) -> tuple[PinholeCamera, NDArray, NDArray]:
-    """A camera looking down at 35° from the south-west, as close as it can be with all (k, 3) points in view."""
+def fit_pose(points: NDArray, heading_deg: float, pitch_deg: float, width: int = 1200, height: int = 800
+             ) -> tuple[PinholeCamera, NDArray, NDArray]:
+    """A camera with this heading and pitch, as close as it can be with all (k, 3) points in view."""
     lo, hi = points.min(axis=0), points.max(axis=0)
     centre = (lo + hi) / 2
     cam = PinholeCamera(width, height, 1.1 * width, 1.1 * width, width / 2, height / 2, "overview")
-    R = R_from_gimbal(45.0, -35.0, 0.0)[0]
+    R = R_from_gimbal(heading_deg, pitch_deg, 0.0)[0]
     rel = (points - centre) @ R  # coordinates in camera axes, camera at the centre
     # a point fits when |x| / (z + d) ≤ (W/2)/fx (and likewise for y): solve for the distance d
     d = max(np.max(np.abs(rel[:, 0]) * cam.fx / (0.47 * width) - rel[:, 2]),
             np.max(np.abs(rel[:, 1]) * cam.fy / (0.47 * height) - rel[:, 2]), 1.0)
     return cam, R, centre - d * R[:, 2]
+
+
+def overview_pose(points: NDArray, width: int = 1200, height: int = 800) -> tuple[PinholeCamera, NDArray, NDArray]:
+    """A camera looking down at 35° from the south-west with all (k, 3) points in view."""
+    return fit_pose(points, 45.0, -35.0, width, height)
 
 
 def overview_view(engine: Engine, extra_points: NDArray | None = None) -> SceneView:
@@ -94,13 +100,7 @@ def storey_views(scene, engine_name: str = "auto", threads: int | None = None, m
         members = keep & (storeys == name)
         sel = members[cut.face_element]
         pts = cut.vertices[cut.faces[sel]].reshape(-1, 3) if sel.any() else cut.vertices[cut.faces].reshape(-1, 3)
-        cam, _, _ = overview_pose(pts)  # only for the camera model
-        R = R_from_gimbal(45.0, -60.0, 0.0)[0]
-        lo, hi = pts.min(axis=0), pts.max(axis=0)
-        rel = (pts - (lo + hi) / 2) @ R
-        d = max(np.max(np.abs(rel[:, 0]) * cam.fx / (0.47 * cam.width) - rel[:, 2]),
-                np.max(np.abs(rel[:, 1]) * cam.fy / (0.47 * cam.height) - rel[:, 2]), 1.0)
-        C = (lo + hi) / 2 - d * R[:, 2]
+        cam, R, C = fit_pose(pts, 45.0, -60.0)
         with make_engine(engine_name, cut, threads=threads) as eng:
             ids, _, cos = eng.shaded_view(cam, R, C)
         views.append((name, SceneView(ids, cos, cam, R, C)))
