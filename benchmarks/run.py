@@ -27,6 +27,7 @@ from sightplan.camera.catalogue import get_camera
 from sightplan.evaluate import EvaluationSettings, evaluate
 from sightplan.model.load import load_model
 from sightplan.plan.poses import R_from_gimbal
+from sightplan.plan.templates.orbit import ring_poses
 from sightplan.plan.types import Mission, Plan
 
 PAPER_S_PER_FRAME_P1 = 57.0 * 60 / 1924  # 1.78 s
@@ -43,14 +44,7 @@ def drone_plan(scene, camera, n_frames: int) -> Plan:
     half = float(np.hypot(*(hi - lo)[:2]) / 2)
     rings = [(half + d, hi[2] + h) for d in (8.0, 20.0) for h in (2.0, 10.0, 25.0)]
     per_ring = int(np.ceil(n_frames / len(rings)))
-    C, heading, pitch = [], [], []
-    for radius, z in rings:
-        az = np.arange(per_ring) * 2 * np.pi / per_ring
-        c = np.stack([centre[0] + radius * np.sin(az), centre[1] + radius * np.cos(az), np.full(per_ring, z)], 1)
-        v = centre - c
-        C.append(c)
-        heading.append(np.degrees(np.arctan2(v[:, 0], v[:, 1])))
-        pitch.append(np.degrees(np.arctan2(v[:, 2], np.hypot(v[:, 0], v[:, 1]))))
+    C, heading, pitch = zip(*(ring_poses(centre, radius, z, per_ring) for radius, z in rings))
     C = np.concatenate(C)[:n_frames]
     R = R_from_gimbal(np.concatenate(heading)[:n_frames], np.concatenate(pitch)[:n_frames])
     return Plan.build(camera, R, C, missions=(Mission("rings", 0, len(C)),))

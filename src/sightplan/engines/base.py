@@ -73,14 +73,27 @@ class Engine(ABC):
 
     def hit_distance(self, origins: NDArray[np.float32], directions: NDArray[np.float32]) -> NDArray[np.float64]:
         """(n,) distance to the first hit (inf on a miss), from the hit triangle's plane; local-frame origins."""
-        prim = self.first_hit(origins, directions)
+        t, _ = self._plane_distance(self.first_hit(origins, directions), origins, directions)
+        return t
+
+    def _plane_distance(self, prim: NDArray, origins: NDArray, directions: NDArray) -> tuple[NDArray, NDArray]:
+        """(n,) distance along each ray to its hit triangle's plane (inf on a miss) and (n,) n·d (0 on a miss)."""
         hit = prim >= 0
         t = np.full(len(prim), np.inf)
+        dn = np.zeros(len(prim))
         n = self._face_normal[prim[hit]]
-        d = directions[hit].astype(np.float64)
         o = np.broadcast_to(origins, directions.shape)[hit].astype(np.float64)
-        t[hit] = (self._face_offset[prim[hit]] - np.einsum("ij,ij->i", n, o)) / np.einsum("ij,ij->i", n, d)
-        return t
+        dn[hit] = np.einsum("ij,ij->i", n, directions[hit].astype(np.float64))
+        t[hit] = (self._face_offset[prim[hit]] - np.einsum("ij,ij->i", n, o)) / dn[hit]
+        return t, dn
+
+    @staticmethod
+    def _directions(cam: Camera, R: NDArray, p0: int, p1: int, out: NDArray[np.float32]) -> None:
+        """Unit world directions of pixels p0..p1 (row-major) of ``cam`` into ``out``."""
+        if isinstance(cam, EquirectangularCamera):
+            kernels.equirect_directions(p0, p1, cam.width, cam.height, R, out)
+        else:
+            kernels.pinhole_directions(p0, p1, cam.width, cam.fx, cam.fy, cam.cx, cam.cy, R, out)
 
     def close(self) -> None:
         if self._pool is not None:
@@ -136,10 +149,7 @@ class Engine(ABC):
         for p0 in starts:
             p1 = min(p0 + self.chunk_rays, n_px)
             dirs = buf[: p1 - p0]
-            if mode == kernels.MODE_PINHOLE:
-                kernels.pinhole_directions(p0, p1, cam.width, cam.fx, cam.fy, cam.cx, cam.cy, R, dirs)
-            else:
-                kernels.equirect_directions(p0, p1, cam.width, cam.height, R, dirs)
+            self._directions(cam, R, p0, p1, dirs)
             prim = self.first_hit(np.broadcast_to(C32, dirs.shape), dirs)
             kernels.accumulate_hits(prim, dirs, C, R, mode, self._face_normal, self._face_offset, self._face_element,
                                     self.d_max, count, depth, angle)
@@ -163,19 +173,12 @@ class Engine(ABC):
         C = np.asarray(C_world, dtype=np.float64) - self.centre
         n_px = cam.width * cam.height
         dirs = np.empty((n_px, 3), np.float32)
-        if isinstance(cam, EquirectangularCamera):
-            kernels.equirect_directions(0, n_px, cam.width, cam.height, R, dirs)
-        else:
-            kernels.pinhole_directions(0, n_px, cam.width, cam.fx, cam.fy, cam.cx, cam.cy, R, dirs)
-        prim = self.first_hit(np.broadcast_to(C.astype(np.float32), dirs.shape), dirs)
-        hit = prim >= 0
-        t = np.full(n_px, np.inf)
-        cos = np.zeros(n_px)
-        n = self._face_normal[prim[hit]]
-        dn = np.einsum("ij,ij->i", n, dirs[hit].astype(np.float64))
-        t[hit] = (self._face_offset[prim[hit]] - n @ C) / dn
-        cos[hit] = np.abs(dn)
-        hit &= (t <= self.d_max) & (t >= 0)
+        self._directions(cam, R, 0, n_px, dirs)
+        origin = np.broadcast_to(C.astype(np.float32), dirs.shape)
+        prim = self.first_hit(origin, dirs)
+        t, dn = self._plane_distance(prim, C, dirs)
+        cos = np.abs(dn)
+        hit = (prim >= 0) & (t <= self.d_max) & (t >= 0)
         ids = np.where(hit, self._face_element[np.maximum(prim, 0)], -1).astype(np.int32)
         shape = (cam.height, cam.width)
         return ids.reshape(shape), np.where(hit, t, np.inf).reshape(shape), np.where(hit, cos, 0.0).reshape(shape)

@@ -8,6 +8,7 @@ from ..camera.models import Camera
 from ..errors import PlanError
 from ..model.scene import Scene
 from .poses import R_from_gimbal
+from .templates.orbit import ring_poses
 from .types import Mission, Plan
 
 
@@ -24,12 +25,9 @@ def ring_plan(scene: Scene, camera: Camera, n_frames: int = 36, distance_m: floa
     centre = (lo + hi) / 2
     radius = float(np.hypot(*(hi - lo)[:2]) / 2 + distance_m)
     z = hi[2] + 0.5 * (hi[2] - lo[2]) if height_m is None else height_m
-    az = np.arange(n_frames) * 2 * np.pi / n_frames
-    C = np.stack([centre[0] + radius * np.sin(az), centre[1] + radius * np.cos(az), np.full(n_frames, z)], axis=1)
-    to_centre = centre - C
-    heading = np.degrees(np.arctan2(to_centre[:, 0], to_centre[:, 1]))
-    pitch = np.degrees(np.arctan2(to_centre[:, 2], np.hypot(to_centre[:, 0], to_centre[:, 1]))) if pitch_deg is None \
-        else np.full(n_frames, pitch_deg)
+    C, heading, pitch = ring_poses(centre, radius, z, n_frames)
+    if pitch_deg is not None:
+        pitch = np.full(n_frames, pitch_deg)
     R = R_from_gimbal(heading, pitch, 0.0)
     return Plan.build(camera, R, C, missions=(Mission("ring", 0, n_frames),),
                       parameters={"template": "ring", "n_frames": n_frames, "distance_m": distance_m, "radius_m": radius,

@@ -30,26 +30,39 @@ def visibility_colours(em: ElementMetrics) -> NDArray[np.float64]:
     return colours
 
 
+LEGEND = ((VISIBLE, "visible (≥ Ω px)"), (OBSERVED_ONLY, "observed only"), (UNSEEN, "unseen"), (OCCLUDER, "occluder"))
+
+
+def shaded_image(view: SceneView, colours: NDArray) -> NDArray[np.float64]:
+    """(H, W, 3) RGB: each pixel in its element's colour, darkened where the surface is seen at a grazing angle."""
+    hit = view.element >= 0
+    img = np.ones((view.camera.height, view.camera.width, 3)) * BACKGROUND
+    img[hit] = colours[view.element[hit]] * (0.4 + 0.6 * view.shade[hit])[:, None]
+    return img
+
+
+def _legend(target, **kwargs) -> None:
+    from matplotlib.patches import Rectangle
+
+    target.legend([Rectangle((0, 0), 1, 1, color=c) for c, _ in LEGEND], [label for _, label in LEGEND], fontsize=8,
+                  **kwargs)
+
+
 def draw_overview(view: SceneView, colours: NDArray, path: str | Path, camera_centres: NDArray | None = None,
                   title: str = "") -> Path:
     """Write a PNG of ``view`` with each element in its (z, 3) colour, shaded; camera centres as dots."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
-    from matplotlib.patches import Rectangle
 
     cam = view.camera
-    hit = view.element >= 0
-    img = np.ones((cam.height, cam.width, 3)) * BACKGROUND
-    img[hit] = colours[view.element[hit]] * (0.4 + 0.6 * view.shade[hit])[:, None]
     fig = Figure(figsize=(cam.width / 100, cam.height / 100), dpi=100)
     FigureCanvasAgg(fig)
     ax = fig.add_subplot()
-    ax.imshow(img, interpolation="nearest")
+    ax.imshow(shaded_image(view, colours), interpolation="nearest")
     if camera_centres is not None and len(camera_centres):
         u, v = view.project(camera_centres)
         ax.scatter(u, v, s=6, c="#1f4e9e", marker="o", linewidths=0)
-    handles = [Rectangle((0, 0), 1, 1, color=c) for c in (VISIBLE, OBSERVED_ONLY, UNSEEN, OCCLUDER)]
-    ax.legend(handles, ["visible (≥ Ω px)", "observed only", "unseen", "occluder"], loc="lower right", fontsize=8)
+    _legend(ax, loc="lower right")
     ax.set_title(title, fontsize=9)
     ax.set_axis_off()
     fig.tight_layout(pad=0.2)
@@ -64,7 +77,6 @@ def draw_storeys(views: list[tuple[str, SceneView]], colours: NDArray, path: str
         return None
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
-    from matplotlib.patches import Rectangle
 
     cols = min(3, len(views))
     rows = int(np.ceil(len(views) / cols))
@@ -73,15 +85,10 @@ def draw_storeys(views: list[tuple[str, SceneView]], colours: NDArray, path: str
     FigureCanvasAgg(fig)
     for k, (name, view) in enumerate(views):
         ax = fig.add_subplot(rows, cols, k + 1)
-        hit = view.element >= 0
-        img = np.ones((view.camera.height, view.camera.width, 3)) * BACKGROUND
-        img[hit] = colours[view.element[hit]] * (0.4 + 0.6 * view.shade[hit])[:, None]
-        ax.imshow(img, interpolation="nearest")
+        ax.imshow(shaded_image(view, colours), interpolation="nearest")
         ax.set_title(name, fontsize=9)
         ax.set_axis_off()
-    handles = [Rectangle((0, 0), 1, 1, color=c) for c in (VISIBLE, OBSERVED_ONLY, UNSEEN, OCCLUDER)]
-    fig.legend(handles, ["visible (≥ Ω px)", "observed only", "unseen", "occluder"], loc="lower center", ncol=4,
-               fontsize=8)
+    _legend(fig, loc="lower center", ncol=4)
     fig.suptitle(title, fontsize=10)
     fig.tight_layout(rect=(0, 0.05, 1, 0.97))
     out = Path(path)

@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numpy.typing import NDArray
 
 from ...camera.models import Camera, PinholeCamera
 from ...errors import PlanError
@@ -12,6 +13,15 @@ from ...model.scene import Scene
 from ..poses import R_from_gimbal
 from ..types import Mission, Plan
 from .spacing import waypoint_spacing
+
+
+def ring_poses(centre: NDArray, radius: float, z: float, n: int) -> tuple[NDArray, NDArray, NDArray]:
+    """(n, 3) centres on a horizontal circle (first due north of ``centre``, then clockwise) at
+    height ``z``, and the (n,) heading and pitch in degrees that aim each at ``centre``."""
+    az = np.arange(n) * 2 * np.pi / n
+    C = np.stack([centre[0] + radius * np.sin(az), centre[1] + radius * np.cos(az), np.full(n, float(z))], axis=1)
+    v = centre - C
+    return C, np.degrees(np.arctan2(v[:, 0], v[:, 1])), np.degrees(np.arctan2(v[:, 2], np.hypot(v[:, 0], v[:, 1])))
 
 
 def orbit(scene: Scene, camera: Camera, radii_m: list[float], heights_m: list[float], step_deg: float | None = None,
@@ -40,14 +50,11 @@ def orbit(scene: Scene, camera: Camera, radii_m: list[float], heights_m: list[fl
             step = math.degrees(waypoint_spacing(r, camera.hfov_deg, overlap) / r)
         if not 0 < step <= 180:
             raise PlanError(f"ring {k}: the angular step must be in (0°, 180°], got {step}")
-        n = max(3, math.ceil(360.0 / step - 1e-9))
-        az = np.arange(n) * 2 * np.pi / n
-        c = np.stack([centre[0] + r * np.sin(az), centre[1] + r * np.cos(az), np.full(n, float(z))], axis=1)
-        v = centre - c
+        c, h, p = ring_poses(centre, r, z, max(3, math.ceil(360.0 / step - 1e-9)))
         first = len(C)
         C.extend(c.tolist())
-        heading.extend(np.degrees(np.arctan2(v[:, 0], v[:, 1])).tolist())
-        pitch.extend(np.degrees(np.arctan2(v[:, 2], np.hypot(v[:, 0], v[:, 1]))).tolist())
+        heading.extend(h.tolist())
+        pitch.extend(p.tolist())
         missions.append(Mission(f"ring {k + 1}", first, len(C)))
     C = np.asarray(C)
     return Plan.build(camera, R_from_gimbal(heading, pitch, 0.0), C, missions=tuple(missions), waypoints=C,
