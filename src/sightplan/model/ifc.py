@@ -16,6 +16,7 @@ Coordinates are world coordinates in metres whatever the file's length unit.
 
 from __future__ import annotations
 
+import math
 import os
 import time
 from collections import Counter
@@ -25,6 +26,7 @@ from pathlib import Path
 import ifcopenshell
 import ifcopenshell.geom
 import ifcopenshell.util.element as uel
+import ifcopenshell.util.placement as uplacement
 import ifcopenshell.util.unit as uunit
 import numpy as np
 
@@ -212,8 +214,33 @@ def georeference(f: ifcopenshell.file, unit_scale: float) -> dict | None:
     }
 
 
+def _true_north_deg(f: ifcopenshell.file) -> float | None:
+    """True heading (degrees clockwise from true north) of the model's +Y axis, from the model
+    context's TrueNorth, or None when no context gives one."""
+    contexts = [c for c in f.by_type("IfcGeometricRepresentationContext")
+                if not c.is_a("IfcGeometricRepresentationSubContext") and getattr(c, "TrueNorth", None) is not None]
+    contexts.sort(key=lambda c: c.ContextType != "Model")
+    for c in contexts:
+        ratios = [float(v) for v in c.TrueNorth.DirectionRatios[:2]]
+        if len(ratios) == 2 and math.hypot(*ratios) > 0:
+            # TrueNorth is the direction of north in model XY; model +Y is that many degrees the other way
+            return (-math.degrees(math.atan2(ratios[0], ratios[1]))) % 360.0
+    return None
+
+
+def _placement_origin(product: ifcopenshell.entity_instance, unit_scale: float) -> list[float]:
+    """World position (metres) of a product's local placement origin."""
+    try:
+        m = uplacement.get_local_placement(product.ObjectPlacement)
+        return [float(v) * unit_scale for v in m[:3, 3]]
+    except Exception:  # no or unusual placement: the world origin
+        return [0.0, 0.0, 0.0]
+
+
 def site_location(f: ifcopenshell.file, unit_scale: float) -> dict | None:
-    """IfcSite RefLatitude/RefLongitude/RefElevation as {latitude_deg, longitude_deg, elevation_m}, or None."""
+    """IfcSite RefLatitude/RefLongitude/RefElevation as {latitude_deg, longitude_deg, elevation_m,
+    origin_m (the site placement's world position, where that latitude/longitude lies), true_north_deg
+    (true heading of model +Y, None when the file gives no TrueNorth)}, or None."""
     for site in f.by_type("IfcSite"):
         lat, lon = site.RefLatitude, site.RefLongitude
         if lat and lon:
@@ -223,7 +250,8 @@ def site_location(f: ifcopenshell.file, unit_scale: float) -> dict | None:
                 return parts[0] + parts[1] / 60 + parts[2] / 3600 + parts[3] / 3.6e9
 
             elevation = float(site.RefElevation) * unit_scale if site.RefElevation is not None else None
-            return {"latitude_deg": deg(lat), "longitude_deg": deg(lon), "elevation_m": elevation}
+            return {"latitude_deg": deg(lat), "longitude_deg": deg(lon), "elevation_m": elevation,
+                    "origin_m": _placement_origin(site, unit_scale), "true_north_deg": _true_north_deg(f)}
     return None
 
 
