@@ -4,7 +4,8 @@ Layout (every axis and angle convention is the one of :mod:`sightplan.plan.poses
 
     {"format": "sightplan-plan", "version": 1, "units": "m", "frame_convention": "...",
      "cameras": {id: camera dict},                       # Camera.to_dict()
-     "missions": [{"name": str, "frames": [start, stop]}],  # half-open frame ranges
+     "missions": [{"name": str, "frames": [start, stop],  # half-open frame ranges
+                   "ground_station": [x, y, z]}],          # optional
      "frames": [{"name": str, "camera": id, "position": [x, y, z],
                  "rotation": [[r00, r01, r02], [r10, r11, r12], [r20, r21, r22]],  # R_world_camera rows
                  "time": seconds}],                      # optional, POSIX seconds
@@ -65,7 +66,9 @@ def plan_to_dict(plan: Plan) -> dict:
     out = {
         "format": FORMAT_NAME, "version": FORMAT_VERSION, "units": "m", "frame_convention": FRAME_CONVENTION,
         "cameras": {cid: cam.to_dict() for cid, cam in plan.cameras.items()},
-        "missions": [{"name": m.name, "frames": [m.start, m.stop]} for m in plan.missions],
+        "missions": [{"name": m.name, "frames": [m.start, m.stop]}
+                     | ({"ground_station": list(m.ground_station)} if m.ground_station is not None else {})
+                     for m in plan.missions],
         "frames": frames,
         "waypoints": np.asarray(plan.waypoints, float).reshape(-1, 3).tolist(),
         "parameters": params,
@@ -245,7 +248,10 @@ def _missions(d: dict, n: int) -> tuple[Mission, ...]:
         span = m["frames"]
         if not (isinstance(span, list) and len(span) == 2 and all(type(v) is int for v in span)):
             raise PlanError(f"mission {i} ({m['name']!r}): field 'frames' must be [start, stop] whole numbers, got {span!r}")
-        out.append(Mission(m["name"], span[0], span[1]))
+        station = m.get("ground_station")
+        if station is not None:
+            station = tuple(_numbers(station, (3,), f"mission {i}", "ground_station").tolist())
+        out.append(Mission(m["name"], span[0], span[1], station))
     return tuple(out)
 
 

@@ -15,11 +15,16 @@ from .poses import check_rotations
 
 @dataclass(frozen=True)
 class Mission:
-    """Frames ``start`` (inclusive) to ``stop`` (exclusive) of the plan, flown as one flight."""
+    """Frames ``start`` (inclusive) to ``stop`` (exclusive) of the plan, flown as one flight.
+
+    ``ground_station``: (x, y, z) model-frame position of the pilot for this flight, where
+    line-of-sight and battery checks measure from; None where not set (the plan's default).
+    """
 
     name: str
     start: int
     stop: int
+    ground_station: tuple[float, float, float] | None = None
 
 
 @dataclass(frozen=True, eq=False)

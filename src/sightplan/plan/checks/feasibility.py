@@ -1,0 +1,253 @@
+"""Can the plan be flown? Safety distance, visual line of sight, altitude and battery, per waypoint and per mission.
+
+:func:`plan_flights` splits a plan into flyable missions: first where the pilot must move
+to keep visual line of sight (each mission gets the candidate ground station that sees
+the longest run of its waypoints), then where a battery runs out (the resume waypoint is
+the first of the next mission). :func:`check_plan` only checks the missions as they are.
+Both return a :class:`FeasibilityReport`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ...errors import PlanError
+from ...model.scene import Scene
+from ..types import Mission, Plan
+from .airspace import FAA_LIMIT_M, AltitudeReport, check_altitude, check_line_of_sight
+from .battery import AIRCRAFT, Aircraft, mission_time, split_by_battery
+from .safety import SafetyReport, check_safety
+
+GROUND_STATION_HEIGHT_M = 1.5
+
+
+@dataclass(frozen=True)
+class FlightSettings:
+    """safety_distance_m: least distance to the model; vlos_radius_m: how far the pilot may see the
+    aircraft (None: no line-of-sight check, e.g. indoors); ground_stations: (k, 3) candidate pilot
+    positions (None: the four corners of the plan's region, the first being the south-west one);
+    altitude_limit_m: FAA §107.51 limit (None: no check); aircraft: battery model (None: no battery check)."""
+
+    safety_distance_m: float = 5.0
+    vlos_radius_m: float | None = 500.0
+    ground_stations: NDArray[np.float64] | None = None
+    altitude_limit_m: float | None = FAA_LIMIT_M
+    aircraft: Aircraft | None = field(default_factory=lambda: AIRCRAFT["p4p"])
+
+    def __post_init__(self) -> None:
+        if not self.safety_distance_m > 0:
+            raise PlanError(f"the safety distance must be positive, got {self.safety_distance_m}")
+        if self.vlos_radius_m is not None:
+            if not self.vlos_radius_m > 0:
+                raise PlanError(f"the VLOS radius must be positive, got {self.vlos_radius_m}")
+            if self.safety_distance_m >= self.vlos_radius_m:
+                raise PlanError(f"the safety distance ({self.safety_distance_m:g} m) is not less than the VLOS radius "
+                                f"({self.vlos_radius_m:g} m): no waypoint could be both safe and in sight. "
+                                "Lower --safety-distance or raise --vlos-radius")
+        if self.ground_stations is not None:
+            gs = np.asarray(self.ground_stations, float)
+            if gs.ndim != 2 or gs.shape[1] != 3 or not len(gs) or not np.isfinite(gs).all():
+                raise PlanError("ground stations must be finite (x, y, z) points")
+        if self.altitude_limit_m is not None and not self.altitude_limit_m > 0:
+            raise PlanError(f"the altitude limit must be positive, got {self.altitude_limit_m}")
+
+
+@dataclass(frozen=True)
+class MissionReport:
+    """One flight: frames ``start`` (its resume waypoint) to ``stop``; ``time_s``/``distance_m`` from
+    and back to ``ground_station`` (None without an aircraft); each check's verdict."""
+
+    name: str
+    start: int
+    stop: int
+    ground_station: NDArray[np.float64]
+    time_s: float | None
+    distance_m: float | None
+    battery_ok: bool | None
+    line_of_sight_ok: bool | None
+    safety_ok: bool
+    altitude_ok: bool | None
+
+    @property
+    def ok(self) -> bool:
+        return self.safety_ok and all(v is not False for v in (self.battery_ok, self.line_of_sight_ok, self.altitude_ok))
+
+
+@dataclass(frozen=True)
+class FeasibilityReport:
+    """The plan (split when made by :func:`plan_flights`), one :class:`MissionReport` per mission,
+    per-waypoint results ((n,) arrays, NaN/True where a check did not run) and every violation."""
+
+    plan: Plan
+    missions: tuple[MissionReport, ...]
+    safety: SafetyReport
+    station_distance_m: NDArray[np.float64]
+    in_sight: NDArray[np.bool_]
+    altitude: AltitudeReport | None
+    violations: tuple[str, ...]
+
+    @property
+    def ok(self) -> bool:
+        return not self.violations
+
+    @property
+    def total_time_s(self) -> float | None:
+        times = [m.time_s for m in self.missions]
+        return None if any(t is None for t in times) else float(sum(times))
+
+    def to_dict(self) -> dict:
+        """A JSON-ready summary: missions, per-waypoint distances and the violations."""
+        def num(v):
+            return None if v is None or not np.isfinite(v) else round(float(v), 3)
+
+        return {
+            "ok": self.ok,
+            "frames": len(self.plan),
+            "total_time_s": num(self.total_time_s),
+            "missions": [{"name": m.name, "frames": [m.start, m.stop], "resume_waypoint": m.start,
+                          "ground_station": [round(float(v), 3) for v in m.ground_station], "time_s": num(m.time_s),
+                          "distance_m": num(m.distance_m), "battery_ok": m.battery_ok,
+                          "line_of_sight_ok": m.line_of_sight_ok, "safety_ok": m.safety_ok,
+                          "altitude_ok": m.altitude_ok} for m in self.missions],
+            "waypoints": [{"frame": i, "name": str(self.plan.frame_names[i]), "clearance_m": num(self.safety.waypoint_m[i]),
+                           "station_distance_m": num(self.station_distance_m[i]), "in_sight": bool(self.in_sight[i]),
+                           "over_altitude_limit_m": num(self.altitude.over_m[i]) if self.altitude else None}
+                          for i in range(len(self.plan))],
+            "violations": list(self.violations),
+        }
+
+
+def corner_stations(scene: Scene, plan: Plan, height_m: float = GROUND_STATION_HEIGHT_M) -> NDArray[np.float64]:
+    """(4, 3) the corners of the plan's region (its waypoints and the model), south-west first, then
+    south-east, north-east, north-west, ``height_m`` above the model's base."""
+    lo = np.minimum(plan.C_world.min(axis=0), scene.bounds()[0])
+    hi = np.maximum(plan.C_world.max(axis=0), scene.bounds()[1])
+    z = scene.bounds()[0][2] + height_m
+    return np.array([[lo[0], lo[1], z], [hi[0], lo[1], z], [hi[0], hi[1], z], [lo[0], hi[1], z]])
+
+
+def _stations(scene: Scene, plan: Plan, settings: FlightSettings) -> NDArray[np.float64]:
+    if settings.ground_stations is not None:
+        return np.asarray(settings.ground_stations, float).reshape(-1, 3)
+    return corner_stations(scene, plan)
+
+
+def _visible(scene: Scene, plan: Plan, stations: NDArray, radius: float) -> NDArray[np.bool_]:
+    """(k, n) waypoint j within ``radius`` of station i and not hidden from it by the model."""
+    out = np.zeros((len(stations), len(plan)), bool)
+    for i, gs in enumerate(stations):
+        r = check_line_of_sight(scene, plan, radius, gs)
+        out[i] = r.in_range & r.unblocked
+    return out
+
+
+def split_by_line_of_sight(scene: Scene, plan: Plan, radius_m: float, stations: NDArray) -> Plan:
+    """Each mission cut, in flight order, into runs that one ground station sees whole.
+
+    From the first waypoint not yet flown, the station that sees the longest run from there
+    takes that run (ties: the first station). A waypoint no station sees is an error naming it.
+    """
+    stations = np.asarray(stations, float).reshape(-1, 3)
+    vis = _visible(scene, plan, stations, radius_m)
+    unseen = np.flatnonzero(~vis.any(axis=0))
+    if len(unseen):
+        listed = ", ".join(map(str, unseen[:10])) + (" …" if len(unseen) > 10 else "")
+        raise PlanError(f"{len(unseen)} waypoint(s) cannot be seen from any ground station within {radius_m:g} m "
+                        f"(waypoints {listed}): add a ground station near them (--ground-station x,y,z) "
+                        "or raise --vlos-radius")
+    missions = []
+    for m in plan.missions:
+        start, parts = m.start, []
+        while start < m.stop:
+            run = np.zeros(len(stations), int)
+            for i in range(len(stations)):
+                blocked = np.flatnonzero(~vis[i, start:m.stop])
+                run[i] = blocked[0] if len(blocked) else m.stop - start
+            best = int(np.argmax(run))
+            parts.append((start, start + int(run[best]), tuple(map(float, stations[best]))))
+            start += int(run[best])
+        for k, (a, b, gs) in enumerate(parts):
+            missions.append(Mission(m.name if len(parts) == 1 else f"{m.name} ({k + 1})", a, b, gs))
+    return replace(plan, missions=tuple(missions))
+
+
+def _split_battery(plan: Plan, default_station: NDArray, aircraft: Aircraft) -> Plan:
+    """Battery split of each mission from its own ground station (the default one where it has none)."""
+    out = []
+    for m in plan.missions:
+        gs = np.asarray(m.ground_station if m.ground_station is not None else default_station, float)
+        sub = replace(plan.subset(np.arange(m.start, m.stop)), missions=(Mission(m.name, 0, m.stop - m.start),))
+        split, _ = split_by_battery(sub, gs, aircraft)
+        out.extend(Mission(p.name, m.start + p.start, m.start + p.stop, tuple(map(float, gs))) for p in split.missions)
+    return replace(plan, missions=tuple(out))
+
+
+def _runs(mask: NDArray[np.bool_]) -> list[tuple[int, int]]:
+    """Half-open index ranges of the True runs of ``mask``."""
+    edges = np.diff(np.concatenate([[0], mask.astype(np.int8), [0]]))
+    return list(zip(np.flatnonzero(edges == 1).tolist(), np.flatnonzero(edges == -1).tolist()))
+
+
+def _span(a: int, b: int) -> str:
+    return f"waypoint {a} is" if b == a + 1 else f"waypoints {a}–{b - 1} are"
+
+
+def plan_flights(scene: Scene, plan: Plan, settings: FlightSettings) -> FeasibilityReport:
+    """Split ``plan`` into missions that keep line of sight and fit a battery, then check it."""
+    stations = _stations(scene, plan, settings)
+    if settings.vlos_radius_m is not None:
+        plan = split_by_line_of_sight(scene, plan, settings.vlos_radius_m, stations)
+    if settings.aircraft is not None:
+        plan = _split_battery(plan, stations[0], settings.aircraft)
+    return check_plan(scene, plan, settings)
+
+
+def check_plan(scene: Scene, plan: Plan, settings: FlightSettings) -> FeasibilityReport:
+    """Every check on ``plan``'s missions as they are; a mission without a ground station uses the first candidate."""
+    if len(plan) == 0:
+        raise PlanError("the plan has no frames to check")
+    default = _stations(scene, plan, settings)[0]
+    station_of = [np.asarray(m.ground_station if m.ground_station is not None else default, float) for m in plan.missions]
+    safety = check_safety(scene, plan, settings.safety_distance_m)
+    violations = list(safety.violations)
+    dist = np.full(len(plan), np.nan)
+    in_sight = np.ones(len(plan), bool)
+    los_ok: list[bool | None] = [None] * len(plan.missions)
+    if settings.vlos_radius_m is not None:
+        # one line-of-sight pass per distinct station
+        for gs in {tuple(s) for s in station_of}:
+            r = check_line_of_sight(scene, plan, settings.vlos_radius_m, np.array(gs))
+            for k, m in enumerate(plan.missions):
+                if tuple(station_of[k]) == gs:
+                    sl = slice(m.start, m.stop)
+                    dist[sl], in_sight[sl] = r.distance_m[sl], (r.in_range & r.unblocked)[sl]
+                    los_ok[k] = bool(in_sight[sl].all())
+        far = ~in_sight & (dist > settings.vlos_radius_m)
+        for a, b in _runs(far):
+            violations.append(f"{_span(a, b)} beyond the {settings.vlos_radius_m:g} m VLOS radius of the ground station "
+                              f"(up to {dist[a:b].max():.0f} m away)")
+        for a, b in _runs(~in_sight & ~far):
+            violations.append(f"{_span(a, b)} hidden from the ground station by the model")
+    altitude = None
+    if settings.altitude_limit_m is not None:
+        altitude = check_altitude(scene, plan, settings.altitude_limit_m)
+        violations += altitude.violations
+    reports = []
+    for k, m in enumerate(plan.missions):
+        sl = slice(m.start, m.stop)
+        t = d = ok_battery = None
+        if settings.aircraft is not None and m.stop > m.start:
+            t, d = mission_time(plan.C_world[sl], station_of[k], settings.aircraft)
+            ok_battery = t <= settings.aircraft.usable_s
+            if not ok_battery:
+                violations.append(f"mission {m.name!r} takes {t / 60:.1f} min, more than one battery "
+                                  f"({settings.aircraft.usable_s / 60:.1f} min usable)")
+        seg = safety.segment_m[m.start:max(m.stop - 1, m.start)]
+        safety_ok = bool((safety.waypoint_m[sl] >= settings.safety_distance_m).all()
+                         and not (seg < settings.safety_distance_m).any())
+        alt_ok = None if altitude is None else bool((altitude.over_m[sl] <= 0).all())
+        reports.append(MissionReport(m.name, m.start, m.stop, station_of[k], t, d, ok_battery, los_ok[k], safety_ok, alt_ok))
+    return FeasibilityReport(plan, tuple(reports), safety, dist, in_sight, altitude, tuple(violations))
