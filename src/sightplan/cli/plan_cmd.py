@@ -2,13 +2,14 @@
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 from typing import Annotated, Literal
 
 import typer
-from rich.table import Table
 
 from .errors import friendly_errors
+from .flight import AircraftOpt, AltitudeOpt, SafetyOpt, StationOpt, VlosOpt, flight_settings, parse_point, print_feasibility
 from .loading import load_with_progress
 from .main import app, console
 
@@ -23,7 +24,7 @@ def plan_command(
     model: Annotated[str, typer.Argument(help="IFC or mesh file; 'sample' for the bundled Duplex model")],
     output: Annotated[Path, typer.Option("-o", "--output", help="Plan file to write (sightplan JSON)")] = Path("plan.json"),
     camera: Annotated[str, typer.Option(help="Camera (catalogue id, `sightplan cameras`)")] = "p4p",
-    safety_distance: Annotated[float, typer.Option(help="facade: distance g from the model's sides (m)")] = 10.0,
+    safety_distance: SafetyOpt = 10.0,
     overlap: Annotated[float, typer.Option(help="Image overlap l, 0 ≤ l < 1")] = 0.8,
     radius: Annotated[list[float] | None, typer.Option(help="orbit: ring radius (m), once per ring")] = None,
     height: Annotated[list[float] | None, typer.Option(help="orbit: ring height (m), once per ring")] = None,
@@ -33,16 +34,23 @@ def plan_command(
     gsd: Annotated[float | None, typer.Option(help="lawnmower: ground sampling distance on the model's top (m/px)")] = None,
     side_overlap: Annotated[float, typer.Option(help="lawnmower: overlap between lines")] = 0.7,
     point: Annotated[list[str] | None, typer.Option(help="route: a point 'x,y,z' of the walked polyline, in order")] = None,
+    vlos_radius: VlosOpt = 500.0,
+    ground_station: StationOpt = None,
+    aircraft: AircraftOpt = "p4p",
+    altitude_limit: AltitudeOpt = 120.0,
+    split: Annotated[bool, typer.Option(help="Split missions to keep line of sight and fit the batteries")] = True,
     cache: Annotated[bool, typer.Option(help="Reuse the model cache")] = True,
 ) -> None:
-    """Make a capture plan from a template around a model and write it as sightplan JSON."""
+    """Make a capture plan from a template around a model, check that it can be flown, and write it."""
     from ..camera.catalogue import get_camera
     from ..errors import PlanError
+    from ..plan.checks.feasibility import check_plan, plan_flights
     from ..plan.format import write_plan
     from ..plan.templates import facade_grid, indoor_route, lawnmower, orbit
 
     scene, _ = load_with_progress(console, model, cache)
     cam = get_camera(camera)
+    settings = flight_settings(safety_distance, vlos_radius, ground_station, aircraft, altitude_limit)
     if template == "facade":
         plan = facade_grid(scene, cam, safety_distance, overlap)
     elif template == "orbit":
@@ -54,24 +62,80 @@ def plan_command(
     else:
         if not point or step is None:
             raise PlanError("a route needs --point x,y,z at least twice and --step in metres")
-        pts = []
-        for p in point:
-            try:
-                xyz = [float(v) for v in p.split(",")]
-            except ValueError:
-                xyz = []
-            if len(xyz) != 3:
-                raise PlanError(f"route point {p!r} must be three numbers 'x,y,z' in metres")
-            pts.append(xyz)
-        plan = indoor_route(cam, pts, step)
+        plan = indoor_route(cam, [parse_point(p, "route point") for p in point], step)
+    report = (plan_flights if split else check_plan)(scene, plan, settings)
+    plan = with_site(report.plan, scene)
     write_plan(plan, output)
-    t = Table("mission", "frames", title=f"{template} plan around {Path(str(model)).name} — {cam.name or camera}",
-              title_justify="left")
-    for m in plan.missions:
-        t.add_row(m.name, str(m.stop - m.start))
-    t.add_row("[bold]total", f"[bold]{len(plan)}")
-    console.print(t)
+    print_feasibility(console, report, f"{template} plan around {Path(str(model)).name} — {cam.name or camera}")
     params = {k: v for k, v in plan.parameters.items() if k.endswith("_m") and isinstance(v, float)}
     if params:
         console.print(", ".join(f"{k.removesuffix('_m').replace('_', ' ')} {v:.3g} m" for k, v in params.items()))
     console.print(f"wrote {output} — evaluate it with `sightplan evaluate {model} {output}`")
+
+
+def with_site(plan, scene):
+    """The plan with the model's georeference (if any) and its take-off point (the first mission's ground station,
+    on the model's base) recorded for exports."""
+    from dataclasses import replace
+
+    from ..geo import Georeference
+
+    params = dict(plan.parameters)
+    geo = Georeference.from_scene_metadata(scene.metadata)
+    if geo is not None and "georeference" not in params:
+        params["georeference"] = geo.to_dict()
+    station = plan.missions[0].ground_station if plan.missions and plan.missions[0].ground_station else None
+    if station is not None:
+        params["takeoff_m"] = [float(station[0]), float(station[1]), float(scene.bounds()[0][2])]
+    return replace(plan, parameters=params)
+
+
+@app.command("check")
+@friendly_errors
+def check_command(
+    plan_file: Annotated[str, typer.Argument(metavar="PLAN", help="Plan file (any format `sightplan evaluate` reads)")],
+    model: Annotated[str, typer.Argument(help="IFC or mesh file; 'sample' for the bundled Duplex model")],
+    safety_distance: SafetyOpt = 5.0,
+    vlos_radius: VlosOpt = 500.0,
+    ground_station: StationOpt = None,
+    aircraft: AircraftOpt = "p4p",
+    altitude_limit: AltitudeOpt = 120.0,
+    split: Annotated[bool, typer.Option(help="Split the missions to keep line of sight and fit the batteries "
+                                             "(write the result with -o)")] = False,
+    output: Annotated[Path | None, typer.Option("-o", "--output", help="Write the (split) plan here")] = None,
+    json_out: Annotated[Path | None, typer.Option("--json", help="Write every waypoint's and mission's result as JSON")] = None,
+    camera: Annotated[str | None, typer.Option(help="Camera of a poses CSV or a flight-app mission")] = None,
+    cache: Annotated[bool, typer.Option(help="Reuse the model cache")] = True,
+) -> None:
+    """Check that a plan can be flown: safety distance, line of sight, altitude limit and batteries.
+
+    Exits with status 1 when a check fails, so scripts can stop on it."""
+    from ..plan.checks.feasibility import check_plan, plan_flights
+    from ..plan.format import write_plan
+    from ..plan.load import load_plan
+
+    scene, _ = load_with_progress(console, model, cache)
+    plan = load_plan(plan_file, camera=camera, **georef_kwargs(plan_file, scene))
+    settings = flight_settings(safety_distance, vlos_radius, ground_station, aircraft, altitude_limit)
+    report = (plan_flights if split else check_plan)(scene, plan, settings)
+    print_feasibility(console, report, f"{Path(plan_file).name} against {Path(str(model)).name}")
+    if output is not None:
+        write_plan(with_site(report.plan, scene), output)
+        console.print(f"wrote {output}")
+    if json_out is not None:
+        json_out.write_text(json.dumps(report.to_dict(), indent=1), encoding="utf-8")
+        console.print(f"wrote {json_out}")
+    if not report.ok:
+        raise typer.Exit(1)
+
+
+def georef_kwargs(plan_file: str, scene) -> dict:
+    """A flight-app mission (geographic) is placed with the model's georeference, when the loader takes one."""
+    import inspect
+
+    from ..geo import Georeference
+    from ..plan.load import load_plan
+
+    if "georef" not in inspect.signature(load_plan).parameters:
+        return {}
+    return {"georef": Georeference.from_scene_metadata(scene.metadata)}

@@ -1,0 +1,88 @@
+"""``sightplan export PLAN --format …``: write a plan for a flight app or a GIS."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated, Literal
+
+import typer
+
+from .errors import friendly_errors
+from .flight import parse_point
+from .main import app, console
+
+ExportFormat = Literal["qgc", "wpl", "wpml", "litchi", "kml", "geojson"]
+SUFFIX = {"qgc": ".plan", "wpl": ".waypoints", "wpml": ".kmz", "litchi": ".csv", "kml": ".kml", "geojson": ".geojson"}
+
+
+def parse_origin(text: str):
+    """'LAT,LON[,HEIGHT]' → (lat, lon, height)."""
+    from ..geo import GeoreferenceError
+
+    try:
+        vals = [float(v) for v in text.split(",")]
+    except ValueError:
+        vals = []
+    if len(vals) not in (2, 3):
+        raise GeoreferenceError(f"--origin {text!r} must be 'LAT,LON' or 'LAT,LON,HEIGHT' in degrees and metres")
+    return vals[0], vals[1], vals[2] if len(vals) == 3 else 0.0
+
+
+@app.command("export")
+@friendly_errors
+def export_command(
+    plan_file: Annotated[str, typer.Argument(metavar="PLAN", help="Plan file (sightplan JSON or any format sightplan reads)")],
+    fmt: Annotated[ExportFormat, typer.Option("--format", "-f", help="qgc (QGroundControl .plan), wpl (QGC WPL 110 "
+                                              "for Mission Planner), wpml (DJI Pilot 2 .kmz), litchi (CSV), kml, geojson")],
+    output: Annotated[Path | None, typer.Option("-o", "--output", help="File to write (default: PLAN's name with the "
+                                                "format's suffix); one file per mission where the format needs it")] = None,
+    model: Annotated[str | None, typer.Option(help="Model whose georeference places the plan (IfcMapConversion or "
+                                              "IfcSite latitude/longitude) when the plan carries none")] = None,
+    origin: Annotated[str | None, typer.Option(help="Georeference by hand: 'LAT,LON[,HEIGHT]' of the model point "
+                                               "--origin-point (default 0,0,0); overrides the plan's and the model's")] = None,
+    origin_point: Annotated[str, typer.Option(help="Model point 'x,y,z' that --origin gives the position of")] = "0,0,0",
+    north: Annotated[float, typer.Option(help="With --origin: true heading of the model's +Y axis (° clockwise from north)")] = 0.0,
+    takeoff: Annotated[str | None, typer.Option(help="Take-off point 'x,y,z' on the ground (model frame), the zero of "
+                                                "relative altitudes. Default: the plan's first ground station")] = None,
+    speed: Annotated[float, typer.Option(help="Flight speed between waypoints (m/s)")] = 5.0,
+    mission: Annotated[int | None, typer.Option(help="Export only this mission (1 = the first)")] = None,
+    camera: Annotated[str | None, typer.Option(help="Camera of a poses CSV")] = None,
+    cache: Annotated[bool, typer.Option(help="Reuse the model cache")] = True,
+) -> None:
+    """Export a plan to a flight app (QGroundControl, Mission Planner, DJI Pilot 2, Litchi) or to KML/GeoJSON."""
+    import numpy as np
+
+    from ..errors import PlanError
+    from ..export import export_plan
+    from ..geo import Georeference, resolve_georeference
+    from ..plan.load import load_plan
+    from .loading import load_with_progress
+
+    plan = load_plan(plan_file, camera=camera)
+    scene = load_with_progress(console, model, cache)[0] if model else None
+    user = None
+    if origin:
+        lat, lon, h = parse_origin(origin)
+        user = Georeference.from_origin(lat, lon, h, north, parse_point(origin_point, "--origin-point"), source="--origin")
+    geo = resolve_georeference(user, plan.parameters.get("georeference"),
+                               Georeference.from_scene_metadata(scene.metadata) if scene is not None else None,
+                               what=f"a {fmt} export")
+    if takeoff:
+        takeoff_m = parse_point(takeoff, "--takeoff")
+    elif plan.parameters.get("takeoff_m") is not None:
+        takeoff_m = np.asarray(plan.parameters["takeoff_m"], float)
+    elif scene is not None:
+        from ..plan.checks.feasibility import corner_stations
+
+        takeoff_m = corner_stations(scene, plan)[0]
+        takeoff_m[2] = scene.bounds()[0][2]
+    else:
+        raise PlanError("the plan records no take-off point: give --takeoff x,y,z (model frame, on the ground) "
+                        "or --model MODEL to take the south-west corner of the plan's region")
+    if mission is not None and not 1 <= mission <= len(plan.missions):
+        raise PlanError(f"--mission {mission}: the plan has {len(plan.missions)} mission(s), numbered from 1")
+    out = output or Path(plan_file).with_suffix(SUFFIX[fmt])
+    paths = export_plan(plan, fmt, out, geo, takeoff_m, speed_m_s=speed, mission=None if mission is None else mission - 1)
+    console.print(f"georeference: {geo.describe()}", highlight=False)
+    for p in paths:
+        console.print(f"wrote {p}")

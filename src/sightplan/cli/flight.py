@@ -1,0 +1,111 @@
+"""Flight options shared by ``sightplan plan`` and ``sightplan check``, and the feasibility printout."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Annotated
+
+import typer
+from rich.console import Console
+from rich.table import Table
+
+SafetyOpt = Annotated[float, typer.Option("--safety-distance", help="Least distance g to the model (m)")]
+VlosOpt = Annotated[float, typer.Option("--vlos-radius", help="Visual line-of-sight radius around the pilot (m); 0: no check")]
+StationOpt = Annotated[list[str] | None, typer.Option(
+    "--ground-station", help="Pilot position 'x,y,z' in the model frame (m); repeat for candidates. "
+                             "Default: the four corners of the plan's region")]
+AircraftOpt = Annotated[str, typer.Option(
+    help="Aircraft preset (p4p, m3e, m300), rover preset for routes, or a JSON file of Aircraft fields; 'none': no battery")]
+AltitudeOpt = Annotated[float, typer.Option("--altitude-limit", help="FAA §107.51 altitude limit (m); 0: no check")]
+
+
+def parse_point(text: str, what: str):
+    """'x,y,z' → (3,) array, or a PlanError naming ``what``."""
+    import numpy as np
+
+    from ..errors import PlanError
+
+    try:
+        xyz = [float(v) for v in text.split(",")]
+    except ValueError:
+        xyz = []
+    if len(xyz) != 3 or not all(np.isfinite(xyz)):
+        raise PlanError(f"{what} {text!r} must be three numbers 'x,y,z' in metres")
+    return np.array(xyz)
+
+
+def aircraft_from_option(name: str):
+    """An Aircraft (or Rover) preset, or one read from a JSON file; None for 'none'."""
+    from ..errors import PlanError
+    from ..plan.checks import battery
+
+    if name.lower() == "none":
+        return None
+    presets = {**battery.AIRCRAFT, **getattr(battery, "ROVERS", {})}
+    if name in presets:
+        return presets[name]
+    path = Path(name)
+    if path.suffix.lower() == ".json" and path.exists():
+        try:
+            d = json.loads(path.read_text(encoding="utf-8"))
+        except (OSError, ValueError) as exc:
+            raise PlanError(f"cannot read the aircraft file {path}: {exc}") from None
+        base = presets.get(d.pop("preset", ""), None) if isinstance(d, dict) else None
+        try:
+            if base is not None:
+                from dataclasses import replace
+
+                return replace(base, **d)
+            return battery.Aircraft(**{"name": path.stem, **d})
+        except TypeError as exc:
+            raise PlanError(f"{path.name}: not an aircraft description ({exc}); fields: name, horizontal_speed, "
+                            "vertical_speed, accel, flight_time_s, capture_s, reserve, or 'preset' plus changes") from None
+    raise PlanError(f"unknown aircraft {name!r}: use one of {', '.join(presets)}, a JSON file, or 'none'")
+
+
+def flight_settings(safety_distance: float, vlos_radius: float, ground_station: list[str] | None, aircraft: str,
+                    altitude_limit: float):
+    import numpy as np
+
+    from ..plan.checks.feasibility import FlightSettings
+
+    stations = np.array([parse_point(s, "ground station") for s in ground_station]) if ground_station else None
+    return FlightSettings(safety_distance_m=safety_distance, vlos_radius_m=vlos_radius or None, ground_stations=stations,
+                          altitude_limit_m=altitude_limit or None, aircraft=aircraft_from_option(aircraft))
+
+
+def _minutes(t: float | None) -> str:
+    return "—" if t is None else f"{t / 60:.1f}"
+
+
+def _flag(v: bool | None) -> str:
+    return "—" if v is None else ("[green]ok" if v else "[bold red]no")
+
+
+def print_feasibility(console: Console, report, title: str, max_violations: int = 20) -> None:
+    """Missions with their ground station, time, distance and verdicts; totals; the violations."""
+    plan = report.plan
+    t = Table("mission", "frames", "from", "pilot x,y", "min", "km", "batt.", "sight", "clear", "alt.",
+              title=title, title_justify="left", caption="from: resume waypoint; pilot: ground station (m); "
+              "min/km: flight from and back to the pilot", caption_justify="left")
+    for m in report.missions:
+        gs = ",".join(f"{v:.0f}" for v in m.ground_station[:2])
+        t.add_row(m.name, str(m.stop - m.start), str(m.start), gs, _minutes(m.time_s),
+                  "—" if m.distance_m is None else f"{m.distance_m / 1000:.2f}", _flag(m.battery_ok), _flag(m.line_of_sight_ok),
+                  _flag(m.safety_ok), _flag(m.altitude_ok))
+    console.print(t)
+    n_wp = len(plan.waypoints) if len(plan.waypoints) else len(plan)
+    batteries = sum(m.battery_ok is not None for m in report.missions)
+    total = report.total_time_s
+    console.print(f"{n_wp} waypoints, {len(plan)} frames, {len(report.missions)} missions"
+                  + (f" ({batteries} batteries), {total / 60:.1f} min of flight" if total is not None else "")
+                  + f"; least clearance {report.safety.waypoint_m.min():.2f} m")
+    if report.violations:
+        console.print(f"[bold red]{len(report.violations)} violation(s):")
+        for v in report.violations[:max_violations]:
+            console.print(f"  • {v}", highlight=False)
+        if len(report.violations) > max_violations:
+            console.print(f"  … and {len(report.violations) - max_violations} more (see --json)")
+    else:
+        console.print("[green]no violations: every mission keeps its distance, sight line, altitude and battery")
