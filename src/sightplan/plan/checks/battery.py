@@ -5,7 +5,8 @@ A leg between two points is flown with a trapezoidal speed profile: it accelerat
 same time, so the leg takes the longer of the two. Each photo costs ``capture_s`` of
 hovering. A mission flies from the ground station to its first waypoint, through its
 waypoints, and back; it fits when that time stays within the battery's flight time less
-the reserve.
+the reserve. Ground rovers and walkers (:class:`Rover`) move at a constant speed from
+frame to frame and resume where they stopped (:func:`split_by_rover`).
 """
 
 from __future__ import annotations
@@ -106,4 +107,89 @@ def split_by_battery(plan: Plan, ground_station: NDArray, ac: Aircraft) -> tuple
             missions.append(Mission(name, start, stop))
             times.append(MissionTime(name, start, stop, t, dist))
             start, part = stop, part + 1
+    return replace(plan, missions=tuple(missions)), times
+
+
+@dataclass(frozen=True)
+class Rover:
+    """A ground rover or a walking person: speed in m/s, ``capture_s`` standing still per frame.
+
+    limit_time_s / limit_distance_m: what one battery (or one walk) allows, at least one of
+    them; ``reserve`` is the share of each limit kept back.
+    """
+
+    name: str
+    speed_m_s: float
+    capture_s: float = 2.0
+    limit_time_s: float | None = None
+    limit_distance_m: float | None = None
+    reserve: float = 0.1
+
+    def __post_init__(self) -> None:
+        if not self.speed_m_s > 0:
+            raise PlanError(f"rover {self.name!r}: the speed must be positive, got {self.speed_m_s}")
+        if not self.capture_s >= 0:
+            raise PlanError(f"rover {self.name!r}: the capture time must be ≥ 0, got {self.capture_s}")
+        if self.limit_time_s is None and self.limit_distance_m is None:
+            raise PlanError(f"rover {self.name!r}: give a time limit, a distance limit or both")
+        for k in ("limit_time_s", "limit_distance_m"):
+            v = getattr(self, k)
+            if v is not None and not v > 0:
+                raise PlanError(f"rover {self.name!r}: {k} must be positive, got {v}")
+        if not 0 <= self.reserve < 1:
+            raise PlanError(f"rover {self.name!r}: the reserve must be in [0, 1), got {self.reserve}")
+
+    @property
+    def usable_s(self) -> float:
+        return np.inf if self.limit_time_s is None else self.limit_time_s * (1 - self.reserve)
+
+    @property
+    def usable_m(self) -> float:
+        return np.inf if self.limit_distance_m is None else self.limit_distance_m * (1 - self.reserve)
+
+
+# Editable presets: capture speeds well below the maxima; limits from one battery (or one walk).
+ROVERS = {
+    # a person walking slowly with a 360° camera on a pole, stopping for each shot; one camera battery ≈ 1 h of use
+    "walker-360": Rover("Person walking with a 360° camera", 0.8, 3.0, limit_time_s=60 * 60),
+    # Boston Dynamics Spot with Spot CAM: about 90 min per battery, 1.6 m/s at most
+    "spot": Rover("Boston Dynamics Spot with Spot CAM", 1.0, 2.0, limit_time_s=90 * 60, reserve=0.2),
+    # a small tracked rover: about 3 h per battery, range about 5 km on site surfaces
+    "tracked": Rover("Small tracked rover", 0.5, 2.0, limit_time_s=3 * 60 * 60, limit_distance_m=5000.0, reserve=0.2),
+}
+
+
+def split_by_rover(plan: Plan, rover: Rover) -> tuple[Plan, list[MissionTime]]:
+    """The plan with each mission cut, in frame order, into parts that fit ``rover``'s limits; their times.
+
+    The route runs straight from frame to frame. There is no return leg: the rover (or
+    walker) changes battery where it stopped and resumes from there, so a part's route
+    starts at the previous part's last frame (at its own first frame for a mission's first
+    part). A part's time is its route over the speed plus ``capture_s`` per frame; it must
+    keep within the usable time and the usable distance. Frames are neither reordered nor
+    dropped.
+    """
+    missions, times = [], []
+    v, t_max, d_max = rover.speed_m_s, rover.usable_s, rover.usable_m
+    for m in plan.missions:
+        C = plan.C_world[m.start:m.stop]
+        D = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(C, axis=0), axis=1))])  # route length to each frame
+        T = D / v + rover.capture_s * np.arange(1, len(C) + 1)  # time to each frame's shot, from the mission's start
+        a, part = 0, 1
+        while a < len(C):
+            origin = max(a - 1, 0)
+            # a part ending with frame b: D[b] − D[origin] ≤ d_max and T[b] − T[origin] (+ one shot if a = 0) ≤ t_max
+            t0 = T[origin] - (rover.capture_s if a == 0 else 0.0)
+            tol = 1e-9 * max(1.0, float(D[-1]), float(T[-1]))
+            fits = min(np.searchsorted(D, D[origin] + d_max + tol, side="right"),
+                       np.searchsorted(T, t0 + t_max + tol, side="right"))
+            if fits <= a:
+                usable = " and ".join(f"{x:g} {unit}" for x, unit in ((t_max, "s"), (d_max, "m")) if np.isfinite(x))
+                raise PlanError(f"frame {m.start + a} does not fit one battery of {rover.name!r}: it alone takes "
+                                f"{T[a] - t0:.1f} s over {D[a] - D[origin]:.1f} m, {usable} usable")
+            b = fits  # exclusive
+            name = m.name if (a == 0 and b == len(C)) else f"{m.name} ({part})"
+            missions.append(replace(m, name=name, start=m.start + a, stop=m.start + b))  # keeps the mission's other fields
+            times.append(MissionTime(name, m.start + a, m.start + b, float(T[b - 1] - t0), float(D[b - 1] - D[origin])))
+            a, part = b, part + 1
     return replace(plan, missions=tuple(missions)), times

@@ -18,7 +18,7 @@ from ...errors import PlanError
 from ...model.scene import Scene
 from ..types import Mission, Plan
 from .airspace import FAA_LIMIT_M, AltitudeReport, check_altitude, check_line_of_sight
-from .battery import AIRCRAFT, Aircraft, mission_time, split_by_battery
+from .battery import AIRCRAFT, Aircraft, Rover, mission_time, split_by_battery, split_by_rover
 from .safety import SafetyReport, check_safety
 
 GROUND_STATION_HEIGHT_M = 1.5
@@ -29,13 +29,14 @@ class FlightSettings:
     """safety_distance_m: least distance to the model; vlos_radius_m: how far the pilot may see the
     aircraft (None: no line-of-sight check, e.g. indoors); ground_stations: (k, 3) candidate pilot
     positions (None: the four corners of the plan's region, the first being the south-west one);
-    altitude_limit_m: FAA §107.51 limit (None: no check); aircraft: battery model (None: no battery check)."""
+    altitude_limit_m: FAA §107.51 limit (None: no check); aircraft: battery model of a drone, or of a
+    ground rover or walker (:class:`Rover`: no return leg, it resumes where it stopped), None: no battery check."""
 
     safety_distance_m: float = 5.0
     vlos_radius_m: float | None = 500.0
     ground_stations: NDArray[np.float64] | None = None
     altitude_limit_m: float | None = FAA_LIMIT_M
-    aircraft: Aircraft | None = field(default_factory=lambda: AIRCRAFT["p4p"])
+    aircraft: Aircraft | Rover | None = field(default_factory=lambda: AIRCRAFT["p4p"])
 
     def __post_init__(self) -> None:
         if not self.safety_distance_m > 0:
@@ -200,7 +201,9 @@ def plan_flights(scene: Scene, plan: Plan, settings: FlightSettings) -> Feasibil
     stations = _stations(scene, plan, settings)
     if settings.vlos_radius_m is not None:
         plan = split_by_line_of_sight(scene, plan, settings.vlos_radius_m, stations)
-    if settings.aircraft is not None:
+    if isinstance(settings.aircraft, Rover):
+        plan = split_by_rover(plan, settings.aircraft)[0]
+    elif settings.aircraft is not None:
         plan = _split_battery(plan, stations[0], settings.aircraft)
     return check_plan(scene, plan, settings)
 
@@ -239,12 +242,22 @@ def check_plan(scene: Scene, plan: Plan, settings: FlightSettings) -> Feasibilit
     for k, m in enumerate(plan.missions):
         sl = slice(m.start, m.stop)
         t = d = ok_battery = None
-        if settings.aircraft is not None and m.stop > m.start:
-            t, d = mission_time(plan.C_world[sl], station_of[k], settings.aircraft)
-            ok_battery = t <= settings.aircraft.usable_s
+        ac = settings.aircraft
+        if isinstance(ac, Rover) and m.stop > m.start:
+            # a rover resumes where it stopped: a part after the first walks on from the frame before it
+            route = plan.C_world[max(m.start - 1, 0):m.stop]
+            d = float(np.linalg.norm(np.diff(route, axis=0), axis=1).sum())
+            t = d / ac.speed_m_s + ac.capture_s * (m.stop - m.start)
+            ok_battery = t <= ac.usable_s and d <= ac.usable_m
+            if not ok_battery:
+                violations.append(f"route {m.name!r} takes {t / 60:.1f} min over {d:.0f} m, more than one battery of "
+                                  f"{ac.name!r}")
+        elif ac is not None and m.stop > m.start:
+            t, d = mission_time(plan.C_world[sl], station_of[k], ac)
+            ok_battery = t <= ac.usable_s
             if not ok_battery:
                 violations.append(f"mission {m.name!r} takes {t / 60:.1f} min, more than one battery "
-                                  f"({settings.aircraft.usable_s / 60:.1f} min usable)")
+                                  f"({ac.usable_s / 60:.1f} min usable)")
         seg = safety.segment_m[m.start:max(m.stop - 1, m.start)]
         safety_ok = bool((safety.waypoint_m[sl] >= settings.safety_distance_m).all()
                          and not (seg < settings.safety_distance_m).any())

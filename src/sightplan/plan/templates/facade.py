@@ -1,19 +1,33 @@
-"""Facade grid ("3D grid", paper §3.2): waypoint grids on the four sides of the model's box.
+"""Facade grid ("3D grid", paper §3.2): waypoint grids around the model at the safety distance g.
 
-Each side of the model's bounding box gets a vertical grid of waypoints at the safety
-distance g, with columns every s_h and layers every s_v (eq. 11 with the horizontal and
-vertical fields of view). Columns are spread evenly over the side's length and layers
+``footprint="box"``: each side of the model's bounding box gets a vertical grid of
+waypoints at g, with columns every s_h and layers every s_v (eq. 11 with the horizontal
+and vertical fields of view). Columns are spread evenly over the side's length and layers
 from the box's bottom to its top, so neither spacing exceeds eq. 11. A top row at g above
 the roof looks down at 45°; the first and last column of each side turn 45° toward their
 corner. The other views are canonical (perpendicular to the facade). Each side is flown
 as a snake, column by column, one mission per side, sides anticlockwise from the south.
+
+``footprint="outline"``: the same grid on the model's real outline instead of its box. The
+outline is the exterior of the union of all triangles projected to XY (shapely, which
+ifcopenshell depends on), with gaps narrower than g/10 closed and details within g/100
+simplified away. Each edge's parallel offset at g is trimmed where it comes closer than g
+to another edge (inside corners, narrow notches), so every waypoint is g from its own
+wall and no nearer to any other; where simplifying cut into the footprint the offset
+grows by g/100 so that this still holds. Columns are spread evenly along each trimmed
+offset, the cameras look perpendicular to their edge, the top row and the turned end
+columns are as for the box. One mission per edge, edges anticlockwise from the one whose
+offset lies farthest south; a footprint in several parts is flown part by part
+(southernmost first), parts lying in another part's courtyard are skipped.
 """
 
 from __future__ import annotations
 
 import math
+from typing import Literal
 
 import numpy as np
+from numpy.typing import NDArray
 
 from ...camera.models import Camera, PinholeCamera
 from ...errors import PlanError
@@ -23,6 +37,8 @@ from ..types import Mission, Plan
 from .spacing import waypoint_spacing
 
 OBLIQUE_DEG = 45.0
+GAP_SHARE = 0.05  # outline mode: gaps in the footprint narrower than 2·GAP_SHARE·g are closed…
+DETAIL_SHARE = 0.01  # …and details within DETAIL_SHARE·g simplified away
 
 
 def _positions(length: float, spacing: float) -> np.ndarray:
@@ -31,11 +47,135 @@ def _positions(length: float, spacing: float) -> np.ndarray:
     return np.linspace(0.0, length, n) if n > 1 else np.zeros(1)
 
 
+def footprint_outlines(scene: Scene, gap_m: float = 0.0,
+                       detail_m: float = 0.0) -> tuple[list[NDArray[np.float64]], float, object]:
+    """Exterior rings of the model's XY footprint, each (k, 2) anticlockwise (not closed), southernmost part first.
+
+    The footprint is the union of all triangles projected to XY (faces seen edge-on count
+    as thin strips). Gaps narrower than 2·``gap_m`` are closed, details within ``detail_m``
+    simplified away (with 0, only collinear vertices are merged). Parts lying inside another
+    part's ring are left out. Also returns how far the footprint may reach outside the rings
+    (0 unless simplifying cut into it) and the footprint itself (a shapely geometry).
+    """
+    import shapely
+    from shapely.geometry import Polygon
+    from shapely.geometry.polygon import orient
+
+    tri = scene.vertices[scene.faces][:, :, :2].astype(float)
+    lo, hi = scene.bounds()
+    diag = float(np.linalg.norm(hi[:2] - lo[:2]))
+    e1, e2 = tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]
+    area = 0.5 * np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0])
+    flat = area > 1e-12 * diag * diag
+    if diag == 0 or not flat.any():
+        raise PlanError("the model has no footprint area to outline")
+    footprint = shapely.union_all(shapely.polygons(tri[flat]))
+    hair = 1e-6 * diag
+    edge_on = shapely.linestrings(tri[~flat])  # faces seen edge-on (walls): usually on the boundary already
+    grown = footprint.buffer(hair, join_style="mitre")
+    shapely.prepare(grown)
+    loose = edge_on[~shapely.covers(grown, edge_on)]
+    if len(loose):
+        footprint = shapely.union_all([footprint, *shapely.buffer(loose, hair, cap_style="square", join_style="mitre")])
+    tol = max(float(detail_m), hair)
+    shape = footprint
+    if gap_m > 0:
+        shape = shapely.union(footprint.buffer(gap_m, join_style="mitre").buffer(-gap_m, join_style="mitre"), footprint)
+    simple = shape.simplify(tol)
+    excess = tol if shapely.difference(shape, simple).area > hair * hair else 0.0
+    parts = [p for p in shapely.get_parts(simple) if p.geom_type == "Polygon" and p.area > 0]
+    shells = [Polygon(p.exterior) for p in parts]
+    outer = [s for i, s in enumerate(shells) if not any(j != i and o.contains(s) for j, o in enumerate(shells))]
+    rings = [np.asarray(orient(s, 1.0).exterior.coords, float)[:-1] for s in outer]
+    return sorted(rings, key=lambda r: (r[:, 1].min(), r[:, 0].min())), excess, footprint
+
+
+def _capsule_intervals(P: NDArray, d: NDArray, A: NDArray, B: NDArray, r: float) -> tuple[NDArray, NDArray]:
+    """(m, m) open parameter intervals (lo, hi) where the line P[i] + t·d[i] (d unit) lies within ``r``
+    of segment A[j]B[j]: the union of the two end disks and the rectangle (a capsule is convex,
+    so the union is one interval). Empty intervals have lo ≥ hi."""
+    rel = P[:, None, :] - A[None, :, :]  # (m, m, 2)
+    seg = B - A
+    length = np.linalg.norm(seg, axis=1)
+    u = seg / length[:, None]
+    n = np.stack([u[:, 1], -u[:, 0]], axis=1)
+    lo, hi = np.full(rel.shape[:2], np.inf), np.full(rel.shape[:2], -np.inf)
+    for end in (rel, P[:, None, :] - B[None, :, :]):  # the disks at A and B
+        b = np.einsum("ik,ijk->ij", d, end)
+        disc = b * b - (np.einsum("ijk,ijk->ij", end, end) - r * r)
+        root = np.sqrt(np.maximum(disc, 0))
+        hit = disc > 0
+        lo = np.where(hit, np.minimum(lo, -b - root), lo)
+        hi = np.where(hit, np.maximum(hi, -b + root), hi)
+    t0, t1 = np.full(rel.shape[:2], -np.inf), np.full(rel.shape[:2], np.inf)
+    for axis, a_lo, a_hi in ((u, 0.0, length[None, :]), (n, -r, r)):  # the rectangle as two slabs
+        alpha = np.einsum("ijk,jk->ij", rel, axis)
+        beta = d @ axis.T
+        with np.errstate(divide="ignore", invalid="ignore"):
+            s0, s1 = (a_lo - alpha) / beta, (a_hi - alpha) / beta
+        flat = np.abs(beta) < 1e-12
+        inside = (alpha > a_lo) & (alpha < a_hi)
+        t0 = np.maximum(t0, np.where(flat, np.where(inside, -np.inf, np.inf), np.minimum(s0, s1)))
+        t1 = np.minimum(t1, np.where(flat, np.where(inside, np.inf, -np.inf), np.maximum(s0, s1)))
+    rect = t0 < t1
+    return np.where(rect, np.minimum(lo, t0), lo), np.where(rect, np.maximum(hi, t1), hi)
+
+
+def _outline_sides(scene: Scene, g: float, s_h: float) -> list[tuple]:
+    """(name, start, along, columns, outward normal) per outline edge, as for the box's sides."""
+    import shapely
+
+    rings, excess, footprint = footprint_outlines(scene, GAP_SHARE * g, DETAIL_SHARE * g)
+    d = g + excess  # the offset from the simplified rings that keeps g from the real footprint
+    A = np.concatenate(rings)
+    B = np.concatenate([np.roll(r, -1, axis=0) for r in rings])
+    length = np.linalg.norm(B - A, axis=1)
+    along = (B - A) / length[:, None]
+    normal = np.stack([along[:, 1], -along[:, 0]], axis=1)  # outward for an anticlockwise ring
+    tiny = 1e-6 * max(float(length.max()), d)  # rounding: a line touching a capsule gets an interval this narrow
+    near: list[list[tuple[float, float]]] = []  # per edge: where its offset comes within d of another edge
+    for rows in np.array_split(np.arange(len(A)), max(1, len(A) // 256)):
+        lo_t, hi_t = _capsule_intervals(A[rows] + d * normal[rows], along[rows], A, B, d)
+        lo_t[np.arange(len(rows)), rows] = np.inf  # not its own edge
+        hit = (hi_t > 0) & (lo_t < length[rows, None]) & (hi_t - lo_t > tiny)
+        near += [sorted(zip(lo_t[k][hit[k]], hi_t[k][hit[k]])) for k in range(len(rows))]
+    sides, first = [], 0
+    for p, ring in enumerate(rings):
+        edges = []
+        for i in range(first, first + len(ring)):
+            free, pos = [], 0.0  # [0, length] less the open intervals too near another edge
+            for a, b in near[i]:
+                if a > pos + tiny:
+                    free.append((pos, a))
+                pos = max(pos, b)
+            if length[i] > pos + tiny:
+                free.append((pos, length[i]))
+            if free:
+                cols = np.concatenate([a + _positions(b - a, s_h) for a, b in free])
+                xy = A[i] + d * normal[i] + cols[:, None] * along[i]
+                cols = cols[shapely.distance(shapely.points(xy), footprint) >= g * (1 - 1e-9)]  # a last guard
+            if free and len(cols):
+                mid = A[i] + d * normal[i] + along[i] * (free[0][0] + free[-1][1]) / 2
+                edges.append((i, cols, mid))
+        first += len(ring)
+        if not edges:
+            continue
+        k0 = min(range(len(edges)), key=lambda k: (edges[k][2][1], edges[k][2][0]))
+        prefix = f"facade part {p + 1} edge" if len(rings) > 1 else "facade edge"
+        for n_edge, (i, cols, _) in enumerate(edges[k0:] + edges[:k0]):
+            sides.append((f"{prefix} {n_edge + 1}", A[i] + excess * normal[i], along[i], cols, normal[i]))
+    if not sides:
+        raise PlanError(f"no part of the model's outline can be flown at {g:g} m")
+    return sides
+
+
 def facade_grid(scene: Scene, camera: Camera, safety_distance_m: float, overlap: float = 0.8,
-                top_row: bool = True, oblique_edges: bool = True) -> Plan:
-    """A facade-grid plan around ``scene``'s bounding box; see the module docstring."""
+                top_row: bool = True, oblique_edges: bool = True, footprint: Literal["box", "outline"] = "box") -> Plan:
+    """A facade-grid plan around ``scene``'s bounding box or real outline; see the module docstring."""
     if not isinstance(camera, PinholeCamera):
         raise PlanError("a facade grid needs a perspective (pinhole) camera")
+    if footprint not in ("box", "outline"):
+        raise PlanError(f"the footprint must be 'box' or 'outline', got {footprint!r}")
     lo, hi = scene.bounds()
     size = hi - lo
     if not (size > 1e-3).all():  # a model thinner than a millimetre in any direction has no facade to fly
@@ -44,16 +184,19 @@ def facade_grid(scene: Scene, camera: Camera, safety_distance_m: float, overlap:
     s_h = waypoint_spacing(g, camera.hfov_deg, overlap)
     s_v = waypoint_spacing(g, camera.vfov_deg, overlap)
     layers = lo[2] + _positions(size[2], s_v)
-    # sides anticlockwise from the south: (start corner, along-side unit vector, length, outward normal)
-    sides = [
-        ("south", np.array([lo[0], lo[1]]), np.array([1.0, 0.0]), size[0], np.array([0.0, -1.0])),
-        ("east", np.array([hi[0], lo[1]]), np.array([0.0, 1.0]), size[1], np.array([1.0, 0.0])),
-        ("north", np.array([hi[0], hi[1]]), np.array([-1.0, 0.0]), size[0], np.array([0.0, 1.0])),
-        ("west", np.array([lo[0], hi[1]]), np.array([0.0, -1.0]), size[1], np.array([-1.0, 0.0])),
-    ]
+    if footprint == "outline":
+        sides = _outline_sides(scene, g, s_h)
+    else:
+        # sides anticlockwise from the south: (name, start corner, along-side unit vector, columns, outward normal)
+        sides = [
+            ("south", np.array([lo[0], lo[1]]), np.array([1.0, 0.0]), _positions(size[0], s_h), np.array([0.0, -1.0])),
+            ("east", np.array([hi[0], lo[1]]), np.array([0.0, 1.0]), _positions(size[1], s_h), np.array([1.0, 0.0])),
+            ("north", np.array([hi[0], hi[1]]), np.array([-1.0, 0.0]), _positions(size[0], s_h), np.array([0.0, 1.0])),
+            ("west", np.array([lo[0], hi[1]]), np.array([0.0, -1.0]), _positions(size[1], s_h), np.array([-1.0, 0.0])),
+        ]
+        sides = [(f"facade {name}", *rest) for name, *rest in sides]
     C, heading, pitch, missions = [], [], [], []
-    for name, start, along, length, normal in sides:
-        cols = _positions(length, s_h)
+    for name, start, along, cols, normal in sides:
         look = -normal
         base_heading = math.degrees(math.atan2(look[0], look[1]))
         first = len(C)
@@ -73,10 +216,10 @@ def facade_grid(scene: Scene, camera: Camera, safety_distance_m: float, overlap:
                 C.append([xy[0], xy[1], z])
                 heading.append((base_heading + turn) % 360.0)
                 pitch.append(p)
-        missions.append(Mission(f"facade {name}", first, len(C)))
+        missions.append(Mission(name, first, len(C)))
     C = np.asarray(C)
     R = R_from_gimbal(np.asarray(heading), np.asarray(pitch), 0.0)
     return Plan.build(camera, R, C, missions=tuple(missions), waypoints=C,
                       parameters={"template": "facade_grid", "safety_distance_m": g, "overlap": overlap,
                                   "spacing_horizontal_m": s_h, "spacing_vertical_m": s_v, "top_row": top_row,
-                                  "oblique_edges": oblique_edges})
+                                  "oblique_edges": oblique_edges, "footprint": footprint})

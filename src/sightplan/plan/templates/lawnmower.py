@@ -1,4 +1,4 @@
-"""Top-down lawn-mower: a nadir grid over the model's footprint."""
+"""Top-down lawn-mower: a nadir grid over the model's footprint, optionally crossed by oblique lines."""
 
 from __future__ import annotations
 
@@ -14,7 +14,8 @@ from .spacing import waypoint_spacing
 
 
 def lawnmower(scene: Scene, camera: Camera, altitude_m: float | None = None, gsd_m: float | None = None,
-              front_overlap: float = 0.8, side_overlap: float = 0.7, margin_m: float = 0.0) -> Plan:
+              front_overlap: float = 0.8, side_overlap: float = 0.7, margin_m: float = 0.0,
+              oblique_pitch_deg: float | None = None) -> Plan:
     """Nadir frames on north–south lines over the footprint (plus ``margin_m``), flown as a snake.
 
     altitude_m: height of the camera above the model's lowest point; or ``gsd_m``, the
@@ -22,9 +23,18 @@ def lawnmower(scene: Scene, camera: Camera, altitude_m: float | None = None, gsd
     Spacing follows eq. 11 at the distance to the model's top, where overlap is least:
     along a line with the vertical field of view (the image's height lies along the line),
     between lines with the horizontal one. The image's top points north.
+
+    oblique_pitch_deg: for a photogrammetry "double grid", a second mission after the nadir
+    lines: east–west lines over the same area, flown as a snake from the south, the camera
+    at this pitch (−90 to 0, e.g. −60) looking in the flight direction (east on the first
+    line, west on the next, …). They reuse the nadir spacings (frames every
+    ``spacing_along_m`` along a line, lines ``spacing_across_m`` apart): an oblique view
+    reaches farther than a nadir one, so the overlaps are at least those asked for.
     """
     if not isinstance(camera, PinholeCamera):
         raise PlanError("a lawn-mower grid needs a perspective (pinhole) camera")
+    if oblique_pitch_deg is not None and not -90 <= oblique_pitch_deg < 0:
+        raise PlanError(f"the oblique pitch must look down, between -90° and 0°, got {oblique_pitch_deg}")
     if (altitude_m is None) == (gsd_m is None):
         raise PlanError("give either an altitude or a ground sampling distance")
     lo, hi = scene.bounds()
@@ -47,8 +57,18 @@ def lawnmower(scene: Scene, camera: Camera, altitude_m: float | None = None, gsd
     z = scene.bounds()[0][2] + altitude_m
     C = np.array([[x, y, z] for j, x in enumerate(xs) for y in (ys if j % 2 == 0 else ys[::-1])])
     R = R_from_gimbal(np.zeros(len(C)), np.full(len(C), -90.0), 0.0)
-    return Plan.build(camera, R, C, missions=(Mission("lawn-mower", 0, len(C)),), waypoints=C,
-                      parameters={"template": "lawnmower", "altitude_m": float(altitude_m),
-                                  "clearance_m": float(clearance), "gsd_on_top_m": clearance / camera.sampling_focal_px,
-                                  "spacing_along_m": along, "spacing_across_m": across, "front_overlap": front_overlap,
-                                  "side_overlap": side_overlap})
+    missions = [Mission("lawn-mower", 0, len(C))]
+    parameters = {"template": "lawnmower", "altitude_m": float(altitude_m), "clearance_m": float(clearance),
+                  "gsd_on_top_m": clearance / camera.sampling_focal_px, "spacing_along_m": along, "spacing_across_m": across,
+                  "front_overlap": front_overlap, "side_overlap": side_overlap}
+    if oblique_pitch_deg is not None:
+        # crossed lines: east–west, ``across`` apart in y; frames ``along`` apart in x, looking along the flight
+        cross_y = lo[1] + _positions(hi[1] - lo[1], across)
+        cross_x = lo[0] + _positions(hi[0] - lo[0], along)
+        Cx = np.array([[x, y, z] for j, y in enumerate(cross_y) for x in (cross_x if j % 2 == 0 else cross_x[::-1])])
+        heading = np.repeat(np.where(np.arange(len(cross_y)) % 2 == 0, 90.0, 270.0), len(cross_x))
+        missions.append(Mission("lawn-mower crossed", len(C), len(C) + len(Cx)))
+        C = np.concatenate([C, Cx])
+        R = np.concatenate([R, R_from_gimbal(heading, np.full(len(Cx), float(oblique_pitch_deg)), 0.0)])
+        parameters["oblique_pitch_deg"] = float(oblique_pitch_deg)
+    return Plan.build(camera, R, C, missions=tuple(missions), waypoints=C, parameters=parameters)
