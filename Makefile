@@ -14,9 +14,11 @@ $(STAMP): pyproject.toml
 
 setup: $(STAMP)
 
-## Quick start 1: set up, then evaluate a ring of frames around the bundled Duplex model.
+## Quick start 1: set up, plan a facade grid around the bundled Duplex model, check it can be flown, evaluate it.
 demo: $(STAMP)
-	$(BIN)/sightplan evaluate sample --out sightplan-demo
+	mkdir -p sightplan-demo
+	$(BIN)/sightplan plan facade sample --safety-distance 8 --overlap 0.8 -o sightplan-demo/plan.json
+	$(BIN)/sightplan evaluate sample sightplan-demo/plan.json --scale 0.25 --out sightplan-demo
 
 ## Quick start 2: set up, lint, and run the whole test suite.
 test: $(STAMP)
@@ -25,6 +27,7 @@ test: $(STAMP)
 
 bench: $(STAMP)
 	$(BIN)/python benchmarks/run.py
+	$(BIN)/python benchmarks/planning.py
 
 clean:
 	rm -rf $(VENV) sightplan-demo .pytest_cache

@@ -296,3 +296,36 @@ def test_plan_route_and_lawnmower(tmp_path):
     res = run_cli("plan", "lawnmower", "sample", "--gsd", "0.005", "-o", str(tmp_path / "lm.json"), cwd=tmp_path)
     assert res.returncode == 0, res.stderr
     assert "gsd on top 0.005 m" in res.stdout
+
+
+def test_plan_prints_missions_and_check_fails_on_a_violation(tmp_path):
+    out = tmp_path / "facade.json"
+    res = run_cli("plan", "facade", "sample", "-o", str(out), "--safety-distance", "8", "--aircraft", "m3e", cwd=tmp_path)
+    assert res.returncode == 0, res.stderr
+    assert "no violations" in res.stdout and "missions" in res.stdout
+    d = json.loads(out.read_text())
+    assert d["georeference"]["kind"] == "topocentric"  # the Duplex's IfcSite latitude/longitude (Chicago)
+    assert all(len(m["ground_station"]) == 3 for m in d["missions"])
+    # the same plan checked with a 30 m line-of-sight radius: the far ends of the long sides are out of sight
+    report = tmp_path / "check.json"
+    res = run_cli("check", str(out), "sample", "--vlos-radius", "30", "--json", str(report), cwd=tmp_path)
+    assert res.returncode == 1, res.stdout + res.stderr
+    r = json.loads(report.read_text())
+    far = [w["frame"] for w in r["waypoints"] if not w["in_sight"]]
+    assert far and all(w["station_distance_m"] > 30 for w in r["waypoints"] if w["frame"] in far)
+    assert all(w["station_distance_m"] <= 30 for w in r["waypoints"] if w["frame"] not in far)
+    # split for that radius: every mission keeps line of sight, written back as a plan
+    split = tmp_path / "split.json"
+    res = run_cli("check", str(out), "sample", "--vlos-radius", "30", "--split", "--ground-station", "-10,-32,0",
+                  "--ground-station", "19,14,0", "--ground-station", "19,-32,0", "--ground-station", "-10,14,0",
+                  "-o", str(split), cwd=tmp_path)
+    assert res.returncode == 0, res.stdout + res.stderr
+    assert len(json.loads(split.read_text())["missions"]) > len(d["missions"])
+
+
+def test_check_refuses_impossible_settings(tmp_path):
+    out = tmp_path / "facade.json"
+    assert run_cli("plan", "facade", "sample", "-o", str(out), cwd=tmp_path).returncode == 0
+    assert_clean_error(run_cli("check", str(out), "sample", "--safety-distance", "600", cwd=tmp_path), "VLOS radius")
+    assert_clean_error(run_cli("check", str(out), "sample", "--aircraft", "zeppelin", cwd=tmp_path), "unknown aircraft")
+    assert_clean_error(run_cli("check", str(out), "sample", "--ground-station", "1,2", cwd=tmp_path), "x,y,z")

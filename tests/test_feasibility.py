@@ -116,3 +116,20 @@ def test_mission_ground_station_survives_the_plan_file():
     plan = _plan([[0, 0, 5], [1, 0, 5]], missions=(Mission("a", 0, 1, (1.0, 2.0, 3.0)), Mission("b", 1, 2)))
     back = plan_from_dict(plan_to_dict(plan))
     assert back.missions == plan.missions
+
+
+def test_a_walked_route_splits_by_the_rovers_battery_and_checks_clean(tower):
+    from sightplan.plan.checks.battery import Rover, split_by_rover
+
+    # a straight 100 m walk 5 m south of the tower, a frame every 2 m (51 frames)
+    C = np.stack([np.linspace(-40.0, 60.0, 51), np.full(51, -5.0), np.full(51, 1.5)], axis=1)
+    walker = Rover("test walker", speed_m_s=1.0, capture_s=2.0, limit_time_s=60.0, reserve=0.0)
+    settings = FlightSettings(safety_distance_m=0.3, vlos_radius_m=None, altitude_limit_m=None, aircraft=walker)
+    report = plan_flights(tower, _plan(C), settings)
+    expected, times = split_by_rover(_plan(C), walker)
+    assert [(m.start, m.stop) for m in report.plan.missions] == [(m.start, m.stop) for m in expected.missions]
+    # each frame costs 2 m at 1 m/s plus a 2 s shot: 4 s; 60 s hold 15 frames (the first part: 14 legs + 15 shots = 58 s)
+    assert report.plan.missions[0].stop == 15
+    for m, t in zip(report.missions, times):
+        assert m.battery_ok and m.time_s == pytest.approx(t.time_s) and m.time_s <= 60.0
+    assert report.ok

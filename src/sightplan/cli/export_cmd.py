@@ -41,7 +41,8 @@ def export_command(
     origin: Annotated[str | None, typer.Option(help="Georeference by hand: 'LAT,LON[,HEIGHT]' of the model point "
                                                "--origin-point (default 0,0,0); overrides the plan's and the model's")] = None,
     origin_point: Annotated[str, typer.Option(help="Model point 'x,y,z' that --origin gives the position of")] = "0,0,0",
-    north: Annotated[float, typer.Option(help="With --origin: true heading of the model's +Y axis (° clockwise from north)")] = 0.0,
+    north: Annotated[float, typer.Option(
+        help="With --origin: true heading of the model's +Y axis (° clockwise from north)")] = 0.0,
     takeoff: Annotated[str | None, typer.Option(help="Take-off point 'x,y,z' on the ground (model frame), the zero of "
                                                 "relative altitudes. Default: the plan's first ground station")] = None,
     speed: Annotated[float, typer.Option(help="Flight speed between waypoints (m/s)")] = 5.0,

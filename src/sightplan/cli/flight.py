@@ -90,7 +90,7 @@ def print_feasibility(console: Console, report, title: str, max_violations: int 
               title=title, title_justify="left", caption="from: resume waypoint; pilot: ground station (m); "
               "min/km: flight from and back to the pilot", caption_justify="left")
     for m in report.missions:
-        gs = ",".join(f"{v:.0f}" for v in m.ground_station[:2])
+        gs = "—" if m.line_of_sight_ok is None else ",".join(f"{v:.0f}" for v in m.ground_station[:2])
         t.add_row(m.name, str(m.stop - m.start), str(m.start), gs, _minutes(m.time_s),
                   "—" if m.distance_m is None else f"{m.distance_m / 1000:.2f}", _flag(m.battery_ok), _flag(m.line_of_sight_ok),
                   _flag(m.safety_ok), _flag(m.altitude_ok))

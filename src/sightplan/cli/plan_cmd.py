@@ -24,7 +24,8 @@ def plan_command(
     model: Annotated[str, typer.Argument(help="IFC or mesh file; 'sample' for the bundled Duplex model")],
     output: Annotated[Path, typer.Option("-o", "--output", help="Plan file to write (sightplan JSON)")] = Path("plan.json"),
     camera: Annotated[str, typer.Option(help="Camera (catalogue id, `sightplan cameras`)")] = "p4p",
-    safety_distance: SafetyOpt = 10.0,
+    safety_distance: Annotated[float | None, typer.Option(
+        "--safety-distance", help="Least distance g to the model (m); default 10, 0.3 for a route")] = None,
     overlap: Annotated[float, typer.Option(help="Image overlap l, 0 ≤ l < 1")] = 0.8,
     radius: Annotated[list[float] | None, typer.Option(help="orbit: ring radius (m), once per ring")] = None,
     height: Annotated[list[float] | None, typer.Option(help="orbit: ring height (m), once per ring")] = None,
@@ -36,7 +37,9 @@ def plan_command(
     point: Annotated[list[str] | None, typer.Option(help="route: a point 'x,y,z' of the walked polyline, in order")] = None,
     vlos_radius: VlosOpt = 500.0,
     ground_station: StationOpt = None,
-    aircraft: AircraftOpt = "p4p",
+    aircraft: Annotated[str | None, typer.Option(
+        help="Aircraft preset (p4p, m3e, m300), rover preset for a route (walker-360, spot, tracked), or a JSON file "
+             "of its fields; 'none': no battery. Default p4p, walker-360 for a route")] = None,
     altitude_limit: AltitudeOpt = 120.0,
     split: Annotated[bool, typer.Option(help="Split missions to keep line of sight and fit the batteries")] = True,
     cache: Annotated[bool, typer.Option(help="Reuse the model cache")] = True,
@@ -50,7 +53,12 @@ def plan_command(
 
     scene, _ = load_with_progress(console, model, cache)
     cam = get_camera(camera)
-    settings = flight_settings(safety_distance, vlos_radius, ground_station, aircraft, altitude_limit)
+    if template == "route":  # walked or driven indoors: no line of sight to keep, no altitude limit
+        settings = flight_settings(0.3 if safety_distance is None else safety_distance, 0.0, None,
+                                   aircraft or "walker-360", 0.0)
+    else:
+        settings = flight_settings(safety_distance or 10.0, vlos_radius, ground_station, aircraft or "p4p", altitude_limit)
+    safety_distance = settings.safety_distance_m
     if template == "facade":
         plan = facade_grid(scene, cam, safety_distance, overlap)
     elif template == "orbit":
