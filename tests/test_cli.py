@@ -329,3 +329,22 @@ def test_check_refuses_impossible_settings(tmp_path):
     assert_clean_error(run_cli("check", str(out), "sample", "--safety-distance", "600", cwd=tmp_path), "VLOS radius")
     assert_clean_error(run_cli("check", str(out), "sample", "--aircraft", "zeppelin", cwd=tmp_path), "unknown aircraft")
     assert_clean_error(run_cli("check", str(out), "sample", "--ground-station", "1,2", cwd=tmp_path), "x,y,z")
+
+
+def test_plan_options_match_the_library(tmp_path):
+    from sightplan.camera.catalogue import get_camera
+    from sightplan.model.load import load_model
+    from sightplan.plan.templates import facade_grid, lawnmower
+
+    scene = load_model("sample")[0]
+    cam = get_camera("p4p")
+    out = tmp_path / "outline.json"
+    res = run_cli("plan", "facade", "sample", "--footprint", "outline", "--no-split", "-o", str(out), cwd=tmp_path)
+    assert res.returncode == 0, res.stderr
+    assert len(json.loads(out.read_text())["frames"]) == len(facade_grid(scene, cam, 10.0, 0.8, footprint="outline"))
+    res = run_cli("plan", "lawnmower", "sample", "--gsd", "0.005", "--oblique-pitch", "-60", "--no-split", "-o", str(out),
+                  cwd=tmp_path)
+    assert res.returncode == 0, res.stderr
+    assert len(json.loads(out.read_text())["frames"]) == len(lawnmower(scene, cam, gsd_m=0.005, oblique_pitch_deg=-60))
+    assert_clean_error(run_cli("plan", "facade", "sample", "--footprint", "hull", cwd=tmp_path), "--footprint")
+    assert_clean_error(run_cli("plan", "bridge", "sample", "--point", "0,0", cwd=tmp_path), "axis")

@@ -65,10 +65,16 @@ def test_split_by_line_of_sight_moves_the_pilot_once(tower):
     assert [v for v in single.violations if "segment" in v] == ["segment 2→3 passes 0.00 m from the model"]
 
 
-def test_a_waypoint_no_station_sees_is_named(tower):
+def test_a_waypoint_no_station_sees_is_reported_not_dropped(tower):
     plan = _plan([[0.0, -10.0, 5.0], [10.0, 2000.0, 5.0]])
-    with pytest.raises(PlanError, match=r"waypoints 1\b.*--ground-station"):
-        split_by_line_of_sight(tower, plan, 500.0, np.array([[-10.0, -10.0, 1.5]]))
+    stations = np.array([[-10.0, -10.0, 1.5], [10.0, 1500.0, 1.5]])
+    split = split_by_line_of_sight(tower, plan, 400.0, stations)
+    # waypoint 1 is 500 m from the nearest station, beyond the radius: it goes with that station
+    assert [(m.start, m.stop, m.ground_station) for m in split.missions] == [(0, 1, (-10.0, -10.0, 1.5)),
+                                                                           (1, 2, (10.0, 1500.0, 1.5))]
+    report = check_plan(tower, split, FlightSettings(safety_distance_m=2.0, vlos_radius_m=400.0, aircraft=None))
+    assert report.violations == ("waypoint 1 is beyond the 400 m VLOS radius of the ground station (up to 500 m away)",)
+    assert [m.line_of_sight_ok for m in report.missions] == [True, False]
 
 
 def test_plan_flights_split_leaves_no_waypoint_out_and_fits_every_battery(tower):

@@ -13,14 +13,15 @@ from .flight import AircraftOpt, AltitudeOpt, SafetyOpt, StationOpt, VlosOpt, fl
 from .loading import load_with_progress
 from .main import app, console
 
-TemplateName = Literal["facade", "orbit", "lawnmower", "route"]
+TemplateName = Literal["facade", "orbit", "lawnmower", "bridge", "route"]
 
 
 @app.command("plan")
 @friendly_errors
 def plan_command(
     template: Annotated[TemplateName, typer.Argument(
-        help="facade (grids on the four sides), orbit (rings), lawnmower (nadir grid) or route (indoor polyline)")],
+        help="facade (grids around the sides), orbit (rings), lawnmower (nadir grid), bridge (passes along an axis) "
+             "or route (indoor polyline)")],
     model: Annotated[str, typer.Argument(help="IFC or mesh file; 'sample' for the bundled Duplex model")],
     output: Annotated[Path, typer.Option("-o", "--output", help="Plan file to write (sightplan JSON)")] = Path("plan.json"),
     camera: Annotated[str, typer.Option(help="Camera (catalogue id, `sightplan cameras`)")] = "p4p",
@@ -28,13 +29,21 @@ def plan_command(
         "--safety-distance", help="Least distance g to the model (m); default 10, 0.3 for a route")] = None,
     overlap: Annotated[float, typer.Option(help="Image overlap l, 0 ≤ l < 1")] = 0.8,
     radius: Annotated[list[float] | None, typer.Option(help="orbit: ring radius (m), once per ring")] = None,
-    height: Annotated[list[float] | None, typer.Option(help="orbit: ring height (m), once per ring")] = None,
+    height: Annotated[list[float] | None, typer.Option(
+        help="orbit: ring height (m), once per ring; bridge: height of a side pass (default: layers by overlap)")] = None,
     step: Annotated[float | None, typer.Option(
         help="orbit: degrees between frames (default: by overlap); route: metres between frames")] = None,
     altitude: Annotated[float | None, typer.Option(help="lawnmower: camera height above the model's base (m)")] = None,
     gsd: Annotated[float | None, typer.Option(help="lawnmower: ground sampling distance on the model's top (m/px)")] = None,
     side_overlap: Annotated[float, typer.Option(help="lawnmower: overlap between lines")] = 0.7,
-    point: Annotated[list[str] | None, typer.Option(help="route: a point 'x,y,z' of the walked polyline, in order")] = None,
+    point: Annotated[list[str] | None, typer.Option(
+        help="route: a point 'x,y,z' of the walked polyline; bridge: a point 'x,y' of the axis; in order")] = None,
+    footprint: Annotated[str, typer.Option(
+        help="facade: grids on the sides of the bounding 'box', or around the model's real 'outline'")] = "box",
+    oblique_pitch: Annotated[float | None, typer.Option(
+        help="lawnmower: add crossed east–west lines with the gimbal at this pitch (e.g. -60): a double grid")] = None,
+    under_deck: Annotated[bool, typer.Option(help="bridge: add a pass under the deck, looking up")] = True,
+    deck_z: Annotated[float | None, typer.Option(help="bridge: height of the deck's underside (default: found)")] = None,
     vlos_radius: VlosOpt = 500.0,
     ground_station: StationOpt = None,
     aircraft: Annotated[str | None, typer.Option(
@@ -49,7 +58,7 @@ def plan_command(
     from ..errors import PlanError
     from ..plan.checks.feasibility import check_plan, plan_flights
     from ..plan.format import write_plan
-    from ..plan.templates import facade_grid, indoor_route, lawnmower, orbit
+    from ..plan.templates import bridge, facade_grid, indoor_route, lawnmower, orbit
 
     scene, _ = load_with_progress(console, model, cache)
     cam = get_camera(camera)
@@ -60,13 +69,22 @@ def plan_command(
         settings = flight_settings(safety_distance or 10.0, vlos_radius, ground_station, aircraft or "p4p", altitude_limit)
     safety_distance = settings.safety_distance_m
     if template == "facade":
-        plan = facade_grid(scene, cam, safety_distance, overlap)
+        if footprint not in ("box", "outline"):
+            raise PlanError(f"--footprint must be 'box' or 'outline', got {footprint!r}")
+        plan = facade_grid(scene, cam, safety_distance, overlap, footprint=footprint)
     elif template == "orbit":
         if not radius or not height:
             raise PlanError("an orbit needs --radius and --height, once per ring")
         plan = orbit(scene, cam, radius, height, step_deg=step, overlap=overlap)
     elif template == "lawnmower":
-        plan = lawnmower(scene, cam, altitude_m=altitude, gsd_m=gsd, front_overlap=overlap, side_overlap=side_overlap)
+        plan = lawnmower(scene, cam, altitude_m=altitude, gsd_m=gsd, front_overlap=overlap, side_overlap=side_overlap,
+                         oblique_pitch_deg=oblique_pitch)
+    elif template == "bridge":
+        if not point or len(point) < 2:
+            raise PlanError("a bridge needs its axis: --point x,y at least twice, in order")
+        axis = [parse_point(p if p.count(",") == 2 else p + ",0", "bridge axis point")[:2] for p in point]
+        plan = bridge(scene, cam, axis, safety_distance, heights_m=height or None, under_deck=under_deck, overlap=overlap,
+                      deck_z=deck_z)
     else:
         if not point or step is None:
             raise PlanError("a route needs --point x,y,z at least twice and --step in metres")

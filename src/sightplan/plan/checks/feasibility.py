@@ -149,16 +149,15 @@ def split_by_line_of_sight(scene: Scene, plan: Plan, radius_m: float, stations: 
     """Each mission cut, in flight order, into runs that one ground station sees whole.
 
     From the first waypoint not yet flown, the station that sees the longest run from there
-    takes that run (ties: the first station). A waypoint no station sees is an error naming it.
+    takes that run (ties: the first station). A waypoint no station sees goes with the station
+    nearest to it, and :func:`check_plan` reports it.
     """
     stations = np.asarray(stations, float).reshape(-1, 3)
     vis = _visible(scene, plan, stations, radius_m)
     unseen = np.flatnonzero(~vis.any(axis=0))
     if len(unseen):
-        listed = ", ".join(map(str, unseen[:10])) + (" …" if len(unseen) > 10 else "")
-        raise PlanError(f"{len(unseen)} waypoint(s) cannot be seen from any ground station within {radius_m:g} m "
-                        f"(waypoints {listed}): add a ground station near them (--ground-station x,y,z) "
-                        "or raise --vlos-radius")
+        nearest = np.linalg.norm(plan.C_world[unseen, None, :] - stations[None], axis=2).argmin(axis=1)
+        vis[nearest, unseen] = True
     missions = []
     for m in plan.missions:
         start, parts = m.start, []
