@@ -5,7 +5,13 @@ Formats (the :data:`PlanFormat` names, shared with the CLI and the web API):
 - ``sightplan``: sightplan's JSON plan (:mod:`.format`);
 - ``opensfm``: OpenSfM ``reconstruction.json`` (:mod:`.io_opensfm`);
 - ``csv``: a pose table (:mod:`.io_csv`);
-- ``colmap``: a COLMAP sparse model, folder or file (:mod:`.io_colmap`).
+- ``colmap``: a COLMAP sparse model, folder or file (:mod:`.io_colmap`);
+- ``qgc``: a QGroundControl ``.plan`` mission (:mod:`.io_qgc`);
+- ``wpl``: a ``QGC WPL 110`` waypoint file, ``.waypoints`` or ``.txt`` (:mod:`.io_qgc`);
+- ``wpml``: a DJI WPML ``.kmz`` mission (:mod:`.io_wpml`).
+
+A ``.txt`` file whose first line is ``QGC WPL 110`` is a waypoint file; any other ``.txt`` is
+taken as a COLMAP text model.
 """
 
 from __future__ import annotations
@@ -21,13 +27,17 @@ from numpy.typing import ArrayLike
 from ..camera.catalogue import parse_camera_spec
 from ..camera.models import Camera
 from ..errors import PlanError
+from ..geo import Georeference
 from .format import FORMAT_NAME, plan_from_dict, read_json
 from .io_colmap import find_colmap_model, read_colmap
 from .io_csv import read_csv_plan
 from .io_opensfm import opensfm_from_data
+from .io_qgc import read_qgc_plan, read_wpl, sniff_wpl
+from .io_wpml import read_wpml
 from .types import Plan
 
-PlanFormat = Literal["sightplan", "opensfm", "csv", "colmap"]
+PlanFormat = Literal["sightplan", "opensfm", "csv", "colmap", "qgc", "wpl", "wpml"]
+FLIGHT_FORMATS = ("qgc", "wpl", "wpml")
 PLAN_FORMATS: tuple[str, ...] = get_args(PlanFormat)
 
 
@@ -103,15 +113,25 @@ def read_transform(path: str | Path) -> np.ndarray:
 
 
 def detect_format(path: str | Path) -> PlanFormat:
-    """The format of ``path`` from its name (and, for .json, nothing more: see :func:`load_plan`)."""
+    """The format of ``path`` from its name, and for .txt/.waypoints from its first line (.json: see :func:`load_plan`)."""
     path = Path(path)
-    if path.is_dir() or path.suffix.lower() in (".bin", ".txt"):
+    suffix = path.suffix.lower()
+    if path.is_dir():
         return "colmap"
-    if path.suffix.lower() == ".csv":
+    if suffix == ".plan":
+        return "qgc"
+    if suffix == ".kmz":
+        return "wpml"
+    if suffix == ".waypoints" or (suffix == ".txt" and sniff_wpl(path)):
+        return "wpl"
+    if suffix in (".bin", ".txt"):
+        return "colmap"
+    if suffix == ".csv":
         return "csv"
-    if path.suffix.lower() == ".json":
+    if suffix == ".json":
         return "sightplan"
-    raise PlanError(f"cannot tell the format of {path}: expected .json, .csv or a COLMAP model folder; pass fmt=")
+    raise PlanError(f"cannot tell the format of {path}: expected .json, .csv, .plan, .kmz, .waypoints or a COLMAP model "
+                    "folder; pass fmt=")
 
 
 def _from_json(path: Path, fmt: PlanFormat | Literal["auto"]) -> Plan:
@@ -135,12 +155,16 @@ def load_plan(
     fmt: PlanFormat | Literal["auto"] = "auto",
     camera: Camera | str | dict | None = None,
     transform: ArrayLike | str | Path | None = None,
+    georef: Georeference | None = None,
 ) -> Plan:
     """A Plan from any supported file or folder.
 
-    camera: the camera of CSV rows without one; for the other formats it replaces every
-    camera of the file (recorded in ``plan.parameters["warnings"]``). Catalogue name,
-    spec dict (:func:`parse_camera_spec`) or camera model.
+    camera: the camera of CSV rows without one, and of flight-app missions (qgc, wpl, wpml)
+    that name no camera the catalogue knows; for the other formats it replaces every camera
+    of the file (recorded in ``plan.parameters["warnings"]``). Catalogue name, spec dict
+    (:func:`parse_camera_spec`) or camera model.
+    georef: for flight-app missions (latitude/longitude), the georeference that places them in
+    the model frame; without one they get a topocentric frame at their home point.
     transform: optional (4, 4) similarity (or a JSON file of one, :func:`read_transform`) from the file's frame to the model frame
     (:func:`apply_similarity`).
     """
@@ -155,9 +179,15 @@ def load_plan(
         plan = read_colmap(path)
     elif kind == "csv":
         plan = in_capture_order(read_csv_plan(path, camera=camera))
+    elif kind == "qgc":
+        plan = read_qgc_plan(path, georef=georef, camera=camera)
+    elif kind == "wpl":
+        plan = read_wpl(path, georef=georef, camera=camera)
+    elif kind == "wpml":
+        plan = read_wpml(path, georef=georef, camera=camera)
     else:
         plan = _from_json(path, fmt)
-    if camera is not None and kind != "csv":
+    if camera is not None and kind != "csv" and kind not in FLIGHT_FORMATS:
         cam = parse_camera_spec(camera)
         cid = cam.name or "camera"
         warnings = [*plan.parameters.get("warnings", []),

@@ -1,0 +1,210 @@
+"""Flight waypoints from a plan: the step every flight-app export shares.
+
+- Consecutive frames of one mission whose centres lie within 1 cm share one waypoint; each
+  frame is one photo action there, in plan order.
+- A photo's heading is the true heading (clockwise from true north, [0, 360)) of the frame's
+  model heading (:func:`~sightplan.plan.poses.gimbal_from_R`, converted with
+  :meth:`~sightplan.geo.Georeference.true_heading`, so a georeference's north offset and grid
+  convergence are included); its pitch is the gimbal pitch (up positive, −90 nadir). Drone
+  gimbals keep the horizon level, so the flight formats refuse a roll beyond 1° and a pitch
+  outside the format's range. A 360° (non-pinhole) camera has no gimbal: heading only, pitch 0.
+- Heights: ``altitude_m`` is metres above the take-off point, the difference of the
+  georeference heights of the waypoint and the take-off point (exactly z − z_takeoff for a
+  projected georeference, within millimetres of it over a building site for a topocentric
+  one); ``height_m`` is the absolute height in the georeference's vertical datum (above mean
+  sea level for a national datum).
+- Footprints: the four image-corner rays of a pinhole frame intersected with the horizontal
+  plane at the take-off height; a frame with a corner ray that does not reach it has none.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from ..camera.models import PinholeCamera
+from ..errors import PlanError
+from ..geo import Georeference
+from ..plan.poses import gimbal_from_R
+from ..plan.types import Mission, Plan
+
+SAME_POSITION_M = 0.01
+ROLL_TOLERANCE_DEG = 1.0
+PITCH_RANGES: dict[str, tuple[float, float] | None] = {
+    "qgc": (-90.0, 90.0), "wpl": (-90.0, 90.0), "wpml": (-90.0, 30.0), "litchi": (-90.0, 30.0), "kml": None, "geojson": None,
+}
+FORMAT_LABELS = {"qgc": "QGroundControl", "wpl": "QGC WPL", "wpml": "DJI WPML", "litchi": "Litchi", "kml": "KML",
+                 "geojson": "GeoJSON"}
+
+
+@dataclass(frozen=True)
+class Photo:
+    """One photo action: plan frame ``frame`` taken with this true heading and gimbal pitch (degrees)."""
+
+    frame: int
+    name: str
+    heading_deg: float
+    pitch_deg: float
+    roll_deg: float = 0.0
+
+
+@dataclass(frozen=True)
+class Waypoint:
+    """Where the aircraft stops: position (model frame and WGS84), heights and the photos taken there.
+
+    mission: index into :attr:`Flight.missions`. height_m: absolute, georeference datum.
+    altitude_m: above the take-off point.
+    """
+
+    mission: int
+    position_m: tuple[float, float, float]
+    latitude_deg: float
+    longitude_deg: float
+    height_m: float
+    altitude_m: float
+    photos: tuple[Photo, ...]
+
+
+@dataclass(frozen=True)
+class Flight:
+    """A plan as flight waypoints, ready for a writer."""
+
+    plan: Plan
+    georef: Georeference
+    missions: tuple[Mission, ...]
+    waypoints: tuple[Waypoint, ...]
+    takeoff_m: tuple[float, float, float]
+    takeoff_latitude_deg: float
+    takeoff_longitude_deg: float
+    takeoff_height_m: float
+    speed_m_s: float
+    fmt: str
+
+    def by_mission(self) -> list[tuple[int, list[Waypoint]]]:
+        """(mission number, 1-based as in the file names; its waypoints) for every mission with waypoints."""
+        out: dict[int, list[Waypoint]] = {}
+        for wp in self.waypoints:
+            out.setdefault(wp.mission, []).append(wp)
+        return [(m + 1, wps) for m, wps in sorted(out.items())]
+
+
+def _frame_list(plan: Plan, idx: ArrayLike, limit: int = 5) -> str:
+    idx = [int(i) for i in np.atleast_1d(idx)]
+    names = ", ".join(str(plan.frame_names[i]) for i in idx[:limit])
+    return names + (f" and {len(idx) - limit} more" if len(idx) > limit else "")
+
+
+def wrap180(deg: float) -> float:
+    """An angle in [−180, 180)."""
+    return (float(deg) + 180.0) % 360.0 - 180.0
+
+
+def same_angle(a: float, b: float, tol: float = 1e-6) -> bool:
+    return abs(wrap180(a - b)) <= tol
+
+
+def build_flight(plan: Plan, georef: Georeference, takeoff_m: ArrayLike, *, fmt: str, speed_m_s: float = 5.0,
+                 mission: int | None = None) -> Flight:
+    """The plan's frames grouped into waypoints with photo actions; see the module docstring.
+
+    mission: index (from 0) into ``plan.missions`` of the only mission to keep; file names number
+    missions from 1 (``stem_m01``…).
+    Raises :class:`PlanError` naming the frames a drone cannot take in format ``fmt``.
+    """
+    if not isinstance(georef, Georeference):
+        raise PlanError(f"a {FORMAT_LABELS.get(fmt, fmt)} export needs a Georeference, got {type(georef).__name__}")
+    n = len(plan)
+    if n == 0:
+        raise PlanError("the plan has no frames to export")
+    T = np.asarray(takeoff_m, float).reshape(-1)
+    if T.shape != (3,) or not np.isfinite(T).all():
+        raise PlanError(f"the take-off point must be three finite numbers (x, y, z) in the model frame, got {takeoff_m!r}")
+    if not (math.isfinite(speed_m_s) and speed_m_s > 0):
+        raise PlanError(f"the flight speed must be a positive number of m/s, got {speed_m_s!r}")
+    missions = plan.missions or (Mission("mission 1", 0, n),)
+    if mission is not None:
+        if not (isinstance(mission, (int, np.integer)) and 0 <= mission < len(missions)):
+            raise PlanError(f"mission index {mission!r} asked for; the plan has {len(missions)} mission(s), "
+                            f"indices 0 to {len(missions) - 1}")
+    keep = np.zeros(n, bool)
+    mission_of = np.zeros(n, int)
+    for k, m in enumerate(missions):
+        mission_of[m.start:m.stop] = k
+        if mission is None or k == mission:
+            keep[m.start:m.stop] = True
+
+    heading_m, pitch, roll = gimbal_from_R(plan.R_world_camera)
+    pinhole = np.array([isinstance(plan.camera_of(i), PinholeCamera) for i in range(n)])
+    pitch = np.where(pinhole, pitch, 0.0)
+    roll = np.where(pinhole, roll, 0.0)
+    label = FORMAT_LABELS.get(fmt, fmt)
+    limits = PITCH_RANGES.get(fmt)
+    if limits is not None:
+        bad = np.flatnonzero(keep & (np.abs(roll) > ROLL_TOLERANCE_DEG))
+        if len(bad):
+            raise PlanError(f"frame(s) {_frame_list(plan, bad)} have a camera roll of {roll[bad[0]]:+.1f}°: drone gimbals keep "
+                            f"the horizon level (|roll| ≤ {ROLL_TOLERANCE_DEG:g}°), so {label} cannot fly them")
+        lo, hi = limits
+        bad = np.flatnonzero(keep & ((pitch < lo - 1e-9) | (pitch > hi + 1e-9)))
+        if len(bad):
+            raise PlanError(f"frame(s) {_frame_list(plan, bad)} have a gimbal pitch of {pitch[bad[0]]:+.1f}°, outside "
+                            f"{label}'s range {lo:g}° to {hi:+g}°")
+    C = np.asarray(plan.C_world, float)
+    true_heading = georef.true_heading(C, heading_m)
+    lat, lon, h = georef.to_geodetic(C)
+    t_lat, t_lon, t_h = (float(v[0]) for v in georef.to_geodetic(T))
+
+    waypoints: list[Waypoint] = []
+    current: list[int] = []
+
+    def close() -> None:
+        if not current:
+            return
+        i = current[0]
+        photos = tuple(Photo(j, str(plan.frame_names[j]), float(true_heading[j]), float(pitch[j]), float(roll[j]))
+                       for j in current)
+        waypoints.append(Waypoint(int(mission_of[i]), tuple(float(v) for v in C[i]), float(lat[i]), float(lon[i]),
+                                  float(h[i]), float(h[i] - t_h), photos))
+        current.clear()
+
+    for i in range(n):
+        if not keep[i]:
+            close()
+            continue
+        if current and (mission_of[i] != mission_of[current[0]]
+                        or np.linalg.norm(C[i] - C[current[0]]) > SAME_POSITION_M):
+            close()
+        current.append(i)
+    close()
+    return Flight(plan=plan, georef=georef, missions=tuple(missions), waypoints=tuple(waypoints),
+                  takeoff_m=(float(T[0]), float(T[1]), float(T[2])), takeoff_latitude_deg=t_lat, takeoff_longitude_deg=t_lon,
+                  takeoff_height_m=t_h, speed_m_s=float(speed_m_s), fmt=fmt)
+
+
+def mission_paths(path: Path, numbers: list[int], *, several: bool) -> dict[int, Path]:
+    """One output path per mission number: ``path`` itself, or ``stem_m01.ext``… when there are several."""
+    if not several:
+        return {numbers[0]: path} if numbers else {}
+    return {m: path.with_name(f"{path.stem}_m{m:02d}{path.suffix}") for m in numbers}
+
+
+def footprint(plan: Plan, i: int, plane_z: float) -> NDArray[np.float64] | None:
+    """(4, 3) model-frame corners where frame ``i``'s image-corner rays meet the plane z = ``plane_z``, in image
+    order (top-left, top-right, bottom-right, bottom-left); None for a 360° camera or when a ray misses the plane."""
+    cam = plan.camera_of(i)
+    if not isinstance(cam, PinholeCamera):
+        return None
+    u = np.array([0.0, cam.width, cam.width, 0.0])
+    v = np.array([0.0, 0.0, cam.height, cam.height])
+    d_cam = np.stack([(u - cam.cx) / cam.fx, (v - cam.cy) / cam.fy, np.ones(4)], axis=1)
+    d = d_cam @ np.asarray(plan.R_world_camera[i]).T
+    C = np.asarray(plan.C_world[i], float)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = (plane_z - C[2]) / d[:, 2]
+    if not (np.isfinite(t).all() and (t > 0).all()):
+        return None
+    return C + t[:, None] * d

@@ -1,0 +1,85 @@
+"""Litchi mission CSV export (the table Litchi Mission Hub imports and exports).
+
+Header: ``latitude,longitude,altitude(m),heading(deg),curvesize(m),rotationdir,gimbalmode,
+gimbalpitchangle,actiontype1,actionparam1,…,actiontype15,actionparam15,altitudemode,speed(m/s),
+poi_latitude,poi_longitude,poi_altitude(m),poi_altitudemode,photo_timeinterval,photo_distinterval``.
+
+One row per Litchi waypoint: altitude above take-off (``altitudemode`` 0), heading 0..360 (the
+first photo's true heading), curve size 0 (stop at the point), ``gimbalmode`` 2 (interpolate) with the
+first photo's pitch. Actions (type, param): 1 take photo (0); 4 rotate aircraft (heading) and 5 tilt
+camera (pitch) before each further photo whose heading or pitch differs; −1 (0) unused. A waypoint
+needing more than 15 actions becomes several rows at the same place; Litchi takes at most 99
+waypoints per mission, so longer missions are split into files ``stem_p1.csv``, ``stem_p2.csv``… (and
+``stem_m01_p1.csv``… when the plan has several missions).
+"""
+
+from __future__ import annotations
+
+import csv
+from pathlib import Path
+
+from .common import Flight, Waypoint, mission_paths, same_angle
+
+MAX_ACTIONS = 15
+MAX_WAYPOINTS = 99
+TAKE_PHOTO, ROTATE_AIRCRAFT, TILT_CAMERA, NO_ACTION = 1, 4, 5, -1
+HEADER = (["latitude", "longitude", "altitude(m)", "heading(deg)", "curvesize(m)", "rotationdir", "gimbalmode",
+           "gimbalpitchangle"]
+          + [f"action{kind}{k}" for k in range(1, MAX_ACTIONS + 1) for kind in ("type", "param")]
+          + ["altitudemode", "speed(m/s)", "poi_latitude", "poi_longitude", "poi_altitude(m)", "poi_altitudemode",
+             "photo_timeinterval", "photo_distinterval"])
+
+
+def _num(v: float, digits: int = 6) -> str:
+    text = f"{float(v):.{digits}f}".rstrip("0").rstrip(".")
+    return "0" if text in ("", "-0") else text
+
+
+def rows_of(waypoint: Waypoint) -> list[tuple[float, float, list[tuple[int, float]]]]:
+    """(heading, pitch, actions) of each Litchi row needed for one waypoint (≤ 15 actions a row): a row flies
+    to its first photo's heading and pitch; each further photo turns and tilts only where it differs."""
+    rows: list[tuple[float, float, list[tuple[int, float]]]] = []
+    heading = pitch = 0.0
+    for photo in waypoint.photos:
+        if rows:
+            extra: list[tuple[int, float]] = []
+            if not same_angle(photo.heading_deg, heading):
+                extra.append((ROTATE_AIRCRAFT, photo.heading_deg % 360.0))
+            if abs(photo.pitch_deg - pitch) > 1e-9:
+                extra.append((TILT_CAMERA, photo.pitch_deg))
+            extra.append((TAKE_PHOTO, 0.0))
+            if len(rows[-1][2]) + len(extra) <= MAX_ACTIONS:
+                rows[-1][2].extend(extra)
+                heading, pitch = photo.heading_deg, photo.pitch_deg
+                continue
+        rows.append((photo.heading_deg, photo.pitch_deg, [(TAKE_PHOTO, 0.0)]))
+        heading, pitch = photo.heading_deg, photo.pitch_deg
+    return rows
+
+
+def _row(flight: Flight, wp: Waypoint, heading: float, pitch: float, actions: list[tuple[int, float]]) -> list[str]:
+    cells = [_num(wp.latitude_deg, 9), _num(wp.longitude_deg, 9), _num(wp.altitude_m, 4), _num(heading % 360.0),
+             "0", "0", "2", _num(pitch)]
+    for k in range(MAX_ACTIONS):
+        kind, param = actions[k] if k < len(actions) else (NO_ACTION, 0.0)
+        cells += [str(kind), _num(param)]
+    cells += ["0", _num(flight.speed_m_s), "0", "0", "0", "0", "-1", "-1"]
+    return cells
+
+
+def write_litchi(flight: Flight, path: Path) -> list[Path]:
+    groups = flight.by_mission()
+    bases = mission_paths(path, [m for m, _ in groups], several=len(groups) > 1)
+    written: list[Path] = []
+    for m, wps in groups:
+        rows = [_row(flight, wp, h, p, acts) for wp in wps for h, p, acts in rows_of(wp)]
+        parts = [rows[k:k + MAX_WAYPOINTS] for k in range(0, len(rows), MAX_WAYPOINTS)]
+        base = bases[m]
+        for k, part in enumerate(parts, start=1):
+            out = base if len(parts) == 1 else base.with_name(f"{base.stem}_p{k}{base.suffix}")
+            with out.open("w", newline="", encoding="utf-8") as f:
+                w = csv.writer(f, lineterminator="\n")
+                w.writerow(HEADER)
+                w.writerows(part)
+            written.append(out)
+    return written

@@ -1,0 +1,42 @@
+"""``QGC WPL 110`` text export (Mission Planner ``.waypoints``, read by QGroundControl and MAVProxy).
+
+First line ``QGC WPL 110``; then one tab-separated line per item: ``seq current frame command p1 p2 p3
+p4 lat lon alt autocontinue``. Line 0 is the home (take-off) position, ``current`` 1, frame 0
+(``MAV_FRAME_GLOBAL``, absolute height); the items after it are the command sequence of
+:func:`sightplan.export.qgc.mission_items`, all in frame 3 (heights above home), autocontinue 1.
+One file per mission when the plan has several (``stem_m01.waypoints``…).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from .common import Flight, mission_paths
+from .qgc import FRAME_GLOBAL, FRAME_GLOBAL_RELATIVE_ALT, NAV_WAYPOINT, mission_items
+
+
+def _num(v: float, digits: int = 8) -> str:
+    text = f"{float(v):.{digits}f}".rstrip("0").rstrip(".")
+    return "0" if text in ("", "-0") else text
+
+
+def _line(seq: int, current: int, frame: int, command: int, params: list[float]) -> str:
+    p = [_num(v) for v in params[:4]] + [_num(params[4], 9), _num(params[5], 9), _num(params[6], 4)]
+    return "\t".join([str(seq), str(current), str(frame), str(command), *p, "1"])
+
+
+def wpl_text(flight: Flight, waypoints) -> str:
+    lines = ["QGC WPL 110",
+             _line(0, 1, FRAME_GLOBAL, NAV_WAYPOINT,
+                   [0, 0, 0, 0, flight.takeoff_latitude_deg, flight.takeoff_longitude_deg, flight.takeoff_height_m])]
+    for seq, it in enumerate(mission_items(flight, waypoints), start=1):
+        lines.append(_line(seq, 0, FRAME_GLOBAL_RELATIVE_ALT, it["command"], it["params"]))
+    return "\n".join(lines) + "\n"
+
+
+def write_wpl(flight: Flight, path: Path) -> list[Path]:
+    groups = flight.by_mission()
+    paths = mission_paths(path, [m for m, _ in groups], several=len(groups) > 1)
+    for m, wps in groups:
+        paths[m].write_text(wpl_text(flight, wps), encoding="utf-8")
+    return [paths[m] for m, _ in groups]

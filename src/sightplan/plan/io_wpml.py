@@ -1,0 +1,419 @@
+"""Import a DJI WPML mission: a ``.kmz`` (zip) holding ``wpmz/waylines.wpml`` (else ``wpmz/template.kml``).
+
+Both are KML documents with DJI's ``wpml`` elements (any ``http://www.dji.com/wpmz/…`` version).
+Each ``Folder`` (wayline) becomes one :class:`~sightplan.plan.types.Mission`; its ``Placemark``
+waypoints, in ``index`` order, are flown as follows:
+
+- position: ``Point`` coordinates "lon,lat"; height ``executeHeight`` (waylines; the Folder's
+  ``executeHeightMode``: relativeToStartPoint, or WGS84 used as the georeference's heights) or
+  ``height``/``globalHeight`` (template, ``waylineCoordinateSysParam/heightMode``). Heights relative
+  to the start point are added to the take-off point's height: the template's ``takeOffRefPoint``
+  ("lat,lon,height"), else the model's height 0 under the first waypoint (with a warning).
+- aircraft heading on arrival: ``waypointHeadingParam`` (or the Folder's global one):
+  ``waypointHeadingAngle`` (smoothTransition, fixed, manually), toward the next waypoint
+  (followWayline) or toward ``waypointPoiPoint`` (towardPOI).
+- actions (``actionGroup`` with trigger reachPoint, in order): ``rotateYaw`` sets the heading
+  (``aircraftHeading``); ``gimbalRotate`` the pitch (``gimbalPitchRotateAngle``) and a gimbal yaw
+  (absolute from north, or relative to the aircraft); each ``takePhoto`` makes one frame, as do
+  ``orientedShoot``/``accurateShoot`` with their own heading and pitch. Groups triggered by
+  multipleDistance/multipleTiming take a photo every param metres (or seconds at the wayline's
+  ``autoFlightSpeed``) from their first to their last waypoint, in flight order. The gimbal pitch is
+  kept from one waypoint to the next; before any is set, ``waypointGimbalPitchAngle`` or
+  ``gimbalPitchAngle``, else −90° (with a warning).
+
+A frame's name is its ``takePhoto`` ``fileSuffix`` when the file gives one. Without a georeference
+the model frame is topocentric at the take-off point (model +Y north), stored in
+``plan.parameters["georeference"]`` with ``plan.parameters["takeoff_m"]``. The camera is the
+payload's (``payloadEnumValue`` 66 Mavic 3E, 42 H20, 50 P1) when the catalogue has it, else ``camera``.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+import zipfile
+from dataclasses import dataclass
+from pathlib import Path
+from xml.etree import ElementTree as ET
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..camera.catalogue import get_camera, parse_camera_spec
+from ..camera.models import Camera
+from ..errors import CameraError, PlanError
+from ..geo import Georeference, GeoreferenceError
+from .io_qgc import differs
+from .poses import R_from_gimbal
+from .types import Mission, Plan
+
+PAYLOADS = {66: "m3e", 42: "h20", 50: "p1"}
+DRONES = {(77, 0): "m3e"}
+DEFAULT_PITCH_DEG = -90.0
+ABSOLUTE_HEIGHT_MODES = {"WGS84", "EGM96"}
+
+
+def _local(tag: str) -> str:
+    return tag.rsplit("}", 1)[-1]
+
+
+def _kids(el: ET.Element | None, name: str) -> list[ET.Element]:
+    return [] if el is None else [c for c in el if _local(c.tag) == name]
+
+
+def _kid(el: ET.Element | None, name: str) -> ET.Element | None:
+    found = _kids(el, name)
+    return found[0] if found else None
+
+
+def _text(el: ET.Element | None, name: str) -> str | None:
+    child = _kid(el, name)
+    return child.text.strip() if child is not None and child.text is not None else None
+
+
+def _num(el: ET.Element | None, name: str, where: str, default: float | None = None) -> float | None:
+    text = _text(el, name)
+    if text is None or text == "":
+        return default
+    try:
+        v = float(text)
+    except ValueError:
+        raise PlanError(f"{where}: {name} {text!r} is not a number") from None
+    if not math.isfinite(v):
+        raise PlanError(f"{where}: {name} is not a finite number")
+    return v
+
+
+def _numbers(text: str | None, n: int, what: str, where: str) -> list[float] | None:
+    if not text:
+        return None
+    try:
+        values = [float(v) for v in text.replace(" ", "").split(",")]
+    except ValueError:
+        raise PlanError(f"{where}: {what} {text!r} is not comma-separated numbers") from None
+    if len(values) < n or not all(math.isfinite(v) for v in values[:n]):
+        raise PlanError(f"{where}: {what} {text!r} needs {n} finite numbers")
+    return values
+
+
+@dataclass
+class _Waypoint:
+    index: int
+    lat: float
+    lon: float
+    height: float
+    relative: bool
+    pm: ET.Element
+    where: str
+
+
+@dataclass
+class _Photo:
+    wayline: int
+    position: NDArray
+    heading_true: float | None  # None: along the flight direction
+    heading_model: float | None
+    pitch: float
+    name: str
+
+
+def _parse(z: zipfile.ZipFile, name: str, path: Path) -> ET.Element:
+    try:
+        root = ET.fromstring(z.read(name))
+    except ET.ParseError as exc:
+        raise PlanError(f"{path.name}, {name}: not valid XML ({exc})") from None
+    doc = _kid(root, "Document") if _local(root.tag) == "kml" else None
+    if doc is None:
+        raise PlanError(f"{path.name}, {name}: not a KML document (<kml><Document>…)")
+    return doc
+
+
+def _camera(config: ET.Element | None, camera, where: str, warnings: list[str]) -> Camera:
+    payload = _text(_kid(config, "payloadInfo"), "payloadEnumValue")
+    drone = _kid(config, "droneInfo")
+    key = None
+    try:
+        key = PAYLOADS.get(int(payload)) if payload else None
+        if key is None and drone is not None:
+            key = DRONES.get((int(_text(drone, "droneEnumValue") or -1), int(_text(drone, "droneSubEnumValue") or 0)))
+    except ValueError:
+        key = None
+    if key is not None:
+        cam = get_camera(key)
+        if differs(camera, cam):
+            warnings.append(f"the mission's payload is the catalogue camera {key!r}: it is used, not the camera given")
+        return cam
+    if camera is not None:
+        try:
+            return parse_camera_spec(camera)
+        except CameraError as exc:
+            raise PlanError(f"{where}: {exc}") from None
+    raise PlanError(f"{where}: the mission's payload (payloadEnumValue {payload or 'none'}) is not a camera sightplan "
+                    "knows: say which camera took the photos with --camera (camera=, e.g. 'm3e')")
+
+
+def _waypoints(folder: ET.Element, template: bool, where: str) -> list[_Waypoint]:
+    if template:
+        mode = _text(_kid(folder, "waylineCoordinateSysParam"), "heightMode") or "relativeToStartPoint"
+        global_height = _num(folder, "globalHeight", where)
+    else:
+        mode = _text(folder, "executeHeightMode") or "relativeToStartPoint"
+        global_height = None
+    relative = mode not in ABSOLUTE_HEIGHT_MODES
+    out = []
+    for k, pm in enumerate(_kids(folder, "Placemark")):
+        w = f"{where}, Placemark {k + 1}"
+        coords = _numbers(_text(_kid(pm, "Point"), "coordinates"), 2, "Point coordinates", w)
+        if coords is None:
+            raise PlanError(f"{w}: no Point coordinates")
+        lon, lat = coords[0], coords[1]
+        if not (-90 <= lat <= 90 and -180 <= lon <= 180):
+            raise PlanError(f"{w}: latitude {lat} / longitude {lon} out of range (coordinates are 'longitude,latitude')")
+        index = _num(pm, "index", w, float(k))
+        if template:
+            use_global = _text(pm, "useGlobalHeight") == "1"
+            height = global_height if use_global else _num(pm, "height", w, global_height)
+        else:
+            height = _num(pm, "executeHeight", w)
+        if height is None:
+            raise PlanError(f"{w}: no height ({'height' if template else 'executeHeight'})")
+        out.append(_Waypoint(int(index), lat, lon, height, relative, pm, w))
+    out.sort(key=lambda wp: wp.index)
+    return out
+
+
+def _heading_param(pm: ET.Element, folder: ET.Element) -> ET.Element | None:
+    hp = _kid(pm, "waypointHeadingParam")
+    if hp is None or _text(pm, "useGlobalHeadingParam") == "1":
+        glob = _kid(folder, "globalWaypointHeadingParam")
+        hp = glob if glob is not None else hp
+    return hp
+
+
+def _bearing(a: NDArray, b: NDArray) -> float | None:
+    d = b[:2] - a[:2]
+    return None if math.hypot(*d) < 1e-6 else math.degrees(math.atan2(d[0], d[1])) % 360.0
+
+
+def _groups(folder: ET.Element) -> list[ET.Element]:
+    groups = [g for pm in _kids(folder, "Placemark") for g in _kids(pm, "actionGroup")]
+    return groups + _kids(folder, "actionGroup")
+
+
+def _flag(el: ET.Element | None, name: str, default: bool = True) -> bool:
+    text = _text(el, name)
+    return default if text is None else text == "1"
+
+
+@dataclass
+class _Gimbal:
+    """The gimbal pitch carried from waypoint to waypoint (None until set) and how often −90° was assumed."""
+
+    pitch: float | None = None
+    assumed: int = 0
+
+    def current(self) -> float:
+        if self.pitch is None:
+            self.assumed += 1
+            return DEFAULT_PITCH_DEG
+        return self.pitch
+
+
+def _along(P: NDArray, n: int) -> float | None:
+    """Model heading toward the next waypoint (else from the previous one)."""
+    if n + 1 < len(P):
+        b = _bearing(P[n], P[n + 1])
+        if b is not None:
+            return b
+    return _bearing(P[n - 1], P[n]) if n > 0 else None
+
+
+def _arrival_heading(wp: _Waypoint, folder: ET.Element, P: NDArray, n: int, georef: Georeference) -> tuple[
+        float | None, float | None]:
+    """(true heading, model heading) of the aircraft on reaching waypoint ``n``; one of them is None."""
+    hp = _heading_param(wp.pm, folder)
+    mode = _text(hp, "waypointHeadingMode") or "followWayline"
+    angle = _num(hp, "waypointHeadingAngle", wp.where)
+    if mode in ("smoothTransition", "fixed", "manually") and angle is not None:
+        return angle % 360.0, None
+    if mode == "towardPOI":
+        poi = _numbers(_text(hp, "waypointPoiPoint"), 2, "waypointPoiPoint", wp.where)
+        if poi is not None and (poi[0] or poi[1]):
+            q = georef.from_geodetic(poi[0], poi[1], georef.to_geodetic(P[n])[2])[0]
+            b = _bearing(P[n], q)
+            if b is not None:
+                return None, b
+    return None, _along(P, n) or 0.0
+
+
+def _fly_wayline(wayline: int, folder: ET.Element, wps: list[_Waypoint], P: NDArray, georef: Georeference,
+                 gimbal: _Gimbal, is_template: bool, where: str) -> list[_Photo]:
+    """The photos one wayline takes (see the module docstring)."""
+    speed = _num(folder, "autoFlightSpeed", where, 5.0) or 5.0
+    reach: dict[int, list[ET.Element]] = {}
+    spans: list[dict] = []
+    for g in _groups(folder):
+        gw = f"{where}, actionGroup {_text(g, 'actionGroupId')}"
+        s, e = int(_num(g, "actionGroupStartIndex", gw, 0.0)), int(_num(g, "actionGroupEndIndex", gw, 0.0))
+        trig = _kid(g, "actionTrigger")
+        kind = _text(trig, "actionTriggerType") or "reachPoint"
+        actions = _kids(g, "action")
+        if kind == "reachPoint":
+            for i in range(s, max(s, e) + 1):
+                reach.setdefault(i, []).extend(actions)
+        elif kind in ("multipleDistance", "multipleTiming"):
+            step = _num(trig, "actionTriggerParam", gw)
+            if step is None or step <= 0:
+                raise PlanError(f"{gw}: a {kind} trigger needs a positive actionTriggerParam")
+            if any(_text(a, "actionActuatorFunc") == "takePhoto" for a in actions):
+                spans.append({"start": s, "end": e, "step": step * (speed if kind == "multipleTiming" else 1.0),
+                              "travelled": 0.0, "next": 0.0})
+    photos: list[_Photo] = []
+    for n, wp in enumerate(wps):
+        heading_true, heading_model = _arrival_heading(wp, folder, P, n, georef)
+        gp = _num(_kid(wp.pm, "waypointGimbalHeadingParam"), "waypointGimbalPitchAngle", wp.where)
+        if gp is None and is_template:
+            gp = _num(wp.pm, "gimbalPitchAngle", wp.where)
+        if gp is not None and gimbal.pitch is None:
+            gimbal.pitch = gp
+        gimbal_abs: float | None = None
+        gimbal_rel = 0.0
+        count = 0
+        for action in reach.get(wp.index, []):
+            func = _text(action, "actionActuatorFunc")
+            prm = _kid(action, "actionActuatorFuncParam")
+            aw = f"{wp.where}, action {_text(action, 'actionId')} ({func})"
+            if func == "rotateYaw":
+                h = _num(prm, "aircraftHeading", aw)
+                if h is not None:
+                    heading_true, heading_model = h % 360.0, None
+            elif func == "gimbalRotate":
+                if _flag(prm, "gimbalPitchRotateEnable"):
+                    p = _num(prm, "gimbalPitchRotateAngle", aw)
+                    gimbal.pitch = p if p is not None else gimbal.pitch
+                if _flag(prm, "gimbalYawRotateEnable", False):
+                    y = _num(prm, "gimbalYawRotateAngle", aw, 0.0) or 0.0
+                    if (_text(prm, "gimbalRotateMode") or "absoluteAngle") == "absoluteAngle":
+                        gimbal_abs = y % 360.0
+                    else:
+                        gimbal_rel = y
+            elif func in ("takePhoto", "orientedShoot", "accurateShoot"):
+                count += 1
+                if func == "takePhoto":
+                    h_true = gimbal_abs if gimbal_abs is not None else (
+                        None if heading_true is None else (heading_true + gimbal_rel) % 360.0)
+                    p = gimbal.current()
+                else:
+                    h = _num(prm, "aircraftHeading", aw)
+                    h_true = (h % 360.0) if h is not None else heading_true
+                    p = _num(prm, "gimbalPitchRotateAngle", aw)
+                    p = gimbal.current() if p is None else p
+                h_model = None if h_true is not None else ((heading_model or 0.0) + gimbal_rel) % 360.0
+                suffix = _text(prm, "fileSuffix")
+                photos.append(_Photo(wayline, P[n], h_true, h_model, float(np.clip(p, -90, 90)),
+                                     suffix or f"w{wayline}_wp{wp.index:03d}_{count}"))
+        if n + 1 < len(wps):  # the leg to the next waypoint: photos of the distance or time triggers over it
+            leg = P[n + 1] - P[n]
+            length = float(np.linalg.norm(leg))
+            for span in spans:
+                if not (span["start"] <= wp.index and wps[n + 1].index <= span["end"]) or length == 0:
+                    continue
+                while span["next"] <= span["travelled"] + length + 1e-9:
+                    s_leg = span["next"] - span["travelled"]
+                    photos.append(_Photo(wayline, P[n] + s_leg / length * leg, None, _bearing(P[n], P[n + 1]) or 0.0,
+                                         gimbal.current(), f"w{wayline}_wp{wp.index:03d}_d{len(photos) + 1}"))
+                    span["next"] += span["step"]
+                span["travelled"] += length
+    return photos
+
+
+def read_wpml(path: str | Path, georef: Georeference | None = None, camera: Camera | str | dict | None = None) -> Plan:
+    """A plan from a DJI WPML ``.kmz`` mission; see the module docstring."""
+    path = Path(path)
+    try:
+        z = zipfile.ZipFile(path)
+    except zipfile.BadZipFile:
+        raise PlanError(f"{path.name} is not a KMZ (zip) file") from None
+    except OSError as exc:
+        raise PlanError(f"cannot read {path}: {exc.strerror or exc}") from None
+    with z:
+        names = z.namelist()
+        waylines = next((n for n in names if n.lower().endswith("wpmz/waylines.wpml")), None)
+        template_name = next((n for n in names if n.lower().endswith("wpmz/template.kml")), None)
+        if waylines is None and template_name is None:
+            raise PlanError(f"{path.name}: no wpmz/waylines.wpml or wpmz/template.kml inside: not a DJI WPML mission")
+        doc = _parse(z, waylines or template_name, path)
+        template_doc = _parse(z, template_name, path) if template_name and waylines else None
+    is_template = waylines is None
+    where = f"{path.name}, {waylines or template_name}"
+    warnings: list[str] = []
+    config = _kid(doc, "missionConfig")
+    ref_text = _text(config, "takeOffRefPoint") or _text(_kid(template_doc, "missionConfig"), "takeOffRefPoint")
+    ref = _numbers(ref_text, 2, "takeOffRefPoint", where)
+    folders = [(f, _waypoints(f, is_template, f"{where}, Folder {k + 1}")) for k, f in enumerate(_kids(doc, "Folder"))]
+    folders = [(f, wps) for f, wps in folders if wps]
+    if not folders:
+        raise PlanError(f"{where}: no wayline (Folder) with waypoints (Placemark)")
+    first = folders[0][1][0]
+    any_relative = any(wp.relative for _, wps in folders for wp in wps)
+    if ref is not None:
+        t_lat, t_lon = ref[0], ref[1]
+        t_h = ref[2] if len(ref) > 2 else None
+    else:
+        t_lat, t_lon, t_h = first.lat, first.lon, None
+    try:
+        if georef is None:
+            georef = Georeference.from_origin(t_lat, t_lon, t_h or 0.0, 0.0, source=f"take-off point of {path.name}")
+        if t_h is None:
+            xy = georef.from_geodetic(t_lat, t_lon, 0.0)[0]
+            t_h = float(georef.to_geodetic([xy[0], xy[1], 0.0])[2][0])
+            if any_relative:
+                warnings.append("the mission has no take-off reference point (takeOffRefPoint): heights above the start "
+                                "point are taken from the model's height 0 under the first waypoint")
+        takeoff_xyz = georef.from_geodetic(t_lat, t_lon, t_h)[0]
+        all_wps = [wp for _, wps in folders for wp in wps]
+        xyz_all = georef.from_geodetic([w.lat for w in all_wps], [w.lon for w in all_wps],
+                                       [t_h + w.height if w.relative else w.height for w in all_wps])
+    except GeoreferenceError as exc:
+        raise PlanError(f"{where}: {exc}") from None
+    if any(not wp.relative for _, wps in folders for wp in wps):
+        warnings.append("WGS84 (ellipsoidal) heights read as heights in the georeference's datum, without a geoid correction")
+    cam = _camera(config if config is not None else _kid(template_doc, "missionConfig"), camera, where, warnings)
+
+    photos: list[_Photo] = []
+    missions: list[tuple[str, int, int]] = []
+    waypoints_xyz: list[NDArray] = []
+    gimbal = _Gimbal()
+    n_wp = 0
+    for k, (folder, wps) in enumerate(folders):
+        wayline = int(_num(folder, "waylineId", where, _num(folder, "templateId", where, float(k))) or 0)
+        P = xyz_all[n_wp:n_wp + len(wps)]
+        n_wp += len(wps)
+        waypoints_xyz.extend(P)
+        start = len(photos)
+        photos.extend(_fly_wayline(wayline, folder, wps, P, georef, gimbal, is_template, where))
+        if len(photos) > start:
+            missions.append((f"wayline {wayline}", start, len(photos)))
+    if not photos:
+        raise PlanError(f"{where}: the mission takes no photo (no takePhoto action)")
+    if gimbal.assumed:
+        warnings.append(f"no gimbal pitch before {gimbal.assumed} photo(s): {DEFAULT_PITCH_DEG:g}° (nadir) assumed")
+    C = np.array([p.position for p in photos])
+    heading = np.array([p.heading_model if p.heading_true is None else np.nan for p in photos], float)
+    fixed = np.flatnonzero(np.isnan(heading))
+    if len(fixed):
+        heading[fixed] = georef.model_heading(C[fixed], [photos[i].heading_true for i in fixed])
+    names = [p.name for p in photos]
+    seen: dict[str, int] = {}
+    for i, name in enumerate(names):
+        seen[name] = seen.get(name, 0) + 1
+        if seen[name] > 1:
+            names[i] = f"{name}_{seen[name]}"
+    R = R_from_gimbal(heading, [p.pitch for p in photos], 0.0)
+    cid = cam.name or "camera"
+    params = {"source": {"format": "wpml", "path": str(path)}, "georeference": georef.to_dict(),
+              "takeoff_m": [float(v) for v in takeoff_xyz],
+              "home": {"latitude_deg": t_lat, "longitude_deg": t_lon, "height_m": t_h}, "warnings": warnings}
+    return Plan.build({cid: cam}, R, C, frame_names=[re.sub(r"\s+", "_", n) for n in names],
+                      missions=tuple(Mission(*m) for m in missions), waypoints=np.array(waypoints_xyz).reshape(-1, 3),
+                      parameters=params)

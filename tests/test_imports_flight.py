@@ -1,0 +1,403 @@
+"""Imports of flight-app missions: QGroundControl .plan, QGC WPL 110 and DJI WPML .kmz.
+
+Real QGroundControl and Mission Planner files (../shared/data/plans, skipped when absent) are
+counted independently of the importer: with plain ``json`` (and geodesic distances from pyproj's
+Geod for the distance-triggered survey), and with pymavlink for the WPL file. Exports of a known
+plan read back to the same centres, headings and pitches.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import zipfile
+
+import numpy as np
+import pytest
+from pyproj import Geod
+
+from conftest import shared_file
+from sightplan.errors import PlanError
+from sightplan.export import export_plan
+from sightplan.geo import Georeference
+from sightplan.plan.load import detect_format, load_plan
+from sightplan.plan.poses import gimbal_from_R
+from test_exports import GEOREFS, TAKEOFF, angle_diff, facade_plan
+
+GEOD = Geod(ellps="WGS84")
+
+
+def plan_georef(plan) -> Georeference:
+    return Georeference.from_dict(plan.parameters["georeference"])
+
+
+def true_headings(plan) -> np.ndarray:
+    h, _, _ = gimbal_from_R(plan.R_world_camera)
+    return plan_georef(plan).true_heading(plan.C_world, h)
+
+
+def pitches(plan) -> np.ndarray:
+    return gimbal_from_R(plan.R_world_camera)[1]
+
+
+# -- real QGroundControl files -----------------------------------------------------------------
+
+
+def test_qgc_simple_items_real_file():
+    path = shared_file("plans", "qgroundcontrol_sample.plan")
+    doc = json.loads(path.read_text())
+    items = doc["mission"]["items"]
+    captures = [k for k, it in enumerate(items) if it["command"] == 2000]
+    waypoints = [it for it in items if it["command"] == 16]
+    plan = load_plan(path, camera="p4p")
+    assert len(plan) == len(captures) == 1
+    assert len(plan.waypoints) == len(waypoints) == 3
+    # the photo is taken at the waypoint just before the capture command, 50 m above home
+    wp = items[captures[0] - 1]
+    home = doc["mission"]["plannedHomePosition"]
+    georef = plan_georef(plan)
+    assert georef.kind == "topocentric" and (georef.latitude_deg, georef.longitude_deg) == (home[0], home[1])
+    np.testing.assert_allclose(plan.parameters["takeoff_m"], [0, 0, 0], atol=1e-6)
+    np.testing.assert_allclose(plan.C_world[0], georef.from_geodetic(wp["params"][4], wp["params"][5],
+                                                                     home[2] + wp["params"][6])[0], atol=0.01)
+    # yaw null: the heading is along the flight, toward the next waypoint
+    nxt = items[captures[0] + 1]
+    azimuth = GEOD.inv(wp["params"][5], wp["params"][4], nxt["params"][5], nxt["params"][4])[0] % 360
+    assert angle_diff(true_headings(plan)[0], azimuth) < 0.05
+    assert pitches(plan)[0] == pytest.approx(-90.0)
+    assert any("pitch -90° (nadir) assumed" in w for w in plan.parameters["warnings"])
+    assert str(plan.camera_of(0).name).startswith("DJI Phantom 4 Pro")
+
+
+def survey_frames_by_geodesics(items: list[dict]) -> tuple[int, list[float]]:
+    """Photos of a survey's expanded items: one on each DO_SET_CAM_TRIGG_DIST with param3 = 1, then one every
+    param1 metres of flight (geodesic) until param1 = 0. Returns the count and the distances between the photos."""
+    count, trigger, travelled, next_at, prev = 0, None, 0.0, 0.0, None
+    spots: list[float] = []
+    for it in items:
+        p = it["params"]
+        if it["command"] == 16:
+            if prev is not None and trigger:
+                length = GEOD.inv(prev[1], prev[0], p[5], p[4])[2]
+                while next_at <= travelled + length + 1e-6:
+                    count += 1
+                    spots.append(next_at)
+                    next_at += trigger
+                travelled += length
+            prev = (p[4], p[5])
+        elif it["command"] == 206:
+            trigger = p[0] if p[0] > 0 else None
+            travelled, next_at = 0.0, p[0]
+            if trigger and p[2] == 1:
+                count += 1
+                spots.append(0.0)
+    return count, spots
+
+
+def test_qgc_survey_real_file():
+    path = shared_file("plans", "qgroundcontrol_sample_with_survey.plan")
+    doc = json.loads(path.read_text())
+    survey = next(it for it in doc["mission"]["items"] if it.get("complexItemType") == "survey")
+    tsi = survey["TransectStyleComplexItem"]
+    items = tsi["Items"]
+    expected, _ = survey_frames_by_geodesics(items)
+    plan = load_plan(path, camera="p4p")
+    assert len(plan) == expected == 7
+    assert abs(len(plan) - tsi["CameraShots"]) <= 1  # QGroundControl's own estimate: ⌈distance / trigger distance⌉
+    assert len(plan.waypoints) == sum(it["command"] == 16 for it in items) == len(tsi["VisualTransectPoints"])
+    np.testing.assert_allclose(pitches(plan), -90.0)  # survey: nadir
+    assert not plan.parameters["warnings"]
+    # every photo on the flight path at the survey altitude; consecutive photos of one trigger run 25 m apart
+    georef = plan_georef(plan)
+    home_h = doc["mission"]["plannedHomePosition"][2]
+    lat, lon, h = georef.to_geodetic(plan.C_world)
+    np.testing.assert_allclose(h - home_h, 50.0, atol=0.01)
+    first = items[0]["params"]
+    assert GEOD.inv(first[5], first[4], lon[0], lat[0])[2] < 0.05  # the first photo at the first waypoint
+    gap = GEOD.inv(lon[1], lat[1], lon[2], lat[2])[2]
+    assert gap == pytest.approx(items[1]["params"][0], abs=0.05)  # 2nd → 3rd: one trigger distance on a straight leg
+    # headings along the flight direction: the first transect flies west
+    assert angle_diff(true_headings(plan)[0], 270.0) < 0.1
+
+
+def test_qgc_structure_scan_real_file():
+    path = shared_file("plans", "qgroundcontrol_sample_with_structured_scan.plan")
+    doc = json.loads(path.read_text())
+    scan = next(it for it in doc["mission"]["items"] if it.get("complexItemType") == "StructureScan")
+    cc = scan["CameraCalc"]
+    d, side, frontal = cc["DistanceToSurface"], cc["AdjustedFootprintSide"], cc["AdjustedFootprintFrontal"]
+    # the polygon in a local east/north plane (equirectangular about its first vertex)
+    lat0, lon0 = scan["polygon"][0]
+    k = math.pi / 180 * 6371008.8
+    xy = np.array([[(lon - lon0) * k * math.cos(math.radians(lat0)), (lat - lat0) * k] for lat, lon in scan["polygon"]])
+    edges = np.roll(xy, -1, axis=0) - xy
+    perimeter = np.linalg.norm(edges, axis=1).sum()
+    prev = np.roll(edges, 1, axis=0)
+    turns = np.arctan2(prev[:, 0] * edges[:, 1] - prev[:, 1] * edges[:, 0], np.einsum("ij,ij->i", prev, edges))
+    assert np.all(turns < 0)  # convex and clockwise, as QGroundControl flies it
+    # offsetting a convex polygon outward by d with mitred corners adds 2·d·tan(turn/2) per corner
+    offset_perimeter = perimeter + 2 * d * np.tan(np.abs(turns) / 2).sum()
+    per_layer = 1 + math.floor(offset_perimeter / side)  # one photo on starting, then one every `side` metres
+    assert 0.05 < offset_perimeter / side % 1 < 0.95  # not at a rounding edge
+    plan = load_plan(path, camera="p4p")
+    assert len(plan) == scan["Layers"] * per_layer == 50
+    georef = plan_georef(plan)
+    home_h = doc["mission"]["plannedHomePosition"][2]
+    heights = georef.to_geodetic(plan.C_world)[2] - home_h
+    top = scan["StructureHeight"] - frontal / 2
+    np.testing.assert_allclose(heights[:per_layer], top, atol=0.01)
+    np.testing.assert_allclose(heights[per_layer:], top - frontal, atol=0.01)
+    np.testing.assert_allclose(pitches(plan), scan["GimbalPitch"], atol=1e-9)
+    # every photo looks at the structure from at least the distance to the surface
+    poly = georef.from_geodetic([p[0] for p in scan["polygon"]], [p[1] for p in scan["polygon"]], [home_h] * 4)[:, :2]
+    centroid = poly.mean(axis=0)
+    forward = plan.R_world_camera[:, :2, 2]
+    assert np.all(np.einsum("ij,ij->i", forward, centroid - plan.C_world[:, :2]) > 0)
+    a, b = poly, np.roll(poly, -1, axis=0)
+    for c in plan.C_world[:, :2]:
+        t = np.clip(np.einsum("ij,ij->i", c - a, b - a) / np.einsum("ij,ij->i", b - a, b - a), 0, 1)
+        assert np.linalg.norm(a + t[:, None] * (b - a) - c, axis=1).min() > d - 0.1
+
+
+def test_qgc_digicam_without_waypoints_real_file():
+    path = shared_file("plans", "qgroundcontrol_sample_with_digicam_control.plan")
+    items = json.loads(path.read_text())["mission"]["items"]
+    assert [it["command"] for it in items] == [203]  # a photo and no position at all
+    with pytest.raises(PlanError, match="has no waypoint"):
+        load_plan(path, camera="p4p")
+
+
+def test_wpl_real_file_with_pymavlink():
+    mavwp = pytest.importorskip("pymavlink.mavwp")
+    path = shared_file("plans", "mission_planner_sample.txt")
+    assert detect_format(path) == "wpl"
+    loader = mavwp.MAVWPLoader()
+    n = loader.load(str(path))
+    wps = [loader.wp(k) for k in range(n)]
+    nav = [w for w in wps[1:] if w.command == 16]
+    plan = load_plan(path, camera="p4p")
+    assert len(plan) == len(nav) == 2  # no photo command: every waypoint is a frame
+    assert any("no photo command" in w for w in plan.parameters["warnings"])
+    georef = plan_georef(plan)
+    assert (georef.latitude_deg, georef.longitude_deg, georef.height_m) == (wps[0].x, wps[0].y, wps[0].z)
+    assert all(w.frame == 5 for w in nav)  # MAV_FRAME_GLOBAL_INT: heights above sea level
+    np.testing.assert_allclose(plan.C_world, georef.from_geodetic([w.x for w in nav], [w.y for w in nav],
+                                                                  [w.z for w in nav]), atol=0.01)
+
+
+# -- export → import ---------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("fmt, ext", [("qgc", "plan"), ("wpml", "kmz"), ("wpl", "waypoints")])
+@pytest.mark.parametrize("kind", GEOREFS)
+def test_export_import_round_trip(tmp_path, fmt, ext, kind):
+    georef, _ = GEOREFS[kind]
+    plan = facade_plan()
+    paths = export_plan(plan, fmt, tmp_path / f"facade.{ext}", georef, TAKEOFF)
+    back = [load_plan(p, georef=georef, camera="m3e") for p in paths]
+    C = np.vstack([b.C_world for b in back])
+    np.testing.assert_allclose(C, plan.C_world, atol=0.1)
+    h0, p0, _ = gimbal_from_R(plan.R_world_camera)
+    h1, p1, r1 = (np.concatenate(v) for v in zip(*(gimbal_from_R(b.R_world_camera) for b in back)))
+    assert max(angle_diff(a, b) for a, b in zip(h0, h1)) < 0.01
+    np.testing.assert_allclose(p1, p0, atol=0.01)
+    np.testing.assert_allclose(r1, 0.0, atol=1e-9)
+    missions = [m.name for b in back for m in b.missions]
+    assert len(missions) == 2
+    for b in back:
+        np.testing.assert_allclose(b.parameters["takeoff_m"], TAKEOFF, atol=0.01)
+    if fmt != "wpl":  # QGroundControl keeps sightplan's names; WPML the takePhoto file suffixes
+        assert [n for b in back for n in b.frame_names] == plan.frame_names.tolist()
+
+
+def test_wpml_import_without_georeference_uses_the_take_off_point(tmp_path):
+    georef, _ = GEOREFS["projected"]
+    plan = facade_plan()
+    (path,) = export_plan(plan, "wpml", tmp_path / "facade.kmz", georef, TAKEOFF)
+    back = load_plan(path)  # camera from the payload (Mavic 3E), frame: topocentric at the take-off point
+    assert back.camera_of(0) == plan.camera_of(0)
+    own = plan_georef(back)
+    assert own.kind == "topocentric" and own.north_deg == 0.0
+    np.testing.assert_allclose(back.parameters["takeoff_m"], 0.0, atol=1e-6)
+    lat, lon, h = georef.to_geodetic(plan.C_world)
+    np.testing.assert_allclose(back.C_world, own.from_geodetic(lat, lon, h), atol=0.1)
+    # the same true headings in both frames
+    h0, _, _ = gimbal_from_R(plan.R_world_camera)
+    want = georef.true_heading(plan.C_world, h0)
+    assert max(angle_diff(a, b) for a, b in zip(true_headings(back), want)) < 0.01
+
+
+def test_wpml_template_only(tmp_path):
+    georef, _ = GEOREFS["projected"]
+    plan = facade_plan()
+    (path,) = export_plan(plan, "wpml", tmp_path / "facade.kmz", georef, TAKEOFF)
+    only = tmp_path / "template_only.kmz"
+    with zipfile.ZipFile(path) as z, zipfile.ZipFile(only, "w") as out:
+        out.writestr("wpmz/template.kml", z.read("wpmz/template.kml"))
+    back = load_plan(only, georef=georef)
+    np.testing.assert_allclose(back.C_world, plan.C_world, atol=0.1)
+    h0, p0, _ = gimbal_from_R(plan.R_world_camera)
+    h1, p1, _ = gimbal_from_R(back.R_world_camera)
+    assert max(angle_diff(a, b) for a, b in zip(h0, h1)) < 0.01
+    np.testing.assert_allclose(p1, p0, atol=0.01)
+
+
+def test_wpml_distance_trigger_follow_wayline_and_relative_gimbal_yaw(tmp_path):
+    georef = Georeference.from_origin(47.0, 8.0, 500.0)  # model +Y north
+    lat, lon, _ = (v.tolist() for v in georef.to_geodetic([[0, 0, 0], [0, 30, 0], [40, 30, 0]]))
+    wpml = "http://www.dji.com/wpmz/1.0.6"  # another WPML version than the exporter's
+
+    def mark(k: int, actions: str) -> str:
+        return (f"<Placemark><Point><coordinates>{lon[k]!r},{lat[k]!r}</coordinates></Point><wpml:index>{k}</wpml:index>"
+                f"<wpml:executeHeight>20</wpml:executeHeight><wpml:waypointHeadingParam><wpml:waypointHeadingMode>"
+                f"followWayline</wpml:waypointHeadingMode></wpml:waypointHeadingParam>{actions}</Placemark>")
+
+    photo = "<wpml:action><wpml:actionActuatorFunc>takePhoto</wpml:actionActuatorFunc></wpml:action>"
+    gimbal = ("<wpml:action><wpml:actionActuatorFunc>gimbalRotate</wpml:actionActuatorFunc><wpml:actionActuatorFuncParam>"
+              "<wpml:gimbalRotateMode>relativeAngle</wpml:gimbalRotateMode><wpml:gimbalPitchRotateEnable>1"
+              "</wpml:gimbalPitchRotateEnable><wpml:gimbalPitchRotateAngle>-35</wpml:gimbalPitchRotateAngle>"
+              "<wpml:gimbalYawRotateEnable>1</wpml:gimbalYawRotateEnable><wpml:gimbalYawRotateAngle>-90"
+              "</wpml:gimbalYawRotateAngle></wpml:actionActuatorFuncParam></wpml:action>")
+    every_10m = ("<wpml:actionGroup><wpml:actionGroupStartIndex>0</wpml:actionGroupStartIndex><wpml:actionGroupEndIndex>1"
+                 "</wpml:actionGroupEndIndex><wpml:actionTrigger><wpml:actionTriggerType>multipleDistance"
+                 "</wpml:actionTriggerType><wpml:actionTriggerParam>10</wpml:actionTriggerParam></wpml:actionTrigger>"
+                 f"{photo}</wpml:actionGroup>")
+    at_2 = ("<wpml:actionGroup><wpml:actionGroupStartIndex>2</wpml:actionGroupStartIndex><wpml:actionGroupEndIndex>2"
+            f"</wpml:actionGroupEndIndex><wpml:actionTrigger><wpml:actionTriggerType>reachPoint</wpml:actionTriggerType>"
+            f"</wpml:actionTrigger>{gimbal}{photo}</wpml:actionGroup>")
+    doc = (f"<kml xmlns='http://www.opengis.net/kml/2.2' xmlns:wpml='{wpml}'><Document><wpml:missionConfig>"
+           f"<wpml:takeOffRefPoint>{lat[0]!r},{lon[0]!r},500</wpml:takeOffRefPoint></wpml:missionConfig><Folder>"
+           f"<wpml:executeHeightMode>relativeToStartPoint</wpml:executeHeightMode><wpml:waylineId>0</wpml:waylineId>"
+           f"{mark(0, every_10m)}{mark(1, '')}{mark(2, at_2)}</Folder></Document></kml>")
+    path = tmp_path / "hand.kmz"
+    with zipfile.ZipFile(path, "w") as z:
+        z.writestr("wpmz/waylines.wpml", doc)
+    plan = load_plan(path, camera="m3e")
+    np.testing.assert_allclose(plan.C_world, [[0, 0, 20], [0, 10, 20], [0, 20, 20], [0, 30, 20], [40, 30, 20]], atol=0.01)
+    h, p, _ = gimbal_from_R(plan.R_world_camera)
+    for got, want in zip(h, [0, 0, 0, 0, 90 - 90]):  # along the flight north; at the last point east, gimbal −90
+        assert angle_diff(got, want) < 0.01
+    np.testing.assert_allclose(p, [-90, -90, -90, -90, -35], atol=1e-9)  # no pitch before the gimbalRotate: nadir
+    assert any("nadir" in w for w in plan.parameters["warnings"])
+
+
+def test_qgc_commands_set_heading_pitch_and_region_of_interest(tmp_path):
+    georef = Georeference.from_origin(47.0, 8.0, 100.0)  # model +Y north, z 0 at the home height
+    lat, lon, _ = georef.to_geodetic([[0, 10, 20], [20, 10, 20], [20, 30, 0]])
+
+    def item(command, params, frame=2):
+        return {"type": "SimpleItem", "command": command, "frame": frame, "params": params, "autoContinue": True}
+
+    items = [
+        item(22, [0, 0, 0, None, lat[0], lon[0], 20], 3),
+        item(16, [0, 0, 0, None, lat[0], lon[0], 20], 3),
+        item(205, [-30, 0, 0, 0, 0, 0, 2]), item(2000, [0, 0, 1, 0, 0, 0, 0]),      # along the flight: east
+        item(115, [200, 0, 0, 0, 0, 0, 0]), item(2000, [0, 0, 1, 0, 0, 0, 0]),      # absolute yaw 200
+        item(1000, [-45, 10, 0, 0, 0, 0, 0]), item(2000, [0, 0, 1, 0, 0, 0, 0]),    # gimbal yaw +10 relative
+        item(1000, [-45, 0, 0, 0, 0, 0, 0]),
+        item(16, [0, 0, 0, 45, lat[1], lon[1], 20], 3),
+        item(203, [0, 0, 0, 0, 1, 0, 0]),                                           # yaw 45 at the waypoint
+        item(203, [0, 0, 0, 0, 0, 0, 0]),                                           # no shoot command: ignored
+        item(201, [3, 0, 0, 0, lat[2], lon[2], 0], 3), item(2000, [0, 0, 1, 0, 0, 0, 0]),  # look at (20, 30, 0)
+        item(20, [0] * 7),
+    ]
+    doc = {"fileType": "Plan", "version": 1, "mission": {"version": 2, "items": items, "plannedHomePosition": [47.0, 8.0, 100.0],
+                                                          "hoverSpeed": 5}}
+    path = tmp_path / "commands.plan"
+    path.write_text(json.dumps(doc))
+    plan = load_plan(path, camera="m3e")
+    assert len(plan) == 5
+    np.testing.assert_allclose(plan.C_world, [[0, 10, 20]] * 3 + [[20, 10, 20]] * 2, atol=0.01)
+    h, p, _ = gimbal_from_R(plan.R_world_camera)
+    look = math.degrees(math.atan2(-20, 20))
+    for got, want in zip(h, [90, 200, 210, 45, 0]):
+        assert angle_diff(got, want) < 0.01
+    np.testing.assert_allclose(p, [-30, -30, -45, -45, look], atol=0.01)
+    assert any("DO_DIGICAM_CONTROL" in w for w in plan.parameters["warnings"])
+
+
+# -- bad input ---------------------------------------------------------------------------------
+
+
+def qgc_doc(lat) -> dict:
+    return {"fileType": "Plan", "version": 1, "mission": {"version": 2, "plannedHomePosition": [47.0, 8.0, 400.0], "items": [
+        {"type": "SimpleItem", "command": 16, "frame": 3, "doJumpId": 1, "params": [0, 0, 0, None, lat, 8.0, 20]},
+        {"type": "SimpleItem", "command": 2000, "frame": 2, "doJumpId": 2, "params": [0, 0, 1, 0, 0, 0, 0]}]}}
+
+
+@pytest.mark.parametrize("lat", [None, float("nan")])
+def test_qgc_nan_latitude(tmp_path, lat):
+    path = tmp_path / "nan.plan"
+    path.write_text(json.dumps(qgc_doc(lat)))  # NaN is written as the (non-standard) literal NaN
+    with pytest.raises(PlanError, match=r"nan.plan, mission item 1: NAV_WAYPOINT latitude is not a finite number"):
+        load_plan(path, camera="m3e")
+
+
+@pytest.mark.parametrize("text, message", [
+    ("{\"fileType\": \"Plan\",", "not valid JSON"),
+    ("{\"fileType\": \"Mission\"}", "not a QGroundControl plan"),
+    ("{\"fileType\": \"Plan\", \"mission\": {\"items\": []}}", "plannedHomePosition"),
+    ("{\"fileType\": \"Plan\", \"mission\": {\"plannedHomePosition\": [47, 8, 0], \"items\": [{\"type\": \"SimpleItem\"}]}}",
+     "mission item 1: the SimpleItem lacks 'command'"),
+    ("{\"fileType\": \"Plan\", \"mission\": {\"plannedHomePosition\": [47, 8, 0], \"items\": "
+     "[{\"type\": \"ComplexItem\", \"complexItemType\": \"survey\"}]}}", "no expanded 'Items'"),
+])
+def test_qgc_corrupt_files(tmp_path, text, message):
+    path = tmp_path / "bad.plan"
+    path.write_text(text)
+    with pytest.raises(PlanError, match=message):
+        load_plan(path, camera="m3e")
+
+
+def test_qgc_without_camera_asks_for_one(tmp_path):
+    path = tmp_path / "ok.plan"
+    path.write_text(json.dumps(qgc_doc(47.0001)))
+    with pytest.raises(PlanError, match="--camera"):
+        load_plan(path)
+    assert len(load_plan(path, camera="m3e")) == 1
+
+
+def test_wpl_corrupt_lines(tmp_path):
+    path = tmp_path / "bad.waypoints"
+    path.write_text("QGC WPL 110\n0\t1\t0\t16\t0\t0\t0\t0\t47\t8\t400\t1\n1\t0\t3\t16\t0\t0\t0\t0\t47.1\t8\n")
+    with pytest.raises(PlanError, match="bad.waypoints, line 3: expected 12 values"):
+        load_plan(path, camera="m3e")
+    path.write_text("QGC WPL 110\n0\t1\t0\t16\t0\t0\t0\t0\t47\t8\t400\t1\n1\t0\t3\t16\t0\t0\t0\t0\tnan\t8\t20\t1\n")
+    with pytest.raises(PlanError, match="line 3: NAV_WAYPOINT latitude is not a finite number"):
+        load_plan(path, camera="m3e")
+    path.write_text("QGC WPL 100\n")
+    with pytest.raises(PlanError, match="not a QGC WPL 110"):
+        load_plan(path, fmt="wpl", camera="m3e")
+
+
+def test_corrupt_kmz(tmp_path):
+    not_zip = tmp_path / "a.kmz"
+    not_zip.write_text("hello")
+    with pytest.raises(PlanError, match="a.kmz is not a KMZ"):
+        load_plan(not_zip, camera="m3e")
+    no_wpmz = tmp_path / "b.kmz"
+    with zipfile.ZipFile(no_wpmz, "w") as z:
+        z.writestr("doc.kml", "<kml/>")
+    with pytest.raises(PlanError, match="b.kmz: no wpmz/waylines.wpml or wpmz/template.kml"):
+        load_plan(no_wpmz, camera="m3e")
+    bad_xml = tmp_path / "c.kmz"
+    with zipfile.ZipFile(bad_xml, "w") as z:
+        z.writestr("wpmz/waylines.wpml", "<kml><Document><Folder>")
+    with pytest.raises(PlanError, match="c.kmz, wpmz/waylines.wpml: not valid XML"):
+        load_plan(bad_xml, camera="m3e")
+    no_height = tmp_path / "d.kmz"
+    with zipfile.ZipFile(no_height, "w") as z:
+        z.writestr("wpmz/waylines.wpml", "<kml xmlns='http://www.opengis.net/kml/2.2'><Document><Folder><Placemark>"
+                                         "<Point><coordinates>8,47</coordinates></Point></Placemark></Folder></Document></kml>")
+    with pytest.raises(PlanError, match="Placemark 1: no height"):
+        load_plan(no_height, camera="m3e")
+
+
+def test_detect_format_by_name_and_first_line(tmp_path):
+    wpl = tmp_path / "mission.txt"
+    wpl.write_text("QGC WPL 110\n")
+    colmap = tmp_path / "images.txt"
+    colmap.write_text("# Image list with two lines of data per image:\n")
+    assert detect_format(wpl) == "wpl" and detect_format(colmap) == "colmap"
+    assert detect_format(tmp_path / "m.plan") == "qgc" and detect_format(tmp_path / "m.kmz") == "wpml"
+    assert detect_format(tmp_path / "m.waypoints") == "wpl"
