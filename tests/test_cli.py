@@ -348,3 +348,41 @@ def test_plan_options_match_the_library(tmp_path):
     assert len(json.loads(out.read_text())["frames"]) == len(lawnmower(scene, cam, gsd_m=0.005, oblique_pitch_deg=-60))
     assert_clean_error(run_cli("plan", "facade", "sample", "--footprint", "hull", cwd=tmp_path), "--footprint")
     assert_clean_error(run_cli("plan", "bridge", "sample", "--point", "0,0", cwd=tmp_path), "axis")
+
+
+def test_export_then_read_back_and_georeference_errors(tmp_path):
+    import xml.etree.ElementTree as ET
+    import zipfile
+
+    import trimesh
+
+    plan = tmp_path / "facade.json"
+    assert run_cli("plan", "facade", "sample", "--safety-distance", "8", "-o", str(plan), cwd=tmp_path).returncode == 0
+    d = json.loads(plan.read_text())
+    res = run_cli("export", str(plan), "--format", "wpml", "-o", str(tmp_path / "f.kmz"), cwd=tmp_path)
+    assert res.returncode == 0, res.stderr
+    assert "IfcSite" in res.stdout  # placed with the Duplex's site latitude/longitude, recorded in the plan
+    with zipfile.ZipFile(tmp_path / "f.kmz") as z:
+        root = ET.fromstring(z.read("wpmz/waylines.wpml"))
+    ns = {"kml": "http://www.opengis.net/kml/2.2", "wpml": "http://www.dji.com/wpmz/1.0.2"}
+    folders = root.findall(".//kml:Folder", ns)
+    assert len(folders) == len(d["missions"])  # one wayline per mission
+    assert len(root.findall(".//wpml:actionActuatorFunc[.='takePhoto']", ns)) == len(d["frames"])
+    res = run_cli("export", str(plan), "--format", "qgc", "-o", str(tmp_path / "f.plan"), "--mission", "2", cwd=tmp_path)
+    assert res.returncode == 0, res.stderr
+    m2 = d["missions"][1]
+    res = run_cli("evaluate", "sample", str(tmp_path / "f.plan"), "--scale", "0.05", "--no-picture",
+                  "--out", str(tmp_path / "r"), cwd=tmp_path)
+    assert res.returncode == 0, res.stderr
+    assert json.loads((tmp_path / "r" / "report.json").read_text())["metrics"]["frames"] == m2["frames"][1] - m2["frames"][0]
+    # a mesh has no georeference: a geographic export says what to set, and --origin fixes it
+    box = tmp_path / "box.obj"
+    trimesh.creation.box((20.0, 10.0, 8.0)).export(box)
+    res = run_cli("plan", "orbit", str(box), "--radius", "30", "--height", "10", "-o", str(tmp_path / "o.json"), cwd=tmp_path)
+    assert res.returncode == 0, res.stderr
+    assert_clean_error(run_cli("export", str(tmp_path / "o.json"), "--format", "kml", cwd=tmp_path), "--origin")
+    res = run_cli("export", str(tmp_path / "o.json"), "--format", "kml", "--origin", "52.0,5.0,10", "--north", "15",
+                  cwd=tmp_path)
+    assert res.returncode == 0, res.stderr
+    assert (tmp_path / "o.kml").exists()
+    assert_clean_error(run_cli("export", str(plan), "--format", "litchi", "--mission", "9", cwd=tmp_path), "--mission 9")

@@ -401,3 +401,27 @@ def test_detect_format_by_name_and_first_line(tmp_path):
     assert detect_format(wpl) == "wpl" and detect_format(colmap) == "colmap"
     assert detect_format(tmp_path / "m.plan") == "qgc" and detect_format(tmp_path / "m.kmz") == "wpml"
     assert detect_format(tmp_path / "m.waypoints") == "wpl"
+
+
+def test_relative_heights_take_off_from_the_models_ground(tmp_path):
+    """An app's home altitude (488 m here) is not the model's datum: with ground_z, heights above home start there."""
+    from sightplan.geo import Georeference
+    from sightplan.plan.load import load_plan
+
+    def item(cmd, params, frame=3):
+        return {"type": "SimpleItem", "command": cmd, "frame": frame, "params": params, "autoContinue": True}
+
+    mission = {"fileType": "Plan", "version": 1, "groundStation": "QGroundControl",
+               "mission": {"version": 2, "plannedHomePosition": [41.8744, -87.6394, 488.0], "items": [
+                   item(22, [0, 0, 0, None, 41.8744, -87.6394, 30]),
+                   item(16, [0, 0, 0, 90.0, 41.8745, -87.6394, 30]),
+                   item(205, [-45, 0, 0, 0, 0, 0, 2], frame=2),
+                   item(2000, [0, 0, 1, 0, 0, 0, 0], frame=2)]}}
+    path = tmp_path / "m.plan"
+    path.write_text(json.dumps(mission))
+    geo = Georeference.from_origin(41.8744, -87.6394, 0.0)  # a model whose site elevation is nominal
+    plan = load_plan(path, camera="p4p", georef=geo, ground_z=-1.0)
+    # 0.0001° of latitude north of the origin is 11.1 m; 30 m above a take-off on the ground at z = −1
+    np.testing.assert_allclose(plan.C_world[0], [0.0, 11.1, 29.0], atol=0.05)
+    plain = load_plan(path, camera="p4p", georef=geo)
+    assert plain.C_world[0, 2] == pytest.approx(518.0, abs=0.05)  # the app's home altitude taken literally

@@ -12,7 +12,7 @@ from rich.table import Table
 from ..engines.base import EngineName
 from ..model.mesh import MeshGrouping
 from .errors import friendly_errors
-from .loading import load_with_progress
+from .loading import georef_kwargs, load_with_progress
 from .main import app, console
 
 
@@ -116,7 +116,8 @@ def evaluate(
         the_plan = ring_plan(scene, get_camera(ring_camera), n_frames=ring_frames, distance_m=ring_distance)
         plan_label = f"ring of {ring_frames} frames ({ring_camera})"
     else:
-        the_plan = load_plan(plan, camera=get_camera(camera) if camera else None, transform=transform)
+        the_plan = load_plan(plan, camera=get_camera(camera) if camera else None, transform=transform,
+                             **georef_kwargs(scene))
         plan_label = plan
         for warning in the_plan.parameters.get("warnings", []):
             console.print(f"[yellow]warning:[/] {warning}", highlight=False)

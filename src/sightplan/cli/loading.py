@@ -20,3 +20,10 @@ def load_with_progress(console: Console, model: str, cache: bool, mesh_elements:
         if name.lower().endswith(tuple(MESH_EXTENSIONS)):
             extra = {"elements": mesh_elements, "scale": mesh_scale}
         return load_model(model, cache=cache, **extra)
+
+
+def georef_kwargs(scene) -> dict:
+    """A flight-app mission (latitude/longitude) is placed with the model's georeference, taking off from its base."""
+    from ..geo import Georeference
+
+    return {"georef": Georeference.from_scene_metadata(scene.metadata), "ground_z": float(scene.bounds()[0][2])}

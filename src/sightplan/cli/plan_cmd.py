@@ -10,7 +10,7 @@ import typer
 
 from .errors import friendly_errors
 from .flight import AircraftOpt, AltitudeOpt, SafetyOpt, StationOpt, VlosOpt, flight_settings, parse_point, print_feasibility
-from .loading import load_with_progress
+from .loading import georef_kwargs, load_with_progress
 from .main import app, console
 
 TemplateName = Literal["facade", "orbit", "lawnmower", "bridge", "route"]
@@ -141,7 +141,7 @@ def check_command(
     from ..plan.load import load_plan
 
     scene, _ = load_with_progress(console, model, cache)
-    plan = load_plan(plan_file, camera=camera, **georef_kwargs(plan_file, scene))
+    plan = load_plan(plan_file, camera=camera, **georef_kwargs(scene))
     settings = flight_settings(safety_distance, vlos_radius, ground_station, aircraft, altitude_limit)
     report = (plan_flights if split else check_plan)(scene, plan, settings)
     print_feasibility(console, report, f"{Path(plan_file).name} against {Path(str(model)).name}")
@@ -153,15 +153,3 @@ def check_command(
         console.print(f"wrote {json_out}")
     if not report.ok:
         raise typer.Exit(1)
-
-
-def georef_kwargs(plan_file: str, scene) -> dict:
-    """A flight-app mission (geographic) is placed with the model's georeference, when the loader takes one."""
-    import inspect
-
-    from ..geo import Georeference
-    from ..plan.load import load_plan
-
-    if "georef" not in inspect.signature(load_plan).parameters:
-        return {}
-    return {"georef": Georeference.from_scene_metadata(scene.metadata)}

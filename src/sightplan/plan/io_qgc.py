@@ -608,7 +608,8 @@ def _recorded(block: dict, n: int, camera, src: MissionSource) -> tuple[dict | N
     return cameras, [str(c) for c in per_frame]
 
 
-def plan_from_source(src: MissionSource, georef: Georeference | None, camera: Camera | str | dict | None) -> Plan:
+def plan_from_source(src: MissionSource, georef: Georeference | None, camera: Camera | str | dict | None,
+                     ground_z: float | None = None) -> Plan:
     """Fly a parsed mission and build the plan (frames, waypoints, georeference, take-off point, warnings)."""
     home = src.home
     if home is None:
@@ -630,6 +631,9 @@ def plan_from_source(src: MissionSource, georef: Georeference | None, camera: Ca
                                                  f"of {src.path.name}")
     try:
         home_xyz = georef.from_geodetic(home[0], home[1], home[2])[0]
+        if ground_z is not None:  # take off from the model's ground: heights above home are measured from there
+            home = (home[0], home[1], float(georef.to_geodetic([[home_xyz[0], home_xyz[1], ground_z]])[2][0]))
+            home_xyz = georef.from_geodetic(home[0], home[1], home[2])[0]
     except GeoreferenceError as exc:
         raise PlanError(f"{src.path.name}: home position: {exc}") from None
     frames, waypoints = fly(src, georef, home_xyz, home)
@@ -654,11 +658,13 @@ def plan_from_source(src: MissionSource, georef: Georeference | None, camera: Ca
                       waypoints=np.array(waypoints).reshape(-1, 3), parameters=params)
 
 
-def read_qgc_plan(path: str | Path, georef: Georeference | None = None, camera: Camera | str | dict | None = None) -> Plan:
-    """A plan from a QGroundControl ``.plan`` mission; see the module docstring."""
-    return plan_from_source(parse_qgc_plan(Path(path)), georef, camera)
+def read_qgc_plan(path: str | Path, georef: Georeference | None = None, camera: Camera | str | dict | None = None,
+                  ground_z: float | None = None) -> Plan:
+    """A plan from a QGroundControl ``.plan`` mission; see the module docstring (``ground_z``: :func:`load_plan`)."""
+    return plan_from_source(parse_qgc_plan(Path(path)), georef, camera, ground_z)
 
 
-def read_wpl(path: str | Path, georef: Georeference | None = None, camera: Camera | str | dict | None = None) -> Plan:
+def read_wpl(path: str | Path, georef: Georeference | None = None, camera: Camera | str | dict | None = None,
+             ground_z: float | None = None) -> Plan:
     """A plan from a ``QGC WPL 110`` waypoint file (Mission Planner ``.waypoints``); see the module docstring."""
-    return plan_from_source(parse_wpl(Path(path)), georef, camera)
+    return plan_from_source(parse_wpl(Path(path)), georef, camera, ground_z)

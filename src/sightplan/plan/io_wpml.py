@@ -327,8 +327,10 @@ def _fly_wayline(wayline: int, folder: ET.Element, wps: list[_Waypoint], P: NDAr
     return photos
 
 
-def read_wpml(path: str | Path, georef: Georeference | None = None, camera: Camera | str | dict | None = None) -> Plan:
-    """A plan from a DJI WPML ``.kmz`` mission; see the module docstring."""
+def read_wpml(path: str | Path, georef: Georeference | None = None, camera: Camera | str | dict | None = None,
+              ground_z: float | None = None) -> Plan:
+    """A plan from a DJI WPML ``.kmz`` mission; see the module docstring (``ground_z``: see
+    :func:`~sightplan.plan.load.load_plan`: the take-off point is put on the model's ground)."""
     path = Path(path)
     try:
         z = zipfile.ZipFile(path)
@@ -364,6 +366,9 @@ def read_wpml(path: str | Path, georef: Georeference | None = None, camera: Came
     try:
         if georef is None:
             georef = Georeference.from_origin(t_lat, t_lon, t_h or 0.0, 0.0, source=f"take-off point of {path.name}")
+        if ground_z is not None:
+            xy = georef.from_geodetic(t_lat, t_lon, t_h or 0.0)[0]
+            t_h = float(georef.to_geodetic([[xy[0], xy[1], ground_z]])[2][0])
         if t_h is None:
             xy = georef.from_geodetic(t_lat, t_lon, 0.0)[0]
             t_h = float(georef.to_geodetic([xy[0], xy[1], 0.0])[2][0])

@@ -156,6 +156,7 @@ def load_plan(
     camera: Camera | str | dict | None = None,
     transform: ArrayLike | str | Path | None = None,
     georef: Georeference | None = None,
+    ground_z: float | None = None,
 ) -> Plan:
     """A Plan from any supported file or folder.
 
@@ -165,6 +166,10 @@ def load_plan(
     (:func:`parse_camera_spec`) or camera model.
     georef: for flight-app missions (latitude/longitude), the georeference that places them in
     the model frame; without one they get a topocentric frame at their home point.
+    ground_z: for flight-app missions, the model-frame height of the ground the aircraft takes
+    off from (e.g. the model's base). Heights above the take-off point are then measured from
+    it, not from the file's home altitude: an app's home altitude is a rough terrain value in
+    some datum, and a model's elevation is often only nominal.
     transform: optional (4, 4) similarity (or a JSON file of one, :func:`read_transform`) from the file's frame to the model frame
     (:func:`apply_similarity`).
     """
@@ -180,11 +185,11 @@ def load_plan(
     elif kind == "csv":
         plan = in_capture_order(read_csv_plan(path, camera=camera))
     elif kind == "qgc":
-        plan = read_qgc_plan(path, georef=georef, camera=camera)
+        plan = read_qgc_plan(path, georef=georef, camera=camera, ground_z=ground_z)
     elif kind == "wpl":
-        plan = read_wpl(path, georef=georef, camera=camera)
+        plan = read_wpl(path, georef=georef, camera=camera, ground_z=ground_z)
     elif kind == "wpml":
-        plan = read_wpml(path, georef=georef, camera=camera)
+        plan = read_wpml(path, georef=georef, camera=camera, ground_z=ground_z)
     else:
         plan = _from_json(path, fmt)
     if camera is not None and kind != "csv" and kind not in FLIGHT_FORMATS:
