@@ -334,7 +334,7 @@ def test_qgc_nan_latitude(tmp_path, lat):
 
 
 @pytest.mark.parametrize("text, message", [
-    ("{\"fileType\": \"Plan\",", "not valid JSON"),
+    ("{\"fileType\": \"Plan\",", "not JSON"),
     ("{\"fileType\": \"Mission\"}", "not a QGroundControl plan"),
     ("{\"fileType\": \"Plan\", \"mission\": {\"items\": []}}", "plannedHomePosition"),
     ("{\"fileType\": \"Plan\", \"mission\": {\"plannedHomePosition\": [47, 8, 0], \"items\": [{\"type\": \"SimpleItem\"}]}}",

@@ -37,7 +37,6 @@ sensor and lens), else ``camera``. A plan written by :mod:`sightplan.export.qgc`
 
 from __future__ import annotations
 
-import json
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -50,6 +49,7 @@ from ..camera.catalogue import get_camera, parse_camera_spec
 from ..camera.models import Camera, PinholeCamera, camera_from_dict
 from ..errors import CameraError, PlanError
 from ..geo import Georeference, GeoreferenceError
+from .format import read_json
 from .poses import R_from_gimbal
 from .types import Mission, Plan
 
@@ -229,12 +229,7 @@ def _complex(item: dict, where: str, ident: int) -> tuple[list[Command], dict]:
 
 def parse_qgc_plan(path: Path) -> MissionSource:
     """The commands of a QGroundControl ``.plan`` file, complex items expanded."""
-    try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except OSError as exc:
-        raise PlanError(f"cannot read {path}: {exc.strerror or exc}") from None
-    except (ValueError, UnicodeDecodeError) as exc:
-        raise PlanError(f"{path.name} is not valid JSON: {exc}") from None
+    data = read_json(path)
     if not isinstance(data, dict) or data.get("fileType") != "Plan":
         raise PlanError(f"{path.name} is not a QGroundControl plan (expected \"fileType\": \"Plan\")")
     mission = data.get("mission")
