@@ -156,3 +156,37 @@ def test_indoor_route_samples_the_polyline():
     np.testing.assert_allclose(plan.R_world_camera[6][:, 2], [0, 1, 0], atol=1e-12)  # second leg runs north
     with pytest.raises(PlanError, match="repeats"):
         indoor_route(cam, [[0, 0, 1.6], [0, 0, 1.6]], 1.0)
+
+
+def test_orbit_aimed_at_the_nearest_surface():
+    box = box_scene()  # 20 × 10 × 8 m from the origin, centre (10, 5)
+    plan = orbit(box, P4P, [30.0, 12.0], [4.0, 20.0], step_deg=90, aim="surface")
+    from sightplan.plan.poses import gimbal_from_R
+
+    heading, pitch, _ = gimbal_from_R(plan.R_world_camera)
+    # ring 1 at 4 m: due north (10, 35) faces the north wall head-on, due east (40, 5) the east wall
+    np.testing.assert_allclose(plan.C_world[:2], [[10, 35, 4], [40, 5, 4]], atol=1e-9)
+    np.testing.assert_allclose(heading[:2], [180, 270], atol=1e-6)
+    np.testing.assert_allclose(pitch[:2], [0, 0], atol=1e-6)
+    # ring 2 at 20 m, 12 m out: due north (10, 17) looks down at the roof's north edge (10, 10, 8)
+    assert heading[4] == pytest.approx(180, abs=1e-6)
+    assert pitch[4] == pytest.approx(-math.degrees(math.atan2(12, 7)), abs=1e-6)
+    with pytest.raises(PlanError, match="aim"):
+        orbit(box, P4P, [30.0], [4.0], aim="roof")
+
+
+def test_routes_per_storey_from_a_csv(tmp_path):
+    from sightplan.plan.templates import indoor_routes, read_routes
+
+    f = tmp_path / "routes.csv"
+    f.write_text("route,x,y,z\nground,0,0,1.5\nground,10,0,1.5\nfirst,0,0,4.5\nfirst,0,6,4.5\nfirst,3,6,4.5\n")
+    polylines, names = read_routes(f)
+    plan = indoor_routes(get_camera("theta-z1"), polylines, names=names, step_m=2.0)
+    # ground: 10 m → 6 frames; first: 6 + 3 = 9 m → ceil(4.5) + 1 = 6 frames
+    assert [(m.name, m.stop - m.start) for m in plan.missions] == [("ground", 6), ("first", 6)]
+    assert plan.C_world[6:, 2].tolist() == [4.5] * 6
+    f.write_text("route,x,y,z\nground,0,0,one\n")
+    with pytest.raises(PlanError, match="line 2"):
+        read_routes(f)
+    with pytest.raises(PlanError, match="first: .*repeats"):
+        indoor_routes(get_camera("theta-z1"), [[[0, 0, 0], [1, 0, 0]], [[0, 0, 0], [0, 0, 0]]], 1.0, names=["g", "first"])

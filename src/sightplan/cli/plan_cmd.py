@@ -42,6 +42,9 @@ def plan_command(
         help="facade: grids on the sides of the bounding 'box', or around the model's real 'outline'")] = "box",
     oblique_pitch: Annotated[float | None, typer.Option(
         help="lawnmower: add crossed east–west lines with the gimbal at this pitch (e.g. -60): a double grid")] = None,
+    routes: Annotated[Path | None, typer.Option(
+        help="route: polylines from a file (JSON lists of [x, y, z], or CSV route,x,y,z), one mission each")] = None,
+    aim: Annotated[str, typer.Option(help="orbit: aim at the model's 'centre' or its nearest 'surface'")] = "centre",
     under_deck: Annotated[bool, typer.Option(help="bridge: add a pass under the deck, looking up")] = True,
     deck_z: Annotated[float | None, typer.Option(help="bridge: height of the deck's underside (default: found)")] = None,
     vlos_radius: VlosOpt = 500.0,
@@ -58,7 +61,7 @@ def plan_command(
     from ..errors import PlanError
     from ..plan.checks.feasibility import check_plan, plan_flights
     from ..plan.format import write_plan
-    from ..plan.templates import bridge, facade_grid, indoor_route, lawnmower, orbit
+    from ..plan.templates import bridge, facade_grid, indoor_route, indoor_routes, lawnmower, orbit, read_routes
 
     scene, _ = load_with_progress(console, model, cache)
     cam = get_camera(camera)
@@ -75,7 +78,7 @@ def plan_command(
     elif template == "orbit":
         if not radius or not height:
             raise PlanError("an orbit needs --radius and --height, once per ring")
-        plan = orbit(scene, cam, radius, height, step_deg=step, overlap=overlap)
+        plan = orbit(scene, cam, radius, height, step_deg=step, overlap=overlap, aim=aim)  # type: ignore[arg-type]
     elif template == "lawnmower":
         plan = lawnmower(scene, cam, altitude_m=altitude, gsd_m=gsd, front_overlap=overlap, side_overlap=side_overlap,
                          oblique_pitch_deg=oblique_pitch)
@@ -86,9 +89,12 @@ def plan_command(
         plan = bridge(scene, cam, axis, safety_distance, heights_m=height or None, under_deck=under_deck, overlap=overlap,
                       deck_z=deck_z)
     else:
-        if not point or step is None:
-            raise PlanError("a route needs --point x,y,z at least twice and --step in metres")
-        plan = indoor_route(cam, [parse_point(p, "route point") for p in point], step)
+        if (not point and routes is None) or step is None:
+            raise PlanError("a route needs --point x,y,z at least twice (or --routes FILE) and --step in metres")
+        if routes is not None:
+            plan = indoor_routes(cam, *read_routes(routes), step_m=step)
+        else:
+            plan = indoor_route(cam, [parse_point(p, "route point") for p in point], step)
     report = (plan_flights if split else check_plan)(scene, plan, settings)
     plan = with_site(report.plan, scene)
     write_plan(plan, output)

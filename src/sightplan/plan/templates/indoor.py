@@ -37,3 +37,60 @@ def indoor_route(camera: Camera, points_m: ArrayLike, step_m: float, pitch_deg: 
     R = R_from_gimbal(heading, np.full(n, pitch_deg), 0.0)
     return Plan.build(camera, R, C, missions=(Mission("route", 0, n),), waypoints=P,
                       parameters={"template": "indoor_route", "step_m": float(step_m), "length_m": float(total)})
+
+
+def indoor_routes(camera: Camera, polylines: list[ArrayLike], step_m: float, pitch_deg: float = 0.0,
+                  names: list[str] | None = None) -> Plan:
+    """Several walked polylines (e.g. one per storey), each sampled as :func:`indoor_route` and walked as one mission."""
+    if not polylines:
+        raise PlanError("give at least one route")
+    names = names or [f"route {k + 1}" for k in range(len(polylines))]
+    if len(names) != len(polylines):
+        raise PlanError(f"{len(names)} route names for {len(polylines)} routes")
+    parts = []
+    for k, points in enumerate(polylines):
+        try:
+            parts.append(indoor_route(camera, points, step_m, pitch_deg))
+        except PlanError as exc:
+            raise PlanError(f"{names[k]}: {exc}") from None
+    C = np.concatenate([p.C_world for p in parts])
+    R = np.concatenate([p.R_world_camera for p in parts])
+    bounds = np.cumsum([0] + [len(p) for p in parts])
+    missions = tuple(Mission(names[k], int(bounds[k]), int(bounds[k + 1])) for k in range(len(parts)))
+    return Plan.build(camera, R, C, missions=missions, waypoints=np.concatenate([p.waypoints for p in parts]),
+                      parameters={"template": "indoor_route", "step_m": float(step_m), "routes": len(parts),
+                                  "length_m": float(sum(p.parameters["length_m"] for p in parts))})
+
+
+def read_routes(path) -> tuple[list[np.ndarray], list[str]]:
+    """Polylines from a file: JSON ``[[[x, y, z], …], …]`` or ``{"name": [[x, y, z], …], …}``, or CSV with
+    columns ``route, x, y, z`` (rows in walking order; a route is the rows sharing a name)."""
+    import csv
+    import json
+    from pathlib import Path
+
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise PlanError(f"cannot read the routes {path}: {exc}") from None
+    if path.suffix.lower() == ".json":
+        try:
+            d = json.loads(text)
+        except ValueError as exc:
+            raise PlanError(f"{path.name} is not JSON: {exc}") from None
+        items = list(d.items()) if isinstance(d, dict) else [(f"route {k + 1}", v) for k, v in enumerate(d or [])]
+        try:
+            return [np.asarray(v, float) for _, v in items], [str(k) for k, _ in items]
+        except (TypeError, ValueError):
+            raise PlanError(f"{path.name}: each route must be a list of [x, y, z] points in metres") from None
+    rows = list(csv.DictReader(text.splitlines()))
+    if not rows or not {"x", "y", "z"} <= set(rows[0]):
+        raise PlanError(f"{path.name}: a routes CSV needs columns x, y, z (and route to hold several)")
+    routes: dict[str, list] = {}
+    for line, r in enumerate(rows, start=2):
+        try:
+            routes.setdefault(r.get("route") or "route 1", []).append([float(r["x"]), float(r["y"]), float(r["z"])])
+        except (TypeError, ValueError):
+            raise PlanError(f"{path.name}, line {line}: x, y, z must be numbers") from None
+    return [np.asarray(v) for v in routes.values()], list(routes)

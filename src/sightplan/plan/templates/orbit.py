@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from typing import Literal
 
 import numpy as np
 from numpy.typing import NDArray
@@ -25,14 +26,18 @@ def ring_poses(centre: NDArray, radius: float, z: float, n: int) -> tuple[NDArra
 
 
 def orbit(scene: Scene, camera: Camera, radii_m: list[float], heights_m: list[float], step_deg: float | None = None,
-          overlap: float | None = 0.8) -> Plan:
+          overlap: float | None = 0.8, aim: Literal["centre", "surface"] = "centre") -> Plan:
     """One ring per (radius, height) pair, frames every ``step_deg`` or by ``overlap``.
 
     radii_m: horizontal distances from the box's centre; heights_m: camera heights (model
     frame). With ``overlap``, the step keeps that share of the horizontal field of view in
     common at the distance to the box's centre (eq. 11 with g = radius); ``step_deg``
-    overrides it. Each ring is a mission; frames aim at the box's centre.
+    overrides it. Each ring is a mission. ``aim``: frames look at the box's centre, or at
+    the nearest point of the model's surface (the nearest wall head-on; a ring above the
+    roof looks down at it).
     """
+    if aim not in ("centre", "surface"):
+        raise PlanError(f"aim must be 'centre' or 'surface', got {aim!r}")
     if len(radii_m) != len(heights_m) or not radii_m:
         raise PlanError("give one height per ring radius (and at least one ring)")
     lo, hi = scene.bounds()
@@ -57,6 +62,24 @@ def orbit(scene: Scene, camera: Camera, radii_m: list[float], heights_m: list[fl
         pitch.extend(p.tolist())
         missions.append(Mission(f"ring {k + 1}", first, len(C)))
     C = np.asarray(C)
+    if aim == "surface":
+        heading, pitch = _toward(C, nearest_surface_points(scene, C))
     return Plan.build(camera, R_from_gimbal(heading, pitch, 0.0), C, missions=tuple(missions), waypoints=C,
                       parameters={"template": "orbit", "radii_m": list(map(float, radii_m)),
-                                  "heights_m": list(map(float, heights_m)), "step_deg": step_deg, "overlap": overlap})
+                                  "heights_m": list(map(float, heights_m)), "step_deg": step_deg, "overlap": overlap,
+                                  "aim": aim})
+
+
+def nearest_surface_points(scene: Scene, points: NDArray) -> NDArray[np.float64]:
+    """(n, 3) the closest point of the model's triangles to each of the (n, 3) points."""
+    import trimesh
+
+    mesh = trimesh.Trimesh(scene.vertices, scene.faces, process=False)
+    closest, _, _ = trimesh.proximity.closest_point(mesh, np.asarray(points, float))
+    return np.asarray(closest, float)
+
+
+def _toward(C: NDArray, target: NDArray) -> tuple[NDArray, NDArray]:
+    """(n,) heading and pitch in degrees that aim from each of C at the matching target."""
+    v = target - C
+    return np.degrees(np.arctan2(v[:, 0], v[:, 1])), np.degrees(np.arctan2(v[:, 2], np.hypot(v[:, 0], v[:, 1])))
