@@ -386,3 +386,18 @@ def test_export_then_read_back_and_georeference_errors(tmp_path):
     assert res.returncode == 0, res.stderr
     assert (tmp_path / "o.kml").exists()
     assert_clean_error(run_cli("export", str(plan), "--format", "litchi", "--mission", "9", cwd=tmp_path), "--mission 9")
+
+
+def test_plan_routes_file_and_orbit_aim(tmp_path):
+    routes = tmp_path / "walk.json"
+    routes.write_text(json.dumps({"ground": [[1, -20, 0.5], [1, 3, 0.5]], "first": [[1, -20, 3.5], [1, -10, 3.5]]}))
+    out = tmp_path / "walk_plan.json"
+    res = run_cli("plan", "route", "sample", "--camera", "theta-z1", "--routes", str(routes), "--step", "1",
+                  "-o", str(out), cwd=tmp_path)
+    assert res.returncode == 0, res.stderr
+    d = json.loads(out.read_text())
+    assert [(m["name"], m["frames"][1] - m["frames"][0]) for m in d["missions"]] == [("ground", 24), ("first", 11)]
+    res = run_cli("plan", "orbit", "sample", "--radius", "30", "--height", "5", "--aim", "surface", "-o", str(out),
+                  cwd=tmp_path)
+    assert res.returncode == 0, res.stderr
+    assert json.loads(out.read_text())["parameters"]["aim"] == "surface"

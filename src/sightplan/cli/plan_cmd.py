@@ -92,7 +92,8 @@ def plan_command(
         if (not point and routes is None) or step is None:
             raise PlanError("a route needs --point x,y,z at least twice (or --routes FILE) and --step in metres")
         if routes is not None:
-            plan = indoor_routes(cam, *read_routes(routes), step_m=step)
+            polylines, names = read_routes(routes)
+            plan = indoor_routes(cam, polylines, step, names=names)
         else:
             plan = indoor_route(cam, [parse_point(p, "route point") for p in point], step)
     report = (plan_flights if split else check_plan)(scene, plan, settings)
