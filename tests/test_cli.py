@@ -147,7 +147,8 @@ def test_date_before_anything_is_built(tmp_path):
 def test_schedule_that_links_nothing(tmp_path):
     csv = tmp_path / "schedule.csv"
     csv.write_text("global_id,start,finish\n0000000000000000000000,2025-01-01,2025-02-01\n")
-    assert_clean_error(run_cli("evaluate", "sample", "--schedule", str(csv), cwd=tmp_path), "links no element")
+    assert_clean_error(run_cli("evaluate", "sample", "--schedule", str(csv), cwd=tmp_path), "none is in this model",
+                       "rules file")
 
 
 def test_impossible_camera_in_plan(sample_run, tmp_path):

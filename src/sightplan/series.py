@@ -87,7 +87,11 @@ class ProgressSeries:
             ax.plot(days, ys, marker="o", color="#1f6f43" if name != "built" else "#555555", drawstyle="steps-post"
                     if name == "built" else "default")
             ax.grid(alpha=0.3)
-            ax.xaxis.set_major_formatter(mdates.ConciseDateFormatter(mdates.AutoDateLocator()))
+            locator = mdates.AutoDateLocator(minticks=2, maxticks=5, interval_multiples=True)
+            locator.intervald[mdates.HOURLY] = []  # capture dates are days: never tick hours
+            ax.xaxis.set_major_locator(locator)
+            ax.xaxis.set_major_formatter(mdates.DateFormatter("%Y-%m-%d"))
+            ax.tick_params(axis="x", labelrotation=30)
         fig.suptitle(title or "capture plan over the schedule")
         fig.tight_layout()
         fig.savefig(path, dpi=110)

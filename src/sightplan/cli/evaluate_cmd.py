@@ -12,6 +12,17 @@ from rich.table import Table
 from ..engines.base import EngineName
 from ..model.mesh import MeshGrouping
 from .errors import friendly_errors
+from .fourd import (
+    ActualOpt,
+    BasisOpt,
+    DateOpt,
+    RulesOpt,
+    ScheduleOpt,
+    UnscheduledOpt,
+    check_date_options,
+    link_with_schedule,
+    scene_at,
+)
 from .loading import georef_kwargs, load_with_progress
 from .main import app, console
 
@@ -54,10 +65,12 @@ def evaluate(
              "cameras of its own, it replaces them")] = None,
     ring_frames: Annotated[int, typer.Option(help="Frames in the ring plan when no PLAN is given")] = 36,
     ring_distance: Annotated[float, typer.Option(help="Ring clearance from the model's box (m)")] = 15.0,
-    date: Annotated[str | None, typer.Option(help="Capture date YYYY-MM-DD: only elements built by then exist")] = None,
-    schedule: Annotated[Path | None, typer.Option(help="CSV schedule: global_id (or name), start, finish")] = None,
-    date_basis: Annotated[str, typer.Option(help="Which schedule date builds an element: finish or start")] = "finish",
-    unscheduled: Annotated[str, typer.Option(help="Elements no schedule dates: present at every date, or absent")] = "present",
+    date: DateOpt = None,
+    schedule: ScheduleOpt = None,
+    rules: RulesOpt = None,
+    prefer_actual: ActualOpt = False,
+    date_basis: BasisOpt = "finish",
+    unscheduled: UnscheduledOpt = "present",
     engine: Annotated[EngineName, typer.Option(help="Visibility engine")] = "auto",
     scale: Annotated[float, typer.Option(help="Resolution scale s: cast (s·W)×(s·H) rays and scale counts")] = 1.0,
     omega: Annotated[float, typer.Option(help="Visibility threshold Ω in pixels")] = 625.0,
@@ -81,7 +94,6 @@ def evaluate(
 ) -> None:
     """Evaluate a capture plan against a model: VC, V̄C, VR, R, O, T, per element and per frame."""
     from ..camera.catalogue import get_camera
-    from ..errors import SightplanError
     from ..evaluate import EvaluationSettings
     from ..evaluate import evaluate as run_evaluation
     from ..metrics import MetricParams
@@ -90,8 +102,7 @@ def evaluate(
     from ..plan.ring import ring_plan
     from ..report import write_report
 
-    if date_basis not in ("finish", "start"):
-        raise SightplanError(f"--date-basis must be 'finish' or 'start', got {date_basis!r}")
+    check_date_options(date_basis, unscheduled)
     settings = EvaluationSettings(engine=engine, scale=scale, d_max=d_max, feature_density=feature_density,
                                   feature_seed=seed, threads=threads,
                                   metric=MetricParams(omega=omega, k=k, min_track=min_track, min_features=min_features))
@@ -100,17 +111,8 @@ def evaluate(
                   f"{len(scene.faces):,} triangles"
                   + (f", {len(load_report.skipped)} products without geometry (see `sightplan info`)"
                      if getattr(load_report, "skipped", None) else ""))
-    if schedule is not None:
-        from ..model.schedule_csv import apply_csv_schedule
-
-        scene, link = apply_csv_schedule(scene, schedule)
-        console.print(f"schedule: {link['linked']} elements linked, {link['unlinked']} unlinked, "
-                      f"{len(link['unknown_ids'])} rows name unknown ids")
-    if date is not None:
-        if unscheduled not in ("present", "absent"):
-            raise SightplanError(f"--unscheduled must be 'present' or 'absent', got {unscheduled!r}")
-        scene = scene.at(date, basis=date_basis, unscheduled=unscheduled)  # type: ignore[arg-type]
-        console.print(f"capture date {date}: {int(scene.targets.sum())} target elements built")
+    scene = link_with_schedule(console, scene, model, schedule, rules, prefer_actual)
+    scene = scene_at(console, scene, date, date_basis, unscheduled)
     if plan is None:
         ring_camera = camera or "p4p"
         the_plan = ring_plan(scene, get_camera(ring_camera), n_frames=ring_frames, distance_m=ring_distance)

@@ -10,6 +10,7 @@ import typer
 
 from .errors import friendly_errors
 from .flight import AircraftOpt, AltitudeOpt, SafetyOpt, StationOpt, VlosOpt, flight_settings, parse_point, print_feasibility
+from .fourd import ActualOpt, BasisOpt, DateOpt, RulesOpt, ScheduleOpt, UnscheduledOpt, link_with_schedule, scene_at
 from .loading import georef_kwargs, load_with_progress
 from .main import app, console
 
@@ -54,6 +55,12 @@ def plan_command(
              "of its fields; 'none': no battery. Default p4p, walker-360 for a route")] = None,
     altitude_limit: AltitudeOpt = 120.0,
     split: Annotated[bool, typer.Option(help="Split missions to keep line of sight and fit the batteries")] = True,
+    date: DateOpt = None,
+    schedule: ScheduleOpt = None,
+    rules: RulesOpt = None,
+    prefer_actual: ActualOpt = False,
+    date_basis: BasisOpt = "finish",
+    unscheduled: UnscheduledOpt = "present",
     cache: Annotated[bool, typer.Option(help="Reuse the model cache")] = True,
 ) -> None:
     """Make a capture plan from a template around a model, check that it can be flown, and write it."""
@@ -64,6 +71,8 @@ def plan_command(
     from ..plan.templates import bridge, facade_grid, indoor_route, indoor_routes, lawnmower, orbit, read_routes
 
     scene, _ = load_with_progress(console, model, cache)
+    scene = scene_at(console, link_with_schedule(console, scene, model, schedule, rules, prefer_actual), date, date_basis,
+                     unscheduled)
     cam = get_camera(camera)
     if template == "route":  # walked or driven indoors: no line of sight to keep, no altitude limit
         settings = flight_settings(0.3 if safety_distance is None else safety_distance, 0.0, None,
@@ -138,6 +147,12 @@ def check_command(
     output: Annotated[Path | None, typer.Option("-o", "--output", help="Write the (split) plan here")] = None,
     json_out: Annotated[Path | None, typer.Option("--json", help="Write every waypoint's and mission's result as JSON")] = None,
     camera: Annotated[str | None, typer.Option(help="Camera of a poses CSV or a flight-app mission")] = None,
+    date: DateOpt = None,
+    schedule: ScheduleOpt = None,
+    rules: RulesOpt = None,
+    prefer_actual: ActualOpt = False,
+    date_basis: BasisOpt = "finish",
+    unscheduled: UnscheduledOpt = "present",
     cache: Annotated[bool, typer.Option(help="Reuse the model cache")] = True,
 ) -> None:
     """Check that a plan can be flown: safety distance, line of sight, altitude limit and batteries.
@@ -148,6 +163,8 @@ def check_command(
     from ..plan.load import load_plan
 
     scene, _ = load_with_progress(console, model, cache)
+    scene = scene_at(console, link_with_schedule(console, scene, model, schedule, rules, prefer_actual), date, date_basis,
+                     unscheduled)
     plan = load_plan(plan_file, camera=camera, **georef_kwargs(scene))
     settings = flight_settings(safety_distance, vlos_radius, ground_station, aircraft, altitude_limit)
     report = (plan_flights if split else check_plan)(scene, plan, settings)

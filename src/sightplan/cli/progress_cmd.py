@@ -1,0 +1,74 @@
+"""``sightplan progress MODEL PLAN``: one plan over the schedule, date by date."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+from rich.table import Column, Table
+
+from ..engines.base import EngineName
+from .errors import friendly_errors
+from .fourd import ActualOpt, BasisOpt, RulesOpt, ScheduleOpt, UnscheduledOpt, check_date_options, link_with_schedule
+from .loading import georef_kwargs, load_with_progress
+from .main import app, console
+
+
+def _cell(v: float | None, spec: str) -> str:
+    return "—" if v is None else format(v, spec)
+
+
+@app.command("progress")
+@friendly_errors
+def progress_command(
+    model: Annotated[str, typer.Argument(help="IFC or mesh file; 'sample' for the bundled Duplex model")],
+    plan: Annotated[str, typer.Argument(help="Plan file (any format `sightplan evaluate` reads)")],
+    schedule: ScheduleOpt = None,
+    rules: RulesOpt = None,
+    prefer_actual: ActualOpt = False,
+    date: Annotated[list[str] | None, typer.Option(help="A capture date YYYY-MM-DD (repeat for several)")] = None,
+    every_task: Annotated[bool, typer.Option(help="Evaluate at every day on which an element comes to stand")] = False,
+    date_basis: BasisOpt = "finish",
+    unscheduled: UnscheduledOpt = "present",
+    camera: Annotated[str | None, typer.Option(help="Camera of a poses CSV or a flight-app mission")] = None,
+    engine: Annotated[EngineName, typer.Option(help="Visibility engine")] = "auto",
+    scale: Annotated[float, typer.Option(help="Resolution scale s")] = 0.5,
+    feature_density: Annotated[float, typer.Option(help="Surface features per m²")] = 1.0,
+    out: Annotated[Path, typer.Option(help="Folder for progress.csv and progress.png")] = Path("sightplan-progress"),
+    cache: Annotated[bool, typer.Option(help="Reuse the model and per-frame caches")] = True,
+) -> None:
+    """Evaluate one plan at several capture dates of a 4D model: a table and a plot of every metric over time."""
+    from ..errors import ScheduleError
+    from ..evaluate import EvaluationSettings
+    from ..plan.load import load_plan
+    from ..series import evaluate_series, schedule_days
+
+    check_date_options(date_basis, unscheduled)
+    if not date and not every_task:
+        raise ScheduleError("give --date (once per capture date) or --every-task")
+    scene, _ = load_with_progress(console, model, cache)
+    scene = link_with_schedule(console, scene, model, schedule, rules, prefer_actual)
+    the_plan = load_plan(plan, camera=camera, **georef_kwargs(scene))
+    days = list(date or []) + (schedule_days(scene, date_basis) if every_task else [])  # type: ignore[arg-type]
+    settings = EvaluationSettings(engine=engine, scale=scale, feature_density=feature_density)
+    with Progress(TextColumn("[bold]capture dates"), BarColumn(), MofNCompleteColumn(), TextColumn("{task.description}"),
+                  TimeElapsedColumn(), console=console, transient=True) as bar:
+        task = bar.add_task("", total=len(set(days)))
+        series = evaluate_series(scene, the_plan, days, settings, basis=date_basis, unscheduled=unscheduled,  # type: ignore[arg-type]
+                                 cache_dir=None if cache else False,
+                                 progress=lambda i, n, d: bar.update(task, completed=i, description=d))
+    for w in series.warnings:
+        console.print(f"[yellow]warning:[/] {w}", highlight=False)
+    t = Table(Column("date", no_wrap=True, min_width=10), "built", "VC %", "V̄C %", "VR", "R (m/px)", "O (°)", "T", "stable %",
+              title=f"{Path(plan).name} over the schedule of {Path(str(model)).name}", title_justify="left")
+    for r in series.rows():
+        t.add_row(r["date"] + (" (=)" if r["same_as"] else ""), str(r["built"]), _cell(r["VC"], ".1f"),
+                  _cell(r["VC_bar"], ".1f"), _cell(r["VR"], ".1f"), _cell(r["R"], ".4f"), _cell(r["O"], ".1f"),
+                  _cell(r["T"], ".0f"), _cell(r["stable_share"], ".0f"))
+    console.print(t)
+    out.mkdir(parents=True, exist_ok=True)
+    csv_path = series.write_csv(out / "progress.csv")
+    png = series.plot(out / "progress.png", title=f"{Path(plan).name} over the schedule of {Path(str(model)).name}")
+    console.print(f"(=): the same elements stand as on an earlier date, not cast again\nwrote {csv_path}, {png}")
