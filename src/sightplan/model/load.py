@@ -17,7 +17,8 @@ from .summary import LoadReport
 
 IFC_EXTENSIONS: tuple[str, ...] = (".ifc", ".ifczip")
 MESH_EXTENSIONS: tuple[str, ...] = (".obj", ".ply", ".stl", ".gltf", ".glb")
-SUPPORTED_EXTENSIONS: tuple[str, ...] = IFC_EXTENSIONS + MESH_EXTENSIONS
+POINT_CLOUD_EXTENSIONS: tuple[str, ...] = (".las", ".laz")  # and .ply files without faces
+SUPPORTED_EXTENSIONS: tuple[str, ...] = IFC_EXTENSIONS + MESH_EXTENSIONS + POINT_CLOUD_EXTENSIONS
 SAMPLE = "sample"
 
 
@@ -38,6 +39,13 @@ def _options_and_loader(path: Path, options: dict):
 
         hashed = ifc_options(**{k: v for k, v in options.items() if k not in ("num_threads", "progress")})
         return hashed, load_ifc
+    if ext in POINT_CLOUD_EXTENSIONS or ext == ".ply":
+        from .reality import is_point_cloud, load_point_cloud, reality_options
+
+        if is_point_cloud(path):
+            options.pop("progress", None)
+            options.pop("up", None)  # a point cloud is Z up
+            return reality_options(path, **options), load_point_cloud
     if ext in MESH_EXTENSIONS:
         from .mesh import load_mesh, mesh_options
 
@@ -50,13 +58,16 @@ def _options_and_loader(path: Path, options: dict):
 def load_model(
     path: str | Path, *, cache: bool = True, cache_dir: str | Path | None = None, **options
 ) -> tuple[Scene, LoadReport]:
-    """Load an IFC or mesh file (or ``"sample"``) as a :class:`Scene` in metres, with its load report.
+    """Load an IFC, mesh or point cloud file (or ``"sample"``) as a :class:`Scene` in metres, with its load report.
 
     ``options`` go to :func:`~sightplan.model.ifc.load_ifc` (occluders,
-    include_occluders_as_targets, num_threads) or :func:`~sightplan.model.mesh.load_mesh`
-    (elements, scale, up). With ``cache``, the tessellated scene is stored under
-    ``cache_dir`` (default ``$SIGHTPLAN_CACHE`` or ``~/.cache/sightplan/scenes``) keyed by
-    the file's content and the options, and read back on the next load.
+    include_occluders_as_targets, num_threads), :func:`~sightplan.model.mesh.load_mesh`
+    (elements, scale, up, and patch_area_m2, normal_angle_deg for elements='patches') or, for
+    .las/.laz and .ply files without faces, :func:`~sightplan.model.reality.load_point_cloud`
+    (patch_area_m2, normal_angle_deg, spacing_m, method, solid, scale). With ``cache``, the
+    tessellated scene is stored under ``cache_dir`` (default ``$SIGHTPLAN_CACHE`` or
+    ``~/.cache/sightplan/scenes``) keyed by the file's content and the options, and read back
+    on the next load.
     """
     t0 = time.perf_counter()
     path = resolve_model_path(path)

@@ -6,7 +6,10 @@ An element is, by ``elements``:
   PLY/STL file is one object), with the node transforms applied;
 - ``"components"``: one per connected component of the whole mesh (faces sharing an
   edge after merging coincident vertices);
-- ``"faces"``: one per triangle (a reality mesh used as a-priori model, METRICS.md §1).
+- ``"faces"``: one per triangle (a reality mesh used as a-priori model, METRICS.md §1);
+- ``"patches"``: connected surface patches of about ``patch_area_m2`` whose normals stay
+  within ``normal_angle_deg`` (:func:`sightplan.model.reality.patch_faces`), named
+  'patch 00001', ... with class RealityPatch: a reconstruction without objects.
 
 Units: the file is taken to be in metres; ``scale`` multiplies every coordinate.
 Axes: the scene is Z-up. glTF is Y-up by specification, so ``up="auto"`` rotates .gltf
@@ -28,14 +31,18 @@ from .cache import content_hash
 from .scene import ElementTable, Scene
 from .summary import LoadReport, SkippedProduct
 
-MeshGrouping = Literal["objects", "components", "faces"]
+MeshGrouping = Literal["objects", "components", "faces", "patches"]
 UpAxis = Literal["auto", "y", "z"]
-_GROUPINGS = ("objects", "components", "faces")
+_GROUPINGS = ("objects", "components", "faces", "patches")
 _Y_UP_FORMATS = (".gltf", ".glb")
 
 
-def mesh_options(path: str | Path, elements: MeshGrouping = "objects", scale: float = 1.0, up: UpAxis = "auto") -> dict:
-    """The loader options that change the scene, canonicalised (part of the content hash)."""
+def mesh_options(path: str | Path, elements: MeshGrouping = "objects", scale: float = 1.0, up: UpAxis = "auto",
+                 patch_area_m2: float | None = None, normal_angle_deg: float | None = None) -> dict:
+    """The loader options that change the scene, canonicalised (part of the content hash).
+
+    The patch options are part of it only for ``elements="patches"`` (defaults filled in).
+    """
     if elements not in _GROUPINGS:
         raise ModelError(f"elements must be one of {', '.join(_GROUPINGS)}, got {elements!r}")
     if up not in ("auto", "y", "z"):
@@ -43,7 +50,20 @@ def mesh_options(path: str | Path, elements: MeshGrouping = "objects", scale: fl
     if not np.isfinite(scale) or scale <= 0:
         raise ModelError(f"scale must be a positive number, got {scale!r}")
     y_up = up == "y" or (up == "auto" and Path(path).suffix.lower() in _Y_UP_FORMATS)
-    return {"loader": "mesh", "elements": elements, "scale": float(scale), "y_up": y_up}
+    options = {"loader": "mesh", "elements": elements, "scale": float(scale), "y_up": y_up}
+    if elements == "patches":
+        from .reality import NORMAL_ANGLE_DEG, PATCH_AREA_M2
+
+        area = PATCH_AREA_M2 if patch_area_m2 is None else float(patch_area_m2)
+        angle = NORMAL_ANGLE_DEG if normal_angle_deg is None else float(normal_angle_deg)
+        if not (np.isfinite(area) and area > 0):
+            raise ModelError(f"patch area must be a positive number of m², got {patch_area_m2!r}")
+        if not 0 <= angle <= 180:
+            raise ModelError(f"patch normal angle must be within 0–180°, got {normal_angle_deg!r}")
+        options.update(patch_area_m2=area, normal_angle_deg=angle)
+    elif patch_area_m2 is not None or normal_angle_deg is not None:
+        raise ModelError(f"patch_area_m2 and normal_angle_deg apply to elements='patches', not {elements!r}")
+    return options
 
 
 def _read(path: Path) -> trimesh.Scene:
@@ -89,12 +109,13 @@ def _components(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np
 
 
 def load_mesh(
-    path: str | Path, *, elements: MeshGrouping = "objects", scale: float = 1.0, up: UpAxis = "auto"
+    path: str | Path, *, elements: MeshGrouping = "objects", scale: float = 1.0, up: UpAxis = "auto",
+    patch_area_m2: float | None = None, normal_angle_deg: float | None = None,
 ) -> tuple[Scene, LoadReport]:
     """Load a mesh file as a Scene in metres (Z up), elements grouped by ``elements``; see the module docstring."""
     t0 = time.perf_counter()
     path = Path(path)
-    options = mesh_options(path, elements, scale, up)
+    options = mesh_options(path, elements, scale, up, patch_area_m2, normal_angle_deg)
     names, verts, faces, skipped = _flatten(_read(path))
     if not verts:
         raise ModelError(f"{path.name}: the mesh has no triangles")
@@ -111,11 +132,18 @@ def load_mesh(
     elif elements == "components":
         vertices, all_faces, face_element = _components(vertices, all_faces)
         ids = [f"component{i}" for i in range(int(face_element.max()) + 1)]
+    elif elements == "patches":
+        from .reality import patch_faces, patch_table
+
+        face_element, n_patches = patch_faces(vertices, all_faces, options["patch_area_m2"], options["normal_angle_deg"])
+        table = patch_table(n_patches)
+        ids = table.global_id.tolist()
     else:
         face_element = np.arange(len(all_faces), dtype=np.int32)
         ids = [f"face{i}" for i in range(len(all_faces))]
 
-    table = ElementTable.build(global_id=ids, name=ids)
+    if elements != "patches":
+        table = ElementTable.build(global_id=ids, name=ids)
     key = content_hash(path, options)
     fmt = path.suffix.lower().lstrip(".")
     metadata = {"schema": fmt, "unit_scale": options["scale"], "georeference": None, "y_up_converted": options["y_up"]}
