@@ -433,3 +433,25 @@ def test_progress_over_the_schependomlaan_steel_schedule(tmp_path):
     assert 0 < seen_may <= 56 and seen_aug > seen_may
     assert float(rows["2015-08-01"]["VC"]) < float(rows["2015-05-01"]["VC"]) / 2
     assert (tmp_path / "p" / "progress.png").stat().st_size > 10_000
+
+
+def test_a_reality_model_obstructs_the_plan(tmp_path):
+    import trimesh
+
+    from sightplan.model.load import load_model
+
+    lo, hi = load_model("sample")[0].bounds()
+    # a neighbouring block 6 m east of the Duplex, 15 m tall: inside the 8 m facade grid's east side
+    block = trimesh.creation.box((5, 20, 15), trimesh.transformations.translation_matrix(
+        (hi[0] + 6 + 2.5, (lo[1] + hi[1]) / 2, lo[2] + 7.5)))
+    block.export(tmp_path / "neighbour.ply")
+    plan = tmp_path / "facade.json"
+    assert run_cli("plan", "facade", "sample", "--safety-distance", "8", "-o", str(plan), cwd=tmp_path).returncode == 0
+    assert run_cli("check", str(plan), "sample", "--safety-distance", "8", cwd=tmp_path).returncode == 0
+    res = run_cli("check", str(plan), "sample", "--safety-distance", "8", "--reality", str(tmp_path / "neighbour.ply"),
+                  "--json", str(tmp_path / "c.json"), cwd=tmp_path)
+    assert res.returncode == 1 and "as occluders" in res.stdout
+    missions = {m["name"]: m for m in json.loads((tmp_path / "c.json").read_text())["missions"]}
+    # the east grid, 8 m out, runs into the block 6 m out; the other sides keep their distance
+    assert {name: m["safety_ok"] for name, m in missions.items()} == {
+        "facade south": True, "facade east": False, "facade north": True, "facade west": True}

@@ -16,12 +16,14 @@ from .fourd import (
     ActualOpt,
     BasisOpt,
     DateOpt,
+    RealityOpt,
     RulesOpt,
     ScheduleOpt,
     UnscheduledOpt,
     check_date_options,
     link_with_schedule,
     scene_at,
+    with_reality,
 )
 from .loading import georef_kwargs, load_with_progress
 from .main import app, console
@@ -68,6 +70,7 @@ def evaluate(
     date: DateOpt = None,
     schedule: ScheduleOpt = None,
     rules: RulesOpt = None,
+    reality: RealityOpt = None,
     prefer_actual: ActualOpt = False,
     date_basis: BasisOpt = "finish",
     unscheduled: UnscheduledOpt = "present",
@@ -113,6 +116,7 @@ def evaluate(
                      if getattr(load_report, "skipped", None) else ""))
     scene = link_with_schedule(console, scene, model, schedule, rules, prefer_actual)
     scene = scene_at(console, scene, date, date_basis, unscheduled)
+    scene = with_reality(console, scene, reality)
     if plan is None:
         ring_camera = camera or "p4p"
         the_plan = ring_plan(scene, get_camera(ring_camera), n_frames=ring_frames, distance_m=ring_distance)

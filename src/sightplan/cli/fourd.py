@@ -15,6 +15,9 @@ RulesOpt = Annotated[Path | None, typer.Option(help="TOML rules linking tasks to
 ActualOpt = Annotated[bool, typer.Option("--prefer-actual", help="Actual start/finish dates win over planned ones")]
 DateOpt = Annotated[str | None, typer.Option(help="Capture date YYYY-MM-DD: only elements built by then exist")]
 BasisOpt = Annotated[str, typer.Option(help="Which schedule date builds an element: finish or start")]
+RealityOpt = Annotated[Path | None, typer.Option(
+    help="Reality model of the site as it stands (mesh, PLY/LAS/LAZ point cloud) in the model's frame: it hides and "
+         "obstructs, but is not scored")]
 UnscheduledOpt = Annotated[str, typer.Option(help="Elements no schedule dates: present at every date, or absent")]
 
 
@@ -52,3 +55,14 @@ def scene_at(console: Console, scene, date: str | None, basis: str, unscheduled:
     scene = scene.at(date, basis=basis, unscheduled=unscheduled)  # type: ignore[arg-type]
     console.print(f"capture date {date}: {int(scene.targets.sum())} target elements built")
     return scene
+
+
+def with_reality(console: Console, scene, reality: Path | None):
+    """The scene plus a reality model as occluders (unchanged without one)."""
+    if reality is None:
+        return scene
+    from ..model.reality import combine, load_reality
+
+    real = load_reality(reality)
+    console.print(f"reality model {reality.name}: {real.n_elements} patches, {len(real.faces):,} triangles, as occluders")
+    return combine(scene, real, "occluder")

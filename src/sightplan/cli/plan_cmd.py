@@ -10,7 +10,18 @@ import typer
 
 from .errors import friendly_errors
 from .flight import AircraftOpt, AltitudeOpt, SafetyOpt, StationOpt, VlosOpt, flight_settings, parse_point, print_feasibility
-from .fourd import ActualOpt, BasisOpt, DateOpt, RulesOpt, ScheduleOpt, UnscheduledOpt, link_with_schedule, scene_at
+from .fourd import (
+    ActualOpt,
+    BasisOpt,
+    DateOpt,
+    RealityOpt,
+    RulesOpt,
+    ScheduleOpt,
+    UnscheduledOpt,
+    link_with_schedule,
+    scene_at,
+    with_reality,
+)
 from .loading import georef_kwargs, load_with_progress
 from .main import app, console
 
@@ -58,6 +69,7 @@ def plan_command(
     date: DateOpt = None,
     schedule: ScheduleOpt = None,
     rules: RulesOpt = None,
+    reality: RealityOpt = None,
     prefer_actual: ActualOpt = False,
     date_basis: BasisOpt = "finish",
     unscheduled: UnscheduledOpt = "present",
@@ -73,6 +85,7 @@ def plan_command(
     scene, _ = load_with_progress(console, model, cache)
     scene = scene_at(console, link_with_schedule(console, scene, model, schedule, rules, prefer_actual), date, date_basis,
                      unscheduled)
+    obstacles = with_reality(console, scene, reality)  # templates go around the model; checks see everything
     cam = get_camera(camera)
     if template == "route":  # walked or driven indoors: no line of sight to keep, no altitude limit
         settings = flight_settings(0.3 if safety_distance is None else safety_distance, 0.0, None,
@@ -105,7 +118,7 @@ def plan_command(
             plan = indoor_routes(cam, polylines, step, names=names)
         else:
             plan = indoor_route(cam, [parse_point(p, "route point") for p in point], step)
-    report = (plan_flights if split else check_plan)(scene, plan, settings)
+    report = (plan_flights if split else check_plan)(obstacles, plan, settings)
     plan = with_site(report.plan, scene)
     write_plan(plan, output)
     print_feasibility(console, report, f"{template} plan around {Path(str(model)).name} — {cam.name or camera}")
@@ -150,6 +163,7 @@ def check_command(
     date: DateOpt = None,
     schedule: ScheduleOpt = None,
     rules: RulesOpt = None,
+    reality: RealityOpt = None,
     prefer_actual: ActualOpt = False,
     date_basis: BasisOpt = "finish",
     unscheduled: UnscheduledOpt = "present",
@@ -165,6 +179,7 @@ def check_command(
     scene, _ = load_with_progress(console, model, cache)
     scene = scene_at(console, link_with_schedule(console, scene, model, schedule, rules, prefer_actual), date, date_basis,
                      unscheduled)
+    scene = with_reality(console, scene, reality)
     plan = load_plan(plan_file, camera=camera, **georef_kwargs(scene))
     settings = flight_settings(safety_distance, vlos_radius, ground_station, aircraft, altitude_limit)
     report = (plan_flights if split else check_plan)(scene, plan, settings)

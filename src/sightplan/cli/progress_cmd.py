@@ -11,7 +11,17 @@ from rich.table import Column, Table
 
 from ..engines.base import EngineName
 from .errors import friendly_errors
-from .fourd import ActualOpt, BasisOpt, RulesOpt, ScheduleOpt, UnscheduledOpt, check_date_options, link_with_schedule
+from .fourd import (
+    ActualOpt,
+    BasisOpt,
+    RealityOpt,
+    RulesOpt,
+    ScheduleOpt,
+    UnscheduledOpt,
+    check_date_options,
+    link_with_schedule,
+    with_reality,
+)
 from .loading import georef_kwargs, load_with_progress
 from .main import app, console
 
@@ -27,6 +37,7 @@ def progress_command(
     plan: Annotated[str, typer.Argument(help="Plan file (any format `sightplan evaluate` reads)")],
     schedule: ScheduleOpt = None,
     rules: RulesOpt = None,
+    reality: RealityOpt = None,
     prefer_actual: ActualOpt = False,
     date: Annotated[list[str] | None, typer.Option(help="A capture date YYYY-MM-DD (repeat for several)")] = None,
     every_task: Annotated[bool, typer.Option(help="Evaluate at every day on which an element comes to stand")] = False,
@@ -50,6 +61,7 @@ def progress_command(
         raise ScheduleError("give --date (once per capture date) or --every-task")
     scene, _ = load_with_progress(console, model, cache)
     scene = link_with_schedule(console, scene, model, schedule, rules, prefer_actual)
+    scene = with_reality(console, scene, reality)
     the_plan = load_plan(plan, camera=camera, **georef_kwargs(scene))
     days = list(date or []) + (schedule_days(scene, date_basis) if every_task else [])  # type: ignore[arg-type]
     settings = EvaluationSettings(engine=engine, scale=scale, feature_density=feature_density)
