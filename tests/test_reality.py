@@ -379,3 +379,24 @@ def test_bad_point_clouds(tmp_path, box_points):
     if importlib.util.find_spec("open3d") is None:
         with pytest.raises(ModelError, match="needs Open3D"):
             points_to_mesh(box_points, method="poisson")
+
+
+def test_both_sides_of_a_scanned_surface_are_one_element(cloud_files):
+    # the 10 × 6 × 4 m box has 248 m² of surface: about 248 / 20 ≈ 12 patches of 20 m², whose voxel shell has a
+    # face on each side; without merging the sides there would be about twice as many elements
+    from sightplan.model.reality import merge_shell_sides, patch_faces
+
+    scene, _ = load_model(cloud_files["ply"], cache=False, patch_area_m2=20.0)
+    assert 8 <= scene.n_elements <= 18
+    sides, n_sides = patch_faces(scene.vertices, scene.faces, 20.0)
+    assert n_sides >= 1.7 * scene.n_elements
+    merged, n = merge_shell_sides(scene.vertices, scene.faces, sides, scene.metadata["reality"]["spacing_m"])
+    assert n == scene.n_elements and (merged == scene.face_element).all()
+    # each element holds faces facing both ways: one surface seen from either side
+    tri = scene.vertices[scene.faces]
+    normal = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    centre = tri.mean(axis=1) - np.array([0.0, 0.0, 2.0])  # the box's centre
+    outward = np.einsum("ij,ij->i", normal, centre) > 0
+    both = [outward[scene.face_element == e].any() and (~outward[scene.face_element == e]).any()
+            for e in range(scene.n_elements)]
+    assert np.mean(both) > 0.9

@@ -91,6 +91,8 @@ def evaluate(
     mesh_elements: Annotated[MeshGrouping, typer.Option(
         help="For a mesh: its elements are the file's objects/nodes, connected components, or single faces")] = "objects",
     mesh_scale: Annotated[float, typer.Option(help="For a mesh: metres per file unit (0.001 for millimetres)")] = 1.0,
+    patch_area: Annotated[float | None, typer.Option(
+        help="For a reality mesh (--mesh-elements patches) or a point cloud: area of an element patch (m², default 10)")] = None,
     cache: Annotated[bool, typer.Option(help="Reuse the model and per-frame caches")] = True,
     picture: Annotated[bool, typer.Option(help="Also write overview.png: the model coloured by visibility")] = True,
     threads: Annotated[int | None, typer.Option(help="Worker threads (default: all cores)")] = None,
@@ -109,7 +111,7 @@ def evaluate(
     settings = EvaluationSettings(engine=engine, scale=scale, d_max=d_max, feature_density=feature_density,
                                   feature_seed=seed, threads=threads,
                                   metric=MetricParams(omega=omega, k=k, min_track=min_track, min_features=min_features))
-    scene, load_report = load_with_progress(console, model, cache, mesh_elements, mesh_scale)
+    scene, load_report = load_with_progress(console, model, cache, mesh_elements, mesh_scale, patch_area)
     console.print(f"model: {scene.source or model} — {int(scene.targets.sum())} target elements, "
                   f"{len(scene.faces):,} triangles"
                   + (f", {len(load_report.skipped)} products without geometry (see `sightplan info`)"

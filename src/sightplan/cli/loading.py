@@ -7,9 +7,11 @@ from rich.progress import BarColumn, Progress, TaskProgressColumn, TextColumn, T
 
 
 def load_with_progress(console: Console, model: str, cache: bool, mesh_elements: str = "objects",
-                       mesh_scale: float = 1.0):
-    """(scene, report) of ``model``; a cache hit shows no bar. ``mesh_*`` apply to mesh files only."""
+                       mesh_scale: float = 1.0, patch_area: float | None = None):
+    """(scene, report) of ``model``; a cache hit shows no bar. ``mesh_*`` apply to mesh files only; ``patch_area``
+    (m²) to meshes grouped in patches and to point clouds."""
     from ..model.load import MESH_EXTENSIONS, load_model, resolve_model_path
+    from ..model.reality import is_point_cloud
 
     name = resolve_model_path(model).name
     with Progress(TextColumn(f"[bold]loading {name}"), BarColumn(), TaskProgressColumn(), TimeElapsedColumn(),
@@ -19,6 +21,12 @@ def load_with_progress(console: Console, model: str, cache: bool, mesh_elements:
         extra: dict = {"progress": lambda share: bar.update(task, completed=share)} if is_ifc else {}
         if name.lower().endswith(tuple(MESH_EXTENSIONS)):
             extra = {"elements": mesh_elements, "scale": mesh_scale}
+            if patch_area is not None and mesh_elements == "patches":
+                extra["patch_area_m2"] = patch_area
+        cloud = name.lower().endswith((".las", ".laz")) or (name.lower().endswith(".ply")
+                                                             and is_point_cloud(resolve_model_path(model)))
+        if cloud:
+            extra = {"scale": mesh_scale} | ({"patch_area_m2": patch_area} if patch_area is not None else {})
         return load_model(model, cache=cache, **extra)
 
 

@@ -602,6 +602,8 @@ def load_point_cloud(path: str | Path, **options) -> tuple[Scene, LoadReport]:
     spacing = default_spacing(points) if opts["spacing_m"] is None else opts["spacing_m"]
     vertices, faces = points_to_mesh(points, spacing, opts["method"], normals=cloud.normals, solid=opts["solid"])
     face_element, n = patch_faces(vertices, faces, opts["patch_area_m2"], opts["normal_angle_deg"])
+    if not opts["solid"]:
+        face_element, n = merge_shell_sides(vertices, faces, face_element, spacing)
     fmt = path.suffix.lower().lstrip(".")
     metadata = {"schema": fmt, "unit_scale": opts["scale"], "georeference": None, "crs": crs,
                 "reality": {"kind": "point cloud", "n_points": len(points), "spacing_m": spacing, "method": opts["method"],
@@ -613,6 +615,59 @@ def load_point_cloud(path: str | Path, **options) -> tuple[Scene, LoadReport]:
     report = LoadReport(source=str(path), schema=fmt, unit_scale=opts["scale"], n_products=n, n_elements=n,
                         n_targets=n, n_triangles=len(faces), warnings=warnings, elapsed_s=time.perf_counter() - t0)
     return scene, report
+
+
+def merge_shell_sides(vertices: NDArray, faces: NDArray, face_element: NDArray, spacing_m: float,
+                      share: float = 0.3) -> tuple[NDArray[np.int32], int]:
+    """One element for both sides of a thin shell: (face_element, n) with paired patches merged.
+
+    A voxel surface of a scanned sheet has a face on each side, about one spacing apart and
+    facing away from each other. Each face is paired with the nearest face within 1.5
+    spacings whose normal points the other way; a patch joins the patch that holds most of
+    its faces' partners when they are at least ``share`` of its faces. Elements are then
+    renumbered by first face, so an element is one patch of surface, seen from either side.
+    """
+    from scipy.spatial import cKDTree
+
+    fe = np.asarray(face_element, np.int64)
+    n = int(fe.max()) + 1 if len(fe) else 0
+    if n < 2:
+        return fe.astype(np.int32), n
+    tri = np.asarray(vertices, float)[np.asarray(faces)]
+    centre = tri.mean(axis=1)
+    normal = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    normal /= np.maximum(np.linalg.norm(normal, axis=1, keepdims=True), 1e-300)
+    k = min(12, len(centre))
+    dist, idx = cKDTree(centre).query(centre, k=k, distance_upper_bound=1.5 * spacing_m)
+    found = np.isfinite(dist)
+    safe = np.where(found, idx, 0)
+    opposite = found & (np.einsum("fj,fkj->fk", normal, normal[safe]) < -0.5)
+    has = opposite.any(axis=1)
+    partner = safe[np.arange(len(fe)), np.argmax(opposite, axis=1)]
+    parent = np.arange(n)
+
+    def root(a: int) -> int:
+        while parent[a] != a:
+            parent[a] = parent[parent[a]]
+            a = parent[a]
+        return a
+
+    size = np.bincount(fe, minlength=n)
+    pairs = np.stack([fe[has], fe[partner[has]]], axis=1)
+    pairs = pairs[pairs[:, 0] != pairs[:, 1]]
+    if len(pairs):
+        keys, counts = np.unique(pairs, axis=0, return_counts=True)
+        order = np.lexsort((-counts, keys[:, 0]))  # per patch, its most frequent partner first
+        keys, counts = keys[order], counts[order]
+        first = np.r_[True, keys[1:, 0] != keys[:-1, 0]]
+        for (p, q), c in zip(keys[first], counts[first]):
+            if c >= share * size[p]:
+                a, b = root(int(p)), root(int(q))
+                if a != b:
+                    parent[max(a, b)] = min(a, b)
+    roots = np.array([root(i) for i in range(n)])  # the smallest patch number of each group: first-face order kept
+    labels, new = np.unique(roots, return_inverse=True)
+    return new[fe].astype(np.int32), len(labels)
 
 
 def _shift(scene: Scene, origin_m: ArrayLike) -> Scene:
