@@ -52,14 +52,9 @@ def mesh_options(path: str | Path, elements: MeshGrouping = "objects", scale: fl
     y_up = up == "y" or (up == "auto" and Path(path).suffix.lower() in _Y_UP_FORMATS)
     options = {"loader": "mesh", "elements": elements, "scale": float(scale), "y_up": y_up}
     if elements == "patches":
-        from .reality import NORMAL_ANGLE_DEG, PATCH_AREA_M2
+        from .reality import patch_options
 
-        area = PATCH_AREA_M2 if patch_area_m2 is None else float(patch_area_m2)
-        angle = NORMAL_ANGLE_DEG if normal_angle_deg is None else float(normal_angle_deg)
-        if not (np.isfinite(area) and area > 0):
-            raise ModelError(f"patch area must be a positive number of m², got {patch_area_m2!r}")
-        if not 0 <= angle <= 180:
-            raise ModelError(f"patch normal angle must be within 0–180°, got {normal_angle_deg!r}")
+        area, angle = patch_options(patch_area_m2, normal_angle_deg)
         options.update(patch_area_m2=area, normal_angle_deg=angle)
     elif patch_area_m2 is not None or normal_angle_deg is not None:
         raise ModelError(f"patch_area_m2 and normal_angle_deg apply to elements='patches', not {elements!r}")

@@ -576,15 +576,21 @@ def reality_options(path: str | Path, *, elements: str = "patches", patch_area_m
         raise ModelError(f"scale must be a positive number, got {scale!r}")
     if spacing_m is not None and not (math.isfinite(spacing_m) and spacing_m > 0):
         raise ModelError(f"spacing must be a positive number of metres, got {spacing_m!r}")
+    area, angle = patch_options(patch_area_m2, normal_angle_deg)
+    return {"loader": "point cloud", "elements": "patches", "patch_area_m2": area, "normal_angle_deg": angle,
+            "spacing_m": None if spacing_m is None else float(spacing_m), "method": method, "solid": bool(solid),
+            "scale": float(scale)}
+
+
+def patch_options(patch_area_m2: float | None, normal_angle_deg: float | None) -> tuple[float, float]:
+    """The patch area (m²) and normal angle (°), defaults filled in, or a ModelError naming the bad one."""
     area = PATCH_AREA_M2 if patch_area_m2 is None else float(patch_area_m2)
     angle = NORMAL_ANGLE_DEG if normal_angle_deg is None else float(normal_angle_deg)
     if not (math.isfinite(area) and area > 0):
         raise ModelError(f"patch area must be a positive number of m², got {patch_area_m2!r}")
     if not 0 <= angle <= 180:
         raise ModelError(f"patch normal angle must be within 0–180°, got {normal_angle_deg!r}")
-    return {"loader": "point cloud", "elements": "patches", "patch_area_m2": area, "normal_angle_deg": angle,
-            "spacing_m": None if spacing_m is None else float(spacing_m), "method": method, "solid": bool(solid),
-            "scale": float(scale)}
+    return area, angle
 
 
 def load_point_cloud(path: str | Path, **options) -> tuple[Scene, LoadReport]:
