@@ -14,7 +14,7 @@ app = typer.Typer(add_completion=False, no_args_is_help=True,
                   help="Create and evaluate reality capture plans against building models.")
 console = Console()
 
-from . import evaluate_cmd, export_cmd, info_cmd, plan_cmd, progress_cmd, study_cmd  # noqa: E402,F401  (registers the commands)
+from . import evaluate_cmd, export_cmd, info_cmd, plan_cmd, progress_cmd, study_cmd, validate_cmd  # noqa: E402,F401  (registers the commands)
 
 
 @app.command()

@@ -1,0 +1,139 @@
+"""``sightplan validate MODEL PLAN REALITY --registration-error E``: a plan against the reconstruction it produced."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Annotated
+
+import typer
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
+from rich.table import Table
+
+from ..engines.base import EngineName
+from .errors import friendly_errors
+from .fourd import (
+    ActualOpt,
+    BasisOpt,
+    DateOpt,
+    RulesOpt,
+    ScheduleOpt,
+    UnscheduledOpt,
+    check_date_options,
+    link_with_schedule,
+    scene_at,
+)
+from .loading import georef_kwargs, load_with_progress
+from .main import app, console
+
+
+def _fmt(x: float | None, spec: str) -> str:
+    return "—" if x is None else format(x, spec)
+
+
+def validation_table(v, title: str) -> Table:
+    """A, Ce, Cv, Ct, precision, recall and F, one per row."""
+    pct = lambda x: None if x is None else 100 * x  # noqa: E731
+    n = v.counts
+    t = Table("metric", "value", "unit", "meaning", title=title, title_justify="left")
+    rows = [
+        ("A", _fmt(v.A, ".4f"), "m", "accuracy: VR-weighted mean |dΓ − dΨ| over pixels where both are hit"),
+        ("Ce", _fmt(pct(v.Ce), ".2f"), "%", f"completeness per element: mean c_i over {v.z} elements"),
+        ("Cv", _fmt(pct(v.Cv), ".2f"), "%", f"completeness per visible element: mean c_i over {v.n_visible}"),
+        ("Ct", _fmt(pct(v.Ct), ".2f"), "%", f"overall completeness: {n['ct_samples']:,} points on Γ with Ψ within λ"),
+        ("precision", _fmt(pct(v.precision), ".2f"), "%",
+         f"{n['precision_samples']:,} points of Ψ in Γ's box with Γ within λ"),
+        ("recall", _fmt(pct(v.recall), ".2f"), "%", "= Ct"),
+        ("F", _fmt(pct(v.F), ".2f"), "%", "F-score at λ: 2PR/(P + R)"),
+        ("λ", f"{v.lam:.4f}", "m", f"1.2 × registration error {v.registration_error_m:g} m"),
+        ("time", f"{v.timings['total_s']:.1f}", "s", f"{v.n_frames} frames, reality: {v.reality_kind}"),
+    ]
+    for row in rows:
+        t.add_row(*row)
+    return t
+
+
+def load_reality_input(path: Path, scale: float, cache: bool):
+    """A point cloud file as its points (scaled), a mesh file as a Scene (load_reality)."""
+    from ..errors import ModelError
+    from ..model.reality import PointCloud, is_point_cloud, load_reality, read_point_cloud
+
+    path = Path(path).expanduser()
+    if not path.is_file():
+        raise ModelError(f"reality model file not found: {path}")
+    if is_point_cloud(path):
+        cloud = read_point_cloud(path)
+        return PointCloud(cloud.points * scale, cloud.normals)
+    return load_reality(path, scale=scale, cache=cache)
+
+
+@app.command("validate")
+@friendly_errors
+def validate_command(
+    model: Annotated[str, typer.Argument(help="IFC or mesh file; 'sample' for the bundled Duplex model")],
+    plan: Annotated[str, typer.Argument(help="The plan as flown (any format `sightplan evaluate` reads)")],
+    reality: Annotated[Path, typer.Argument(help="Reconstructed reality registered to the model: a mesh "
+                                                 "(OBJ, PLY, STL, glTF) or a point cloud (PLY without faces, LAS, LAZ)")],
+    registration_error: Annotated[float, typer.Option("--registration-error", "-e",
+                                                      help="Registration error e of the reality (m); λ = 1.2·e")],
+    date: DateOpt = None,
+    schedule: ScheduleOpt = None,
+    rules: RulesOpt = None,
+    prefer_actual: ActualOpt = False,
+    date_basis: BasisOpt = "finish",
+    unscheduled: UnscheduledOpt = "present",
+    camera: Annotated[str | None, typer.Option(
+        help="Camera (catalogue id) of a poses CSV or flight-app mission; replaces the plan's own")] = None,
+    transform: Annotated[Path | None, typer.Option(help="JSON 4×4 similarity from the poses' frame to the model's")] = None,
+    reality_scale: Annotated[float, typer.Option(help="Metres per reality file unit (0.001 for millimetres)")] = 1.0,
+    point_spacing: Annotated[float | None, typer.Option(
+        help="Point spacing of a point cloud for splatting (m); estimated when not given")] = None,
+    engine: Annotated[EngineName, typer.Option(help="Visibility engine")] = "auto",
+    scale: Annotated[float, typer.Option(help="Resolution scale s: cast (s·W)×(s·H) rays")] = 0.5,
+    omega: Annotated[float, typer.Option(help="Visibility threshold Ω in pixels")] = 625.0,
+    d_max: Annotated[float, typer.Option(help="D_max: farthest visible surface of the model (m)")] = 1000.0,
+    seed: Annotated[int, typer.Option(help="Seed of the surface sampling for Ct and precision")] = 0,
+    out: Annotated[Path, typer.Option(help="Folder for validation.json and validation_elements.csv")] = Path(
+        "sightplan-validate"),
+    cache: Annotated[bool, typer.Option(help="Reuse the model and per-frame caches")] = True,
+    threads: Annotated[int | None, typer.Option(help="Worker threads (default: all cores)")] = None,
+) -> None:
+    """Validate a plan against the reality model reconstructed from it: A, Ce, Cv, Ct, precision, recall, F."""
+    from ..camera.catalogue import get_camera
+    from ..evaluate import EvaluationSettings, evaluate
+    from ..metrics import MetricParams
+    from ..plan.load import load_plan
+    from ..validate import validate
+
+    check_date_options(date_basis, unscheduled)
+    settings = EvaluationSettings(engine=engine, scale=scale, d_max=d_max, threads=threads, metric=MetricParams(omega=omega))
+    scene, _ = load_with_progress(console, model, cache)
+    scene = link_with_schedule(console, scene, model, schedule, rules, prefer_actual)
+    scene = scene_at(console, scene, date, date_basis, unscheduled)
+    the_plan = load_plan(plan, camera=get_camera(camera) if camera else None, transform=transform, **georef_kwargs(scene))
+    for warning in the_plan.parameters.get("warnings", []):
+        console.print(f"[yellow]warning:[/] {warning}", highlight=False)
+    with console.status(f"loading {reality.name}…"):
+        psi = load_reality_input(reality, reality_scale, cache)
+    what = (f"{len(psi.faces):,} triangles" if hasattr(psi, "faces") else f"{len(psi.points):,} points")
+    console.print(f"model: {scene.source or model} — {int(scene.targets.sum())} target elements; "
+                  f"reality {reality.name}: {what}", highlight=False)
+    with Progress(TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
+                  TimeRemainingColumn(), console=console, transient=True) as bar:
+        task = bar.add_task("evaluating the plan", total=len(the_plan))
+        ev = evaluate(scene, the_plan, settings, cache_dir=None if cache else False,
+                      progress=lambda i, n: bar.update(task, completed=i))
+        bar.update(task, description="comparing with the reality", completed=0)
+        v = validate(scene, the_plan, psi, registration_error, settings, ev, point_spacing_m=point_spacing, seed=seed,
+                     progress=lambda i, n: bar.update(task, completed=i))
+    for warning in v.warnings:
+        console.print(f"[yellow]warning:[/] {warning}", highlight=False)
+    console.print(validation_table(v, f"{Path(str(model)).name} × {Path(plan).name} × {reality.name}"))
+    out.mkdir(parents=True, exist_ok=True)
+    report = v.to_dict()
+    report["inputs"] = {"model": str(model), "plan": str(plan), "reality": str(reality), "reality_scale": reality_scale,
+                        "date": None if scene.date is None else str(scene.date)}
+    json_path = out / "validation.json"
+    json_path.write_text(json.dumps(report, indent=1, allow_nan=False, ensure_ascii=False, default=str), encoding="utf-8")
+    csv_path = v.write_csv(out / "validation_elements.csv")
+    console.print(f"wrote {json_path}, {csv_path}", highlight=False)
