@@ -256,3 +256,29 @@ def test_empty_file(tmp_path):
     path = tmp_path / "empty.csv"
     path.write_text("", encoding="utf-8")
     assert_clean_error(run_study(str(path), cwd=tmp_path), "empty")
+
+
+def test_collect_builds_the_table_from_evaluate_and_validate_outputs(tmp_path):
+    import json
+
+    from sightplan.study import StudyError, collect_table, read_study
+
+    values = [(30.0, 50.0, 10.0, 0.01, 20.0, 400.0, 0.05, 0.2, 0.9, 0.4),
+              (40.0, 60.0, 14.0, 0.02, 25.0, 500.0, 0.06, 0.3, 0.8, 0.5),
+              (50.0, 80.0, 20.0, 0.015, 30.0, 450.0, 0.09, 0.5, 0.95, 0.7)]
+    folders = []
+    for k, v in enumerate(values):
+        d = tmp_path / f"site{k}"
+        d.mkdir()
+        (d / "report.json").write_text(json.dumps({"metrics": dict(zip(
+            ("VC_pct", "VC_bar_pct", "VR", "R_m_per_px", "O_deg", "T"), v[:6]))}))
+        (d / "validation.json").write_text(json.dumps({"metrics": dict(zip(("A_m", "Ce", "Cv", "Ct"), v[6:]))}))
+        folders.append(d)
+    study = read_study(collect_table(folders, tmp_path / "table.csv"))
+    assert study.n_rows == 3 and set(study.metrics) == {"VC", "VC_bar", "VR", "R", "O", "T"}
+    # VR = 10, 14, 20 against Ce = 0.2, 0.3, 0.5: r = 0.99718 (by hand: deviations −4.67, −0.67, 5.33 and
+    # −0.133, −0.033, 0.167; Σxy = 1.5333, Σx² = 50.667, Σy² = 0.046667)
+    assert study.r("VR", "Ce") == pytest.approx(1.5333333 / math.sqrt(50.666667 * 0.0466667), abs=1e-5)
+    (folders[1] / "validation.json").unlink()
+    with pytest.raises(StudyError, match="sightplan validate"):
+        collect_table(folders, tmp_path / "t2.csv")

@@ -49,7 +49,7 @@ _ALIASES: dict[str, tuple[str, ...]] = {
     "VC": ("vc", "vc_pct", "vc_%", "vc_percent"),
     "VC_bar": ("vc_bar", "vcbar", "vc_bar_pct", "vcbar_pct", "vc_bar_%", "vcbar_%", "v̄c", "v̄c_pct", "vc̄"),
     "VR": ("vr", "vr_frames"),
-    "R": ("r", "r_m", "r_m_px", "r_m/px"),
+    "R": ("r", "r_m", "r_m_px", "r_m/px", "r_m_per_px"),
     "O": ("o", "o_deg", "o_°"),
     "T": ("t", "t_features"),
     "A": ("a", "a_m"),
@@ -461,3 +461,35 @@ def write_study(study: Study, out: str | Path, pairs: Iterable[tuple[str, str]] 
     images = [v for k, v in paths.items() if k != "correlations"]
     paths["html"] = write_html(study, out / "study.html", images)
     return paths
+
+
+def collect_table(folders: Sequence[str | Path], path: str | Path) -> Path:
+    """Write a study table from output folders: each holds ``report.json`` (``sightplan evaluate --out``)
+    and ``validation.json`` (``sightplan validate --out``), one data set per folder, named by the folder."""
+    import csv
+    import json
+
+    rows = []
+    for folder in map(Path, folders):
+        row: dict = {"dataset": folder.name}
+        for name, keys in (("report.json", ("VC_pct", "VC_bar_pct", "VR", "R_m_per_px", "O_deg", "T")),
+                           ("validation.json", ("A_m", "Ce", "Cv", "Ct"))):
+            f = folder / name
+            if not f.is_file():
+                raise StudyError(f"{folder}: no {name} — run `sightplan "
+                                 f"{'evaluate' if name == 'report.json' else 'validate'} … --out {folder}` first")
+            try:
+                metrics = json.loads(f.read_text(encoding="utf-8"))["metrics"]
+            except (ValueError, KeyError, TypeError) as exc:
+                raise StudyError(f"{f}: not a sightplan {name} ({exc})") from None
+            row.update({k: metrics.get(k) for k in keys})
+        rows.append(row)
+    if not rows:
+        raise StudyError("give at least one folder to collect")
+    path = Path(path)
+    with open(path, "w", newline="", encoding="utf-8") as fh:
+        w = csv.DictWriter(fh, fieldnames=list(rows[0]))
+        w.writeheader()
+        for r in rows:
+            w.writerow({k: "" if v is None else v for k, v in r.items()})
+    return path

@@ -24,10 +24,17 @@ def study_command(
         = Path("sightplan-study"),
     pair: Annotated[list[str] | None, typer.Option(help="Also plot this METRIC:QUALITY pair, e.g. VR:Ce (repeatable)")]
         = None,
+    collect: Annotated[list[Path] | None, typer.Option(
+        help="First write TABLE from these folders, each with an evaluate report.json and a validate validation.json "
+             "(repeat, one per data set)")] = None,
 ) -> None:
     """Pearson r and p of every plan metric against every quality measure, with a heat map and scatter plots."""
     from ..study import DISPLAY, MODERATE, STRONG, parse_pair, read_study, write_study
 
+    if collect:
+        from ..study import collect_table
+
+        console.print(f"wrote {collect_table(collect, table)} from {len(collect)} folders")
     study = read_study(table)
     extra = [parse_pair(p, study) for p in pair or []]
     t = Table("", *(DISPLAY[q] for q in study.qualities), title=f"Pearson r — {table.name}, {study.n_rows} data sets",
