@@ -464,51 +464,89 @@ class _Caster:
         complete = np.zeros(z, np.int64)
         both_n = np.zeros(z, np.int64)
         diff_sum = np.zeros(z, np.float64)
-        n_model = n_both = n_far = 0
+        stats = np.zeros(3, np.int64)  # pixels on the model, pixels where both are hit, of those farther apart than λ
         diffs, ratios = [], []
-        buf = np.empty((min(chunk, n_px), 3), np.float32)
+        size = min(chunk, n_px)
+        buf = np.empty((size, 3), np.float32)
+        tg = np.empty(size, np.float64)
+        dp = np.empty(size, np.float64)
+        samp_d = np.empty(_SAMPLES_PER_CHUNK + 1, np.float64)
+        samp_r = np.empty(_SAMPLES_PER_CHUNK + 1, np.float64)
         g = self.gamma
         og = C - g.centre
         og32 = og.astype(np.float32)
+        op = None if self.psi is None else C - self.psi.centre
         for p0 in starts:
             p1 = min(p0 + chunk, n_px)
-            dirs = buf[: p1 - p0]
+            n = p1 - p0
+            dirs = buf[:n]
             Engine._directions(cam, R, p0, p1, dirs)
             prim = g.first_hit(np.broadcast_to(og32, dirs.shape), dirs)
-            with np.errstate(divide="ignore", invalid="ignore"):
-                tg, _ = g._plane_distance(prim, og, dirs)
-            hit = (prim >= 0) & (tg >= 0) & (tg <= g.d_max)
-            if not hit.any():
-                continue
-            e = g._face_element[prim[hit]].astype(np.int64)
-            dg = tg[hit]
+            _plane_t(prim, dirs, og, g._face_normal, g._face_offset, tg[:n])
             if psi_img is not None:
-                dp = psi_img[p0:p1][hit]
+                dp[:n] = psi_img[p0:p1]
             else:
-                d = np.ascontiguousarray(dirs[hit])
-                op = C - self.psi.centre
-                pp = self.psi.first_hit(np.broadcast_to(op.astype(np.float32), d.shape), d)
-                with np.errstate(divide="ignore", invalid="ignore"):
-                    tp, _ = self.psi._plane_distance(pp, op, d)
-                dp = np.where((pp >= 0) & (tp >= 0) & np.isfinite(tp), tp, np.inf)
-            both = np.isfinite(dp)
-            diff = np.abs(dg - dp)
-            tmask = self.is_target[e]
-            back += np.bincount(e[tmask], minlength=z)
-            sel = both & tmask
-            eb, db = e[sel], diff[sel]
-            both_n += np.bincount(eb, minlength=z)
-            diff_sum += np.bincount(eb, weights=db, minlength=z)
-            complete += np.bincount(eb[db <= self.lam], minlength=z)
-            n_model += int(hit.sum())
-            nb_ = int(both.sum())
-            n_both += nb_
-            if nb_:
-                n_far += int((diff[both] > self.lam).sum())
-                pick = np.flatnonzero(both)[:: max(1, nb_ // _SAMPLES_PER_CHUNK)]
-                diffs.append(diff[pick])
-                ratios.append(dp[pick] / np.maximum(dg[pick], 1e-12))
-        return [back, complete, both_n, diff_sum, n_model, n_both, n_far, diffs, ratios]
+                pp = self.psi.first_hit(np.broadcast_to(op.astype(np.float32), dirs.shape), dirs)
+                _plane_t(pp, dirs, op, self.psi._face_normal, self.psi._face_offset, dp[:n])
+            k = _accumulate(prim, tg[:n], dp[:n], g._face_element, self.is_target, g.d_max, self.lam, back, complete,
+                            both_n, diff_sum, stats, samp_d, samp_r, max(1, n // _SAMPLES_PER_CHUNK))
+            if k:
+                diffs.append(samp_d[:k].copy())
+                ratios.append(samp_r[:k].copy())
+        return [back, complete, both_n, diff_sum, int(stats[0]), int(stats[1]), int(stats[2]), diffs, ratios]
+
+
+@nb.njit(cache=True, nogil=True)
+def _plane_t(prim, dirs, o, normal, offset, out):  # pragma: no cover - compiled
+    """Distance along each ray to its hit triangle's plane; inf on a miss or behind the origin."""
+    for i in range(len(prim)):
+        p = prim[i]
+        out[i] = np.inf
+        if p < 0:
+            continue
+        dn = normal[p, 0] * dirs[i, 0] + normal[p, 1] * dirs[i, 1] + normal[p, 2] * dirs[i, 2]
+        if dn == 0.0:
+            continue
+        t = (offset[p] - (normal[p, 0] * o[0] + normal[p, 1] * o[1] + normal[p, 2] * o[2])) / dn
+        if t >= 0.0:
+            out[i] = t
+
+
+@nb.njit(cache=True, nogil=True)
+def _accumulate(prim, tg, dp, face_element, is_target, d_max, lam, back, complete, both_n, diff_sum, stats,
+                samp_d, samp_r, every):  # pragma: no cover - compiled
+    """Per-element sums of one chunk (see :class:`_Caster`); returns how many (|dΓ − dΨ|, dΨ/dΓ) samples it kept."""
+    k = 0
+    seen = 0
+    for i in range(len(prim)):
+        if prim[i] < 0:
+            continue
+        t = tg[i]
+        if not (t <= d_max):  # also drops inf
+            continue
+        e = face_element[prim[i]]
+        target = is_target[e]
+        stats[0] += 1
+        if target:
+            back[e] += 1
+        d = dp[i]
+        if not np.isfinite(d):
+            continue
+        diff = abs(t - d)
+        stats[1] += 1
+        if diff > lam:
+            stats[2] += 1
+        if target:
+            both_n[e] += 1
+            diff_sum[e] += diff
+            if diff <= lam:
+                complete[e] += 1
+        if seen % every == 0 and k < len(samp_d):
+            samp_d[k] = diff
+            samp_r[k] = d / max(t, 1e-12)
+            k += 1
+        seen += 1
+    return k
 
 
 # =========================================================================== validation
