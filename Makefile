@@ -28,6 +28,7 @@ test: $(STAMP)
 bench: $(STAMP)
 	$(BIN)/python benchmarks/run.py
 	$(BIN)/python benchmarks/planning.py
+	$(BIN)/python benchmarks/validation.py
 
 clean:
-	rm -rf $(VENV) sightplan-demo .pytest_cache
+	rm -rf $(VENV) sightplan-demo sightplan-out sightplan-progress sightplan-study sightplan-validate .pytest_cache
