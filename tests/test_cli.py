@@ -455,3 +455,12 @@ def test_a_reality_model_obstructs_the_plan(tmp_path):
     # the east grid, 8 m out, runs into the block 6 m out; the other sides keep their distance
     assert {name: m["safety_ok"] for name, m in missions.items()} == {
         "facade south": True, "facade east": False, "facade north": True, "facade west": True}
+
+
+def test_a_mission_elsewhere_on_earth_is_pointed_out(tmp_path):
+    from conftest import shared_file
+
+    survey = shared_file("plans", "qgroundcontrol_sample_with_survey.plan")  # Zurich; the Duplex stands in Chicago
+    res = run_cli("check", str(survey), "sample", "--camera", "p4p", cwd=tmp_path)
+    assert res.returncode == 1
+    assert "km from the model" in " ".join(res.stdout.split())

@@ -35,3 +35,14 @@ def georef_kwargs(scene) -> dict:
     from ..geo import Georeference
 
     return {"georef": Georeference.from_scene_metadata(scene.metadata), "ground_z": float(scene.bounds()[0][2])}
+
+
+def warn_if_far(console: Console, scene, plan, limit_m: float = 5000.0) -> None:
+    """A warning when the plan's frames lie kilometres from the model: another place, frame or unit."""
+    import numpy as np
+
+    lo, hi = scene.bounds()
+    gap = np.linalg.norm(np.maximum(lo - plan.C_world, 0) + np.maximum(plan.C_world - hi, 0), axis=1)
+    if len(gap) and float(np.median(gap)) > limit_m:
+        console.print(f"[yellow]warning:[/] the plan's frames lie a median {np.median(gap) / 1000:.1f} km from the model: "
+                      "is the plan in the model's frame (georeference, --transform, units)?", highlight=False)

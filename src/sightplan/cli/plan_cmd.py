@@ -22,7 +22,7 @@ from .fourd import (
     scene_at,
     with_reality,
 )
-from .loading import georef_kwargs, load_with_progress
+from .loading import georef_kwargs, load_with_progress, warn_if_far
 from .main import app, console
 
 TemplateName = Literal["facade", "orbit", "lawnmower", "bridge", "route"]
@@ -181,6 +181,7 @@ def check_command(
                      unscheduled)
     scene = with_reality(console, scene, reality)
     plan = load_plan(plan_file, camera=camera, **georef_kwargs(scene))
+    warn_if_far(console, scene, plan)
     settings = flight_settings(safety_distance, vlos_radius, ground_station, aircraft, altitude_limit)
     report = (plan_flights if split else check_plan)(scene, plan, settings)
     print_feasibility(console, report, f"{Path(plan_file).name} against {Path(str(model)).name}")
