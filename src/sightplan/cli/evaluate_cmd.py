@@ -25,7 +25,7 @@ from .fourd import (
     scene_at,
     with_reality,
 )
-from .loading import georef_kwargs, load_with_progress
+from .loading import georef_kwargs, load_with_progress, warn_if_far
 from .main import app, console
 
 
@@ -96,6 +96,9 @@ def evaluate(
     cache: Annotated[bool, typer.Option(help="Reuse the model and per-frame caches")] = True,
     picture: Annotated[bool, typer.Option(help="Also write overview.png: the model coloured by visibility")] = True,
     threads: Annotated[int | None, typer.Option(help="Worker threads (default: all cores)")] = None,
+    cluster: Annotated[str | None, typer.Option(
+        help="Cast on a dask cluster: a scheduler address (tcp://host:8786) or local:N for N local worker processes")] = None,
+    batch_frames: Annotated[int, typer.Option(help="With --cluster: frames per task")] = 64,
 ) -> None:
     """Evaluate a capture plan against a model: VC, V̄C, VR, R, O, T, per element and per frame."""
     from ..camera.catalogue import get_camera
@@ -127,6 +130,7 @@ def evaluate(
         the_plan = load_plan(plan, camera=get_camera(camera) if camera else None, transform=transform,
                              **georef_kwargs(scene))
         plan_label = plan
+        warn_if_far(console, scene, the_plan)
         for warning in the_plan.parameters.get("warnings", []):
             console.print(f"[yellow]warning:[/] {warning}", highlight=False)
     if save_plan is not None:
@@ -142,9 +146,15 @@ def evaluate(
     with Progress(TextColumn("[bold]casting frames"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
                   TimeRemainingColumn(), console=console, transient=False) as bar:
         task = bar.add_task("frames", total=len(the_plan))
-        ev = run_evaluation(scene, the_plan, settings, features=feature_set,
-                            cache_dir=None if cache else False,
-                            progress=lambda i, n: bar.update(task, completed=i))
+        if cluster is not None:
+            from ..distributed import evaluate_distributed
+
+            ev = evaluate_distributed(scene, the_plan, settings, cluster=cluster, batch_frames=batch_frames,
+                                      features=feature_set, progress=lambda i, n: bar.update(task, completed=i))
+        else:
+            ev = run_evaluation(scene, the_plan, settings, features=feature_set,
+                                cache_dir=None if cache else False,
+                                progress=lambda i, n: bar.update(task, completed=i))
     paths = write_report(ev, scene, the_plan, out, model_path=str(model), plan_path=str(plan or ""))
     if picture:
         from ..engines import make_engine
