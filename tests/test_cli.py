@@ -464,3 +464,18 @@ def test_a_mission_elsewhere_on_earth_is_pointed_out(tmp_path):
     res = run_cli("check", str(survey), "sample", "--camera", "p4p", cwd=tmp_path)
     assert res.returncode == 1
     assert "km from the model" in " ".join(res.stdout.split())
+
+
+def test_check_takes_a_walked_route_as_a_walk(tmp_path):
+    walk = tmp_path / "walk.json"
+    assert run_cli("plan", "route", "sample", "--camera", "theta-z1", "--point", "-30,-40,1.5", "--point", "-30,20,1.5",
+                   "--step", "2", "-o", str(walk), cwd=tmp_path).returncode == 0
+    res = run_cli("check", str(walk), "sample", "--json", str(tmp_path / "c.json"), cwd=tmp_path)
+    # a walk outside the house, 20 m west of it: no line of sight or altitude to keep, a walker's battery
+    assert res.returncode == 0, res.stdout
+    d = json.loads((tmp_path / "c.json").read_text())
+    assert d["missions"][0]["line_of_sight_ok"] is None and d["missions"][0]["altitude_ok"] is None
+    assert d["missions"][0]["battery_ok"] is True
+    assert_clean_error(run_cli("plan", "facade", "sample", "--safety-distance", "0", cwd=tmp_path), "positive")
+    assert_clean_error(run_cli("plan", "facade", "sample", "-o", str(tmp_path / "no" / "dir" / "f.json"), cwd=tmp_path),
+                       "cannot write")

@@ -137,3 +137,22 @@ def test_duplex_site_is_chicago():
     # IfcSite: 41°52'27.84"N, 87°38'21.839999"W
     assert g.latitude_deg == pytest.approx(41 + 52 / 60 + 27.84 / 3600)
     assert g.longitude_deg == pytest.approx(-(87 + 38 / 60 + 21.839999 / 3600))
+
+
+def test_ifc2x3_map_conversion_with_a_zero_abscissa(tmp_path):
+    import ifcopenshell.api.pset
+
+    path = make_ifc(tmp_path / "revit.ifc", version="IFC2X3")
+    f = ifcopenshell.open(str(path))
+    project = f.by_type("IfcProject")[0]
+    conv = ifcopenshell.api.pset.add_pset(f, product=project, name="ePSet_MapConversion")
+    ifcopenshell.api.pset.edit_pset(f, pset=conv, properties={
+        "Eastings": 500000.0, "Northings": 4982950.4, "OrthogonalHeight": 0.0, "XAxisAbscissa": 0.0, "XAxisOrdinate": 1.0})
+    crs = ifcopenshell.api.pset.add_pset(f, product=project, name="ePSet_ProjectedCRS")
+    ifcopenshell.api.pset.edit_pset(f, pset=crs, properties={"Name": "EPSG:32631"})
+    f.write(str(path))
+    scene, _ = load_ifc(path)
+    g = Georeference.from_scene_metadata(scene.metadata)
+    assert g.x_axis == (0.0, 1.0)  # model +X is grid north: a zero abscissa is a value, not a missing one
+    lat, lon, _ = g.to_geodetic([[0.0, 0.0, 0.0], [1000.0, 0.0, 0.0]])
+    assert (lat[1] - lat[0]) * 111_132 == pytest.approx(1000 / 0.9996, rel=1e-3) and abs(lon[1] - lon[0]) < 1e-6

@@ -482,7 +482,12 @@ def collect_table(folders: Sequence[str | Path], path: str | Path) -> Path:
                 metrics = json.loads(f.read_text(encoding="utf-8"))["metrics"]
             except (ValueError, KeyError, TypeError) as exc:
                 raise StudyError(f"{f}: not a sightplan {name} ({exc})") from None
-            row.update({k: metrics.get(k) for k in keys})
+            for k in keys:
+                v = metrics.get(k)
+                if k in ("Ce", "Cv", "Ct"):  # fractions in validation.json; percent here, as VC and the paper's table
+                    row[f"{k}_pct"] = None if v is None else 100.0 * float(v)
+                else:
+                    row[k] = v
         rows.append(row)
     if not rows:
         raise StudyError("give at least one folder to collect")

@@ -10,13 +10,10 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
-SafetyOpt = Annotated[float, typer.Option("--safety-distance", help="Least distance g to the model (m)")]
 VlosOpt = Annotated[float, typer.Option("--vlos-radius", help="Visual line-of-sight radius around the pilot (m); 0: no check")]
 StationOpt = Annotated[list[str] | None, typer.Option(
     "--ground-station", help="Pilot position 'x,y,z' in the model frame (m); repeat for candidates. "
                              "Default: the four corners of the plan's region")]
-AircraftOpt = Annotated[str, typer.Option(
-    help="Aircraft preset (p4p, m3e, m300), rover preset for routes, or a JSON file of Aircraft fields; 'none': no battery")]
 AltitudeOpt = Annotated[float, typer.Option("--altitude-limit", help="FAA §107.51 altitude limit (m); 0: no check")]
 
 

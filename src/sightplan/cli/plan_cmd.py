@@ -9,7 +9,7 @@ from typing import Annotated, Literal
 import typer
 
 from .errors import friendly_errors
-from .flight import AircraftOpt, AltitudeOpt, SafetyOpt, StationOpt, VlosOpt, flight_settings, parse_point, print_feasibility
+from .flight import AltitudeOpt, StationOpt, VlosOpt, flight_settings, parse_point, print_feasibility
 from .fourd import (
     ActualOpt,
     BasisOpt,
@@ -91,7 +91,8 @@ def plan_command(
         settings = flight_settings(0.3 if safety_distance is None else safety_distance, 0.0, None,
                                    aircraft or "walker-360", 0.0)
     else:
-        settings = flight_settings(safety_distance or 10.0, vlos_radius, ground_station, aircraft or "p4p", altitude_limit)
+        settings = flight_settings(10.0 if safety_distance is None else safety_distance, vlos_radius, ground_station,
+                                   aircraft or "p4p", altitude_limit)
     safety_distance = settings.safety_distance_m
     if template == "facade":
         if footprint not in ("box", "outline"):
@@ -150,11 +151,15 @@ def with_site(plan, scene):
 def check_command(
     plan_file: Annotated[str, typer.Argument(metavar="PLAN", help="Plan file (any format `sightplan evaluate` reads)")],
     model: Annotated[str, typer.Argument(help="IFC or mesh file; 'sample' for the bundled Duplex model")],
-    safety_distance: SafetyOpt = 5.0,
-    vlos_radius: VlosOpt = 500.0,
+    safety_distance: Annotated[float | None, typer.Option(
+        "--safety-distance", help="Least distance to the model (m); default 5, 0.3 for a walked route")] = None,
+    vlos_radius: Annotated[float | None, typer.Option(
+        "--vlos-radius", help="VLOS radius around the pilot (m); 0: no check. Default 500, none for a walked route")] = None,
     ground_station: StationOpt = None,
-    aircraft: AircraftOpt = "p4p",
-    altitude_limit: AltitudeOpt = 120.0,
+    aircraft: Annotated[str | None, typer.Option(
+        help="Aircraft or rover preset, a JSON file, or 'none'. Default p4p, walker-360 for a walked route")] = None,
+    altitude_limit: Annotated[float | None, typer.Option(
+        "--altitude-limit", help="FAA §107.51 limit (m); 0: no check. Default 120, none for a walked route")] = None,
     split: Annotated[bool, typer.Option(help="Split the missions to keep line of sight and fit the batteries "
                                              "(write the result with -o)")] = False,
     output: Annotated[Path | None, typer.Option("-o", "--output", help="Write the (split) plan here")] = None,
@@ -182,7 +187,11 @@ def check_command(
     scene = with_reality(console, scene, reality)
     plan = load_plan(plan_file, camera=camera, **georef_kwargs(scene))
     warn_if_far(console, scene, plan)
-    settings = flight_settings(safety_distance, vlos_radius, ground_station, aircraft, altitude_limit)
+    walked = plan.parameters.get("template") == "indoor_route"  # a rover or a walker: no sight line, no altitude limit
+    defaults = (0.3, 0.0, "walker-360", 0.0) if walked else (5.0, 500.0, "p4p", 120.0)
+    given = (safety_distance, vlos_radius, aircraft, altitude_limit)
+    safety, vlos, craft, limit = (d if v is None else v for v, d in zip(given, defaults))
+    settings = flight_settings(safety, vlos, ground_station, craft, limit)  # type: ignore[arg-type]
     report = (plan_flights if split else check_plan)(scene, plan, settings)
     print_feasibility(console, report, f"{Path(plan_file).name} against {Path(str(model)).name}")
     if output is not None:

@@ -199,13 +199,18 @@ def georeference(f: ifcopenshell.file, unit_scale: float) -> dict | None:
     if not pset or pset.get("Eastings") is None:
         return None
     crs = uel.get_pset(projects[0], "ePSet_ProjectedCRS") or {}
+
+    def value(name: str, default: float) -> float:  # 0.0 is a value (an axis along +Y), not a missing one
+        v = pset.get(name)
+        return default if v is None else float(v)
+
     return {
         "eastings_m": float(pset["Eastings"]) * unit_scale,
-        "northings_m": float(pset.get("Northings") or 0.0) * unit_scale,
-        "orthogonal_height_m": float(pset.get("OrthogonalHeight") or 0.0) * unit_scale,
-        "x_axis_abscissa": float(pset.get("XAxisAbscissa") or 1.0),
-        "x_axis_ordinate": float(pset.get("XAxisOrdinate") or 0.0),
-        "scale": float(pset.get("Scale") or 1.0),
+        "northings_m": value("Northings", 0.0) * unit_scale,
+        "orthogonal_height_m": value("OrthogonalHeight", 0.0) * unit_scale,
+        "x_axis_abscissa": value("XAxisAbscissa", 1.0),
+        "x_axis_ordinate": value("XAxisOrdinate", 0.0),
+        "scale": value("Scale", 1.0),
         "target_crs": crs.get("Name"),
         "crs_description": crs.get("Description"),
         "geodetic_datum": crs.get("GeodeticDatum"),

@@ -84,7 +84,10 @@ def write_plan(plan: Plan, path: str | Path) -> None:
         text = json.dumps(plan_to_dict(plan), indent=1, allow_nan=False, default=_jsonable, ensure_ascii=False)
     except (TypeError, ValueError) as exc:
         raise PlanError(f"plan parameters cannot be written as JSON: {exc}") from None
-    Path(path).write_text(text + "\n", encoding="utf-8")
+    try:
+        Path(path).write_text(text + "\n", encoding="utf-8")
+    except OSError as exc:
+        raise PlanError(f"cannot write the plan to {path}: {exc.strerror or exc}") from None
 
 
 # -- reading ---------------------------------------------------------------------------------

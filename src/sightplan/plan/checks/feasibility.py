@@ -185,6 +185,14 @@ def _split_battery(plan: Plan, default_station: NDArray, aircraft: Aircraft) -> 
     return replace(plan, missions=tuple(out))
 
 
+def _continues(before: str, name: str) -> bool:
+    """Whether mission ``name`` is the battery part that follows ``before`` on the same route."""
+    import re
+
+    a, b = re.fullmatch(r"(.*) \((\d+)\)", before), re.fullmatch(r"(.*) \((\d+)\)", name)
+    return bool(a and b and a.group(1) == b.group(1) and int(b.group(2)) == int(a.group(2)) + 1)
+
+
 def _runs(mask: NDArray[np.bool_]) -> list[tuple[int, int]]:
     """Half-open index ranges of the True runs of ``mask``."""
     edges = np.diff(np.concatenate([[0], mask.astype(np.int8), [0]]))
@@ -243,8 +251,10 @@ def check_plan(scene: Scene, plan: Plan, settings: FlightSettings) -> Feasibilit
         t = d = ok_battery = None
         ac = settings.aircraft
         if isinstance(ac, Rover) and m.stop > m.start:
-            # a rover resumes where it stopped: a part after the first walks on from the frame before it
-            route = plan.C_world[max(m.start - 1, 0):m.stop]
+            # a rover resumes where it stopped: a battery part after the first of its route walks on from the
+            # frame before it (split_by_rover names the parts "route (1)", "route (2)", …)
+            resumes = k > 0 and _continues(plan.missions[k - 1].name, m.name)
+            route = plan.C_world[m.start - 1 if resumes else m.start:m.stop]
             d = float(np.linalg.norm(np.diff(route, axis=0), axis=1).sum())
             t = d / ac.speed_m_s + ac.capture_s * (m.stop - m.start)
             ok_battery = t <= ac.usable_s and d <= ac.usable_m
