@@ -364,6 +364,8 @@ def test_export_then_read_back_and_georeference_errors(tmp_path):
     res = run_cli("export", str(plan), "--format", "wpml", "-o", str(tmp_path / "f.kmz"), cwd=tmp_path)
     assert res.returncode == 0, res.stderr
     assert "IfcSite" in res.stdout  # placed with the Duplex's site latitude/longitude, recorded in the plan
+    # the facade grid's bottom row stands on the model's base, level with the take-off point: pointed out
+    assert "less than 2 m above the take-off point" in " ".join(res.stdout.split())
     with zipfile.ZipFile(tmp_path / "f.kmz") as z:
         root = ET.fromstring(z.read("wpmz/waylines.wpml"))
     ns = {"kml": "http://www.opengis.net/kml/2.2", "wpml": "http://www.dji.com/wpmz/1.0.2"}

@@ -12,6 +12,7 @@ from .flight import parse_point
 from .main import app, console
 
 ExportFormat = Literal["qgc", "wpl", "wpml", "litchi", "kml", "geojson"]
+MIN_ALTITUDE_M = 2.0
 SUFFIX = {"qgc": ".plan", "wpl": ".waypoints", "wpml": ".kmz", "litchi": ".csv", "kml": ".kml", "geojson": ".geojson"}
 
 
@@ -85,5 +86,10 @@ def export_command(
     out = output or Path(plan_file).with_suffix(SUFFIX[fmt])
     paths = export_plan(plan, fmt, out, geo, takeoff_m, speed_m_s=speed, mission=None if mission is None else mission - 1)
     console.print(f"georeference: {geo.describe()}", highlight=False)
+    low = np.flatnonzero(plan.C_world[:, 2] - takeoff_m[2] < MIN_ALTITUDE_M)
+    if len(low):
+        console.print(f"[yellow]warning:[/] {len(low)} waypoint(s) lie less than {MIN_ALTITUDE_M:g} m above the take-off "
+                      f"point (lowest {plan.C_world[:, 2].min() - takeoff_m[2]:+.1f} m, e.g. frame {low[0]}): raise them "
+                      "before flying, or check --takeoff", highlight=False)
     for p in paths:
         console.print(f"wrote {p}")
