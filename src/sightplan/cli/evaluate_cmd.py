@@ -21,8 +21,7 @@ from .fourd import (
     ScheduleOpt,
     UnscheduledOpt,
     check_date_options,
-    link_with_schedule,
-    scene_at,
+    dated_scene,
     with_reality,
 )
 from .loading import georef_kwargs, load_with_progress, warn_if_far
@@ -119,8 +118,7 @@ def evaluate(
                   f"{len(scene.faces):,} triangles"
                   + (f", {len(load_report.skipped)} products without geometry (see `sightplan info`)"
                      if getattr(load_report, "skipped", None) else ""))
-    scene = link_with_schedule(console, scene, model, schedule, rules, prefer_actual)
-    scene = scene_at(console, scene, date, date_basis, unscheduled)
+    scene = dated_scene(console, scene, model, schedule, rules, prefer_actual, date, date_basis, unscheduled)
     scene = with_reality(console, scene, reality)
     if plan is None:
         ring_camera = camera or "p4p"

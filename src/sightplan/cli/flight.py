@@ -72,6 +72,17 @@ def flight_settings(safety_distance: float, vlos_radius: float, ground_station: 
                           altitude_limit_m=altitude_limit or None, aircraft=aircraft_from_option(aircraft))
 
 
+def default_flight_settings(walked: bool, safety_distance: float | None, vlos_radius: float | None,
+                            ground_station: list[str] | None, aircraft: str | None, altitude_limit: float | None,
+                            drone_safety_m: float):
+    """:func:`flight_settings` with the defaults of a drone flight, or of a walked or driven route (no line of sight,
+    no altitude limit, 0.3 m clearance, a walker's battery), for the options not given (None)."""
+    defaults = (0.3, 0.0, "walker-360", 0.0) if walked else (drone_safety_m, 500.0, "p4p", 120.0)
+    given = (safety_distance, vlos_radius, aircraft, altitude_limit)
+    safety, vlos, craft, limit = (d if v is None else v for v, d in zip(given, defaults))
+    return flight_settings(safety, vlos, ground_station, craft, limit)  # type: ignore[arg-type]
+
+
 def _minutes(t: float | None) -> str:
     return "—" if t is None else f"{t / 60:.1f}"
 

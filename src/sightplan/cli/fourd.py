@@ -66,3 +66,10 @@ def with_reality(console: Console, scene, reality: Path | None):
     real = load_reality(reality)
     console.print(f"reality model {reality.name}: {real.n_elements} patches, {len(real.faces):,} triangles, as occluders")
     return combine(scene, real, "occluder")
+
+
+def dated_scene(console: Console, scene, model: str, schedule: str | None, rules: Path | None, prefer_actual: bool,
+                date: str | None, basis: str, unscheduled: str):
+    """The scene dated by its schedule (:func:`link_with_schedule`) and taken at ``date`` (:func:`scene_at`)."""
+    return scene_at(console, link_with_schedule(console, scene, model, schedule, rules, prefer_actual), date, basis,
+                    unscheduled)

@@ -9,7 +9,7 @@ from typing import Annotated, Literal
 import typer
 
 from .errors import friendly_errors
-from .flight import AltitudeOpt, StationOpt, VlosOpt, flight_settings, parse_point, print_feasibility
+from .flight import AltitudeOpt, StationOpt, VlosOpt, default_flight_settings, parse_point, print_feasibility
 from .fourd import (
     ActualOpt,
     BasisOpt,
@@ -18,8 +18,7 @@ from .fourd import (
     RulesOpt,
     ScheduleOpt,
     UnscheduledOpt,
-    link_with_schedule,
-    scene_at,
+    dated_scene,
     with_reality,
 )
 from .loading import georef_kwargs, load_with_progress, warn_if_far
@@ -83,16 +82,13 @@ def plan_command(
     from ..plan.templates import bridge, facade_grid, indoor_route, indoor_routes, lawnmower, orbit, read_routes
 
     scene, _ = load_with_progress(console, model, cache)
-    scene = scene_at(console, link_with_schedule(console, scene, model, schedule, rules, prefer_actual), date, date_basis,
-                     unscheduled)
+    scene = dated_scene(console, scene, model, schedule, rules, prefer_actual, date, date_basis, unscheduled)
     obstacles = with_reality(console, scene, reality)  # templates go around the model; checks see everything
     cam = get_camera(camera)
-    if template == "route":  # walked or driven indoors: no line of sight to keep, no altitude limit
-        settings = flight_settings(0.3 if safety_distance is None else safety_distance, 0.0, None,
-                                   aircraft or "walker-360", 0.0)
-    else:
-        settings = flight_settings(10.0 if safety_distance is None else safety_distance, vlos_radius, ground_station,
-                                   aircraft or "p4p", altitude_limit)
+    walked = template == "route"  # walked or driven indoors: no line of sight to keep, no altitude limit
+    settings = default_flight_settings(walked, safety_distance, None if walked else vlos_radius,
+                                       None if walked else ground_station, aircraft, None if walked else altitude_limit,
+                                       drone_safety_m=10.0)
     safety_distance = settings.safety_distance_m
     if template == "facade":
         if footprint not in ("box", "outline"):
@@ -182,16 +178,13 @@ def check_command(
     from ..plan.load import load_plan
 
     scene, _ = load_with_progress(console, model, cache)
-    scene = scene_at(console, link_with_schedule(console, scene, model, schedule, rules, prefer_actual), date, date_basis,
-                     unscheduled)
+    scene = dated_scene(console, scene, model, schedule, rules, prefer_actual, date, date_basis, unscheduled)
     scene = with_reality(console, scene, reality)
     plan = load_plan(plan_file, camera=camera, **georef_kwargs(scene))
     warn_if_far(console, scene, plan)
     walked = plan.parameters.get("template") == "indoor_route"  # a rover or a walker: no sight line, no altitude limit
-    defaults = (0.3, 0.0, "walker-360", 0.0) if walked else (5.0, 500.0, "p4p", 120.0)
-    given = (safety_distance, vlos_radius, aircraft, altitude_limit)
-    safety, vlos, craft, limit = (d if v is None else v for v, d in zip(given, defaults))
-    settings = flight_settings(safety, vlos, ground_station, craft, limit)  # type: ignore[arg-type]
+    settings = default_flight_settings(walked, safety_distance, vlos_radius, ground_station, aircraft, altitude_limit,
+                                       drone_safety_m=5.0)
     report = (plan_flights if split else check_plan)(scene, plan, settings)
     print_feasibility(console, report, f"{Path(plan_file).name} against {Path(str(model)).name}")
     if output is not None:

@@ -20,8 +20,7 @@ from .fourd import (
     ScheduleOpt,
     UnscheduledOpt,
     check_date_options,
-    link_with_schedule,
-    scene_at,
+    dated_scene,
 )
 from .loading import georef_kwargs, load_with_progress
 from .main import app, console
@@ -108,8 +107,7 @@ def validate_command(
     check_date_options(date_basis, unscheduled)
     settings = EvaluationSettings(engine=engine, scale=scale, d_max=d_max, threads=threads, metric=MetricParams(omega=omega))
     scene, _ = load_with_progress(console, model, cache)
-    scene = link_with_schedule(console, scene, model, schedule, rules, prefer_actual)
-    scene = scene_at(console, scene, date, date_basis, unscheduled)
+    scene = dated_scene(console, scene, model, schedule, rules, prefer_actual, date, date_basis, unscheduled)
     the_plan = load_plan(plan, camera=get_camera(camera) if camera else None, transform=transform, **georef_kwargs(scene))
     for warning in the_plan.parameters.get("warnings", []):
         console.print(f"[yellow]warning:[/] {warning}", highlight=False)

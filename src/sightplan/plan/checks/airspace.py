@@ -36,25 +36,34 @@ def default_ground_station(scene: Scene, plan: Plan, height_m: float = 1.5) -> N
     return np.array([lo[0], lo[1], scene.bounds()[0][2] + height_m])
 
 
-def check_line_of_sight(scene: Scene, plan: Plan, radius_m: float, ground_station: NDArray | None = None,
-                        engine: str = "auto") -> LineOfSightReport:
-    """A mission keeps VLOS when every waypoint is within ``radius_m`` and seen from the ground station."""
+def sight_lines(scene: Scene, points: NDArray, stations: NDArray, radius_m: float,
+                engine: str = "auto") -> tuple[NDArray[np.float64], NDArray[np.bool_], NDArray[np.bool_]]:
+    """(k, n) distance from each of k stations to each of n points, within ``radius_m``, and not hidden by the
+    model (one engine casts every sight line)."""
     from ...engines import make_engine
 
     if not radius_m > 0:
         raise PlanError(f"the VLOS radius must be positive, got {radius_m}")
-    gs = default_ground_station(scene, plan) if ground_station is None else np.asarray(ground_station, float).reshape(3)
-    rel = plan.C_world - gs
-    dist = np.linalg.norm(rel, axis=1)
-    in_range = dist <= radius_m
-    unblocked = np.ones(len(plan), bool)
+    P = np.asarray(points, float).reshape(-1, 3)
+    S = np.asarray(stations, float).reshape(-1, 3)
+    rel = P[None, :, :] - S[:, None, :]
+    dist = np.linalg.norm(rel, axis=2)
+    unblocked = np.ones(dist.shape, bool)
     away = dist > 0
     if away.any() and len(scene.faces):
         with make_engine(engine, scene, threads=1) as eng:
-            d = (rel[away] / dist[away, None]).astype(np.float32)
-            origin = np.broadcast_to((gs - eng.centre).astype(np.float32), d.shape)
-            hit = eng.hit_distance(origin, d)
+            d = (rel[away] / dist[away][:, None]).astype(np.float32)
+            origin = np.broadcast_to(S[:, None, :], rel.shape)[away] - eng.centre
+            hit = eng.hit_distance(origin.astype(np.float32), d)
         unblocked[away] = hit >= dist[away] - LOS_TOLERANCE_M
+    return dist, dist <= radius_m, unblocked
+
+
+def check_line_of_sight(scene: Scene, plan: Plan, radius_m: float, ground_station: NDArray | None = None,
+                        engine: str = "auto") -> LineOfSightReport:
+    """A mission keeps VLOS when every waypoint is within ``radius_m`` and seen from the ground station."""
+    gs = default_ground_station(scene, plan) if ground_station is None else np.asarray(ground_station, float).reshape(3)
+    dist, in_range, unblocked = (a[0] for a in sight_lines(scene, plan.C_world, gs, radius_m, engine))
     violations = []
     for i in np.flatnonzero(~in_range):
         violations.append(f"waypoint {i} is {dist[i]:.0f} m from the ground station (VLOS radius {radius_m:g} m)")

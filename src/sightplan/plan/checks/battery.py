@@ -89,24 +89,27 @@ def split_by_battery(plan: Plan, ground_station: NDArray, ac: Aircraft) -> tuple
     A new mission starts (the resume waypoint) where adding the next waypoint would exceed
     the usable flight time. Frames are neither reordered nor dropped.
     """
-    gs = np.asarray(ground_station, float).reshape(3)
-    C = plan.C_world
+    gs = np.asarray(ground_station, float).reshape(3)[None]
     missions, times = [], []
     for m in plan.missions:
-        start = m.start
-        part = 1
-        while start < m.stop:
-            stop = start + 1
-            if mission_time(C[start:stop], gs, ac)[0] > ac.usable_s:
-                raise PlanError(f"waypoint {start} cannot be reached and flown back from the ground station on one "
+        C = plan.C_world[m.start:m.stop]
+        out = legs_time(np.repeat(gs, len(C), axis=0), C, ac)  # ground station → each waypoint
+        back = legs_time(C, np.repeat(gs, len(C), axis=0), ac)  # each waypoint → ground station
+        along = np.concatenate([[0.0], np.cumsum(legs_time(C[:-1], C[1:], ac))])  # first waypoint → each, in order
+        a, part = 0, 1
+        while a < len(C):
+            # flight time of the part a..b for every b ≥ a; it ends before the first b that no longer fits
+            t = out[a] + (along[a:] - along[a]) + back[a:] + ac.capture_s * np.arange(1, len(C) - a + 1)
+            if t[0] > ac.usable_s:
+                raise PlanError(f"waypoint {m.start + a} cannot be reached and flown back from the ground station on one "
                                 f"battery ({ac.usable_s / 60:.1f} min usable)")
-            while stop < m.stop and mission_time(C[start:stop + 1], gs, ac)[0] <= ac.usable_s:
-                stop += 1  # the whole prefix is re-timed: fine for plans of thousands of waypoints
-            t, dist = mission_time(C[start:stop], gs, ac)
-            name = m.name if (start == m.start and stop == m.stop) else f"{m.name} ({part})"
-            missions.append(Mission(name, start, stop))
-            times.append(MissionTime(name, start, stop, t, dist))
-            start, part = stop, part + 1
+            over = np.flatnonzero(t > ac.usable_s)
+            b = a + (int(over[0]) if len(over) else len(C) - a)  # exclusive
+            name = m.name if (a == 0 and b == len(C)) else f"{m.name} ({part})"
+            missions.append(Mission(name, m.start + a, m.start + b))
+            t_part, dist = mission_time(C[a:b], gs[0], ac)
+            times.append(MissionTime(name, m.start + a, m.start + b, t_part, dist))
+            a, part = b, part + 1
     return replace(plan, missions=tuple(missions)), times
 
 

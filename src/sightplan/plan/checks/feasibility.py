@@ -17,7 +17,7 @@ from numpy.typing import NDArray
 from ...errors import PlanError
 from ...model.scene import Scene
 from ..types import Mission, Plan
-from .airspace import FAA_LIMIT_M, AltitudeReport, check_altitude, check_line_of_sight
+from .airspace import FAA_LIMIT_M, AltitudeReport, check_altitude, sight_lines
 from .battery import AIRCRAFT, Aircraft, Rover, mission_time, split_by_battery, split_by_rover
 from .safety import SafetyReport, check_safety
 
@@ -138,11 +138,8 @@ def _stations(scene: Scene, plan: Plan, settings: FlightSettings) -> NDArray[np.
 
 def _visible(scene: Scene, plan: Plan, stations: NDArray, radius: float) -> NDArray[np.bool_]:
     """(k, n) waypoint j within ``radius`` of station i and not hidden from it by the model."""
-    out = np.zeros((len(stations), len(plan)), bool)
-    for i, gs in enumerate(stations):
-        r = check_line_of_sight(scene, plan, radius, gs)
-        out[i] = r.in_range & r.unblocked
-    return out
+    _, in_range, unblocked = sight_lines(scene, plan.C_world, stations, radius)
+    return in_range & unblocked
 
 
 def split_by_line_of_sight(scene: Scene, plan: Plan, radius_m: float, stations: NDArray) -> Plan:
@@ -226,15 +223,15 @@ def check_plan(scene: Scene, plan: Plan, settings: FlightSettings) -> Feasibilit
     dist = np.full(len(plan), np.nan)
     in_sight = np.ones(len(plan), bool)
     los_ok: list[bool | None] = [None] * len(plan.missions)
-    if settings.vlos_radius_m is not None:
-        # one line-of-sight pass per distinct station
-        for gs in {tuple(s) for s in station_of}:
-            r = check_line_of_sight(scene, plan, settings.vlos_radius_m, np.array(gs))
-            for k, m in enumerate(plan.missions):
-                if tuple(station_of[k]) == gs:
-                    sl = slice(m.start, m.stop)
-                    dist[sl], in_sight[sl] = r.distance_m[sl], (r.in_range & r.unblocked)[sl]
-                    los_ok[k] = bool(in_sight[sl].all())
+    if settings.vlos_radius_m is not None and plan.missions:
+        # each waypoint against its own mission's station: one engine for every sight line
+        gs_of = np.concatenate([np.repeat(station_of[k][None], m.stop - m.start, axis=0) for k, m in enumerate(plan.missions)])
+        stations, which = np.unique(gs_of, axis=0, return_inverse=True)
+        d, near, clear = sight_lines(scene, plan.C_world, stations, settings.vlos_radius_m)
+        cols = np.arange(len(plan))
+        dist, in_sight = d[which.ravel(), cols], (near & clear)[which.ravel(), cols]
+        for k, m in enumerate(plan.missions):
+            los_ok[k] = bool(in_sight[m.start:m.stop].all())
         far = ~in_sight & (dist > settings.vlos_radius_m)
         for a, b in _runs(far):
             violations.append(f"{_span(a, b)} beyond the {settings.vlos_radius_m:g} m VLOS radius of the ground station "
