@@ -6,7 +6,15 @@ STAMP := $(VENV)/.installed
 
 .PHONY: setup demo test lint bench clean
 
+# The OpenGL engine renders headless through EGL: a GPU's driver, or Mesa's llvmpipe on the CPU.
+EGL_PACKAGES := libegl1 libegl-mesa0 libgl1-mesa-dri
+
 $(STAMP): pyproject.toml
+	@if ! ldconfig -p | grep -q 'libEGL_mesa.so.0\|libEGL_nvidia.so.0'; then \
+	  if [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null; then \
+	    apt-get update -q && DEBIAN_FRONTEND=noninteractive apt-get install -y -q --no-install-recommends $(EGL_PACKAGES); \
+	  else echo "note: no EGL driver found; install $(EGL_PACKAGES) for the gl engine"; fi; \
+	fi
 	$(PY) -m venv $(VENV)
 	$(BIN)/pip install -q --upgrade pip
 	$(BIN)/pip install -q -e '.[dev]'

@@ -23,7 +23,7 @@ from sightplan.model.scene import ElementTable, Scene
 from sightplan.observations.table import Observations
 from sightplan.plan.poses import R_from_gimbal
 
-ENGINES = ["embree", "trimesh"]
+ENGINES = ["embree", "gl", "trimesh"]
 
 
 def _engine_param(name: str):
@@ -31,7 +31,7 @@ def _engine_param(name: str):
 
 
 BOTH = [_engine_param(n) for n in ENGINES]
-EMBREE = [_engine_param("embree")]
+EMBREE = [_engine_param("embree"), _engine_param("gl")]
 
 # Camera looking north (+Y), image right = +X (east), image down = −Z. Columns of R are the
 # camera's x, y, z axes in world coordinates.

@@ -22,7 +22,7 @@ from ..observations.features import FeatureSet
 from ..observations.table import FrameObservation
 from . import kernels
 
-EngineName = Literal["auto", "embree", "trimesh"]
+EngineName = Literal["auto", "embree", "gl", "trimesh"]
 
 D_MAX_M = 1000.0
 OCCLUSION_TOLERANCE_M = 0.0005

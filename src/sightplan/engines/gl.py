@@ -1,0 +1,731 @@
+"""Visibility by rasterisation with OpenGL (moderngl on a headless EGL context).
+
+One frame is one draw call into an integer primitive-id attachment with a depth test on
+the exact ray distance, then one compute pass that reduces the image on the GPU to the
+same sparse per-element sums as the ray-casting engines (pixel count, distance, angle),
+so only a few numbers per seen element come back to the host. It runs on any OpenGL 4.3
+driver: an NVIDIA or AMD card through EGL, or Mesa's software rasteriser (llvmpipe) on a
+machine without one.
+
+The rules match :mod:`sightplan.engines.kernels` exactly:
+
+* the fragment at each pixel centre is the first triangle along that pixel's ray: the
+  depth written is the distance from the camera centre along the ray to the triangle's
+  plane, not the projective depth, so occlusion is decided as a ray caster decides it;
+* the reduction recomputes, per pixel, the distance t along the pixel's ray to the hit
+  triangle's plane and the angle θ between the camera-facing normal and the optical axis
+  (or the axis of the cube face the ray falls in, for 360° frames); pixels whose first
+  hit lies beyond d_max count nothing;
+* sums are kept as 64-bit fixed-point integers (built from 32-bit atomics with a
+  carry), so a frame's result does not depend on the order the GPU runs in: two runs
+  are bit-identical.
+
+Equirectangular frames are rendered as the six 90° faces of a cube around the camera,
+as in the source paper; the reduction walks the equirectangular pixel grid and takes
+each pixel's triangle from the face its ray falls in (nearest face pixel), so pixel
+counts mean the same as in the ray casters.
+
+Features (METRICS.md §5.2) are defined by exact rays: a corner feature sits 1 mm off a
+corner, and whether its ray grazes the next face is decided at a scale far below one
+pixel. By default (``feature_test="rays"``) the engine casts those few thousand rays per
+frame through Embree, so the stability metrics are the ray casters'. With
+``feature_test="depth"`` they are tested on the GPU against the rendered id image
+instead: hidden when the plane of the triangle drawn at the feature's pixel, or any
+triangle drawn within ``feature_reach`` pixels, meets the feature's own ray before it.
+That needs no CPU ray caster; on the Duplex it disagrees with exact rays on about 2 % of
+the feature sightings, at corners.
+
+Arbitrary rays (sight lines, the validation's reprojection) are not frames; for those
+:meth:`GLEngine.first_hit` hands over to the Embree engine, built on first use.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+import threading
+from typing import Literal
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..camera.models import Camera, EquirectangularCamera
+from ..errors import EngineError
+from ..observations.table import FrameObservation
+from .base import OCCLUSION_TOLERANCE_M, Engine
+
+FeatureTest = Literal["rays", "depth"]
+
+NEAR_M = 1e-3  # surfaces closer than this to the camera centre are clipped
+DEFAULT_TILE_PX = 8192  # frames larger than this in either direction are drawn in tiles
+CUBE_OVERSAMPLE = 1.6  # cube-face pixels per equirectangular pixel at the equator (≥ π/2 samples every pixel)
+FEATURE_REACH_PX = 1  # depth-buffer feature test: triangles drawn within this many pixels are tested exactly
+_FIX = float(1 << 31)  # per-pixel fixed point: the largest value maps to 2³¹
+_ANGLE_MAX_DEG = 90.0
+_SOFTWARE = ("llvmpipe", "softpipe", "swrast", "software", "lavapipe")
+
+_VERTEX = """
+#version 430
+in vec3 in_pos;
+uniform mat3 R;          // camera -> world (columns: camera axes in world)
+uniform vec3 C;          // camera centre, engine frame
+uniform vec4 K;          // fx, fy, cx - u0, cy - v0 of this tile
+uniform vec2 tile;       // tile width, height in pixels
+uniform vec2 clip;       // near, far (camera z)
+void main() {
+    vec3 q = transpose(R) * (in_pos - C);   // x right, y down, z forward
+    float n = clip.x, f = clip.y;
+    gl_Position = vec4((2.0 * K.x / tile.x) * q.x + (2.0 * K.z / tile.x - 1.0) * q.z,
+                       (2.0 * K.y / tile.y) * q.y + (2.0 * K.w / tile.y - 1.0) * q.z,
+                       q.z * (f + n) / (f - n) - 2.0 * f * n / (f - n),
+                       q.z);
+}
+"""
+
+_FRAGMENT = """
+#version 430
+layout(std430, binding = 1) readonly buffer Planes { vec4 plane[]; };
+uniform mat3 R;
+uniform vec3 C;
+uniform vec4 K;
+uniform vec2 trange;     // t0, 1 / (t1 - t0): the depth written is (t - t0) / (t1 - t0)
+layout(location = 0) out int out_id;
+void main() {
+    vec4 pl = plane[gl_PrimitiveID];
+    vec3 d = R * normalize(vec3((gl_FragCoord.x - K.z) / K.x, (gl_FragCoord.y - K.w) / K.y, 1.0));
+    float dn = dot(pl.xyz, d);
+    float t = (pl.w - dot(pl.xyz, C)) / dn;
+    float z = (abs(dn) > 0.0 && t >= 0.0) ? (t - trange.x) * trange.y : 1.0;
+    gl_FragDepth = clamp(z, 0.0, 1.0);
+    out_id = gl_PrimitiveID + 1;
+}
+"""
+
+# Shared by the reduction and the feature test: ray direction and cube-face selection.
+_COMMON = """
+#version 430
+layout(local_size_x = %(LX)d, local_size_y = %(LY)d) in;
+layout(binding = 0) uniform isampler2D ids;
+layout(std430, binding = 1) readonly buffer Planes { vec4 plane[]; };
+uniform int mode;        // 0 pinhole tile, 1 cube face of an equirectangular frame
+uniform mat3 R;          // camera -> world
+uniform vec3 C;
+uniform vec4 K;          // pinhole: fx, fy, cx - u0, cy - v0; cube face: S/2, S/2, S/2, S/2
+uniform ivec2 tile;      // pixels of the id image (pinhole tile or cube face)
+uniform ivec2 img;       // pinhole: tile size; equirect: the W x H grid
+uniform mat3 M;          // cube face -> camera
+uniform int face_axis;   // 0, 1, 2
+uniform float face_sign; // +1 or -1
+uniform float dmax;
+layout(std430, binding = 10) readonly buffer Vertices { float vtx[]; };
+layout(std430, binding = 11) readonly buffer Triangles { uint tri[]; };
+
+vec3 vertex(uint k) { return vec3(vtx[3u * k], vtx[3u * k + 1u], vtx[3u * k + 2u]); }
+
+// distance along the ray (o, d) to triangle p (Möller–Trumbore), +inf on a miss
+float ray_triangle(int p, vec3 o, vec3 d) {
+    vec3 a = vertex(tri[3 * p]);
+    vec3 e1 = vertex(tri[3 * p + 1]) - a;
+    vec3 e2 = vertex(tri[3 * p + 2]) - a;
+    vec3 pv = cross(d, e2);
+    float det = dot(e1, pv);
+    if (det == 0.0) return 1.0 / 0.0;
+    float inv = 1.0 / det;
+    vec3 tv = o - a;
+    float u = dot(tv, pv) * inv;
+    if (u < 0.0 || u > 1.0) return 1.0 / 0.0;
+    vec3 qv = cross(tv, e1);
+    float v = dot(d, qv) * inv;
+    if (v < 0.0 || u + v > 1.0) return 1.0 / 0.0;
+    float t = dot(e2, qv) * inv;
+    return (t >= 0.0) ? t : 1.0 / 0.0;
+}
+
+int dominant(vec3 c, out float s) {
+    vec3 a = abs(c);
+    int j = (a.x >= a.y && a.x >= a.z) ? 0 : ((a.y >= a.z) ? 1 : 2);
+    s = (c[j] > 0.0) ? 1.0 : -1.0;
+    return j;
+}
+
+// the id-image texel a camera-frame direction falls in on this cube face (false if another face)
+bool face_texel(vec3 c, out ivec2 tex) {
+    float s;
+    int j = dominant(c, s);
+    tex = ivec2(0);
+    if (j != face_axis || s != face_sign) return false;
+    vec3 q = transpose(M) * c;
+    vec2 uv = vec2(K.x * q.x / q.z + K.z, K.y * q.y / q.z + K.w);
+    tex = clamp(ivec2(floor(uv)), ivec2(0), tile - 1);
+    return true;
+}
+"""
+
+_REDUCE = _COMMON + """
+layout(std430, binding = 2) readonly buffer FaceElement { int face_element[]; };
+layout(std430, binding = 3) coherent buffer Acc { uint acc[]; };          // 5 per element
+layout(std430, binding = 4) coherent buffer Touched { uint n_touched; uint touched[]; };
+layout(std430, binding = 5) writeonly buffer Map { uint map[]; };        // 3 per pixel when mapping
+uniform int write_map;
+uniform ivec3 map_at;    // u0, v0 of this id image in the mapped frame, and the frame's width
+uniform float t_unit;    // metres per fixed-point step
+uniform float a_unit;    // degrees per fixed-point step
+shared int s_el[%(LN)d];
+shared uint s_t[%(LN)d];
+shared uint s_a[%(LN)d];
+
+void add64(uint i, uint lo, uint hi) {
+    uint old = atomicAdd(acc[i], lo);
+    atomicAdd(acc[i + 1u], hi + ((old + lo < old) ? 1u : 0u));
+}
+
+void main() {
+    uvec2 gid = gl_GlobalInvocationID.xy;
+    uint li = gl_LocalInvocationIndex;
+    int e = -1;
+    uint tq = 0u, aq = 0u;
+    float t_out = 1.0 / 0.0, c_out = 0.0;
+    bool inside = gid.x < uint(img.x) && gid.y < uint(img.y);
+    bool mine = false;
+    if (inside) {
+        vec3 c;
+        ivec2 tex;
+        vec3 axis;
+        if (mode == 0) {
+            c = normalize(vec3((float(gid.x) + 0.5 - K.z) / K.x, (float(gid.y) + 0.5 - K.w) / K.y, 1.0));
+            tex = ivec2(gid);
+            axis = R[2];
+            mine = true;
+        } else {
+            float lon = 6.283185307179586 * (float(gid.x) + 0.5) / float(img.x) - 3.141592653589793;
+            float lat = 1.5707963267948966 - 3.141592653589793 * (float(gid.y) + 0.5) / float(img.y);
+            float cl = cos(lat);
+            c = vec3(cl * sin(lon), -sin(lat), cl * cos(lon));
+            mine = face_texel(c, tex);
+            axis = face_sign * R[face_axis];
+        }
+        if (mine) {
+            int p = texelFetch(ids, tex, 0).r - 1;
+            if (mode == 1) {
+                // the face texel is the nearest face pixel, not this ray: take the nearest
+                // triangle this exact ray meets among those drawn around it
+                vec3 dw = R * c;
+                float best = 1.0 / 0.0;
+                int last = -1;
+                for (int dy = -1; dy <= 1; dy++) {
+                    for (int dx = -1; dx <= 1; dx++) {
+                        ivec2 q = tex + ivec2(dx, dy);
+                        if (q.x < 0 || q.y < 0 || q.x >= tile.x || q.y >= tile.y) continue;
+                        int pq = texelFetch(ids, q, 0).r - 1;
+                        if (pq < 0 || pq == last) continue;
+                        last = pq;
+                        float tq_ = ray_triangle(pq, C, dw);
+                        if (tq_ < best) { best = tq_; p = pq; }
+                    }
+                }
+            }
+            if (p >= 0) {
+                vec4 pl = plane[p];
+                vec3 d = R * c;
+                float dn = dot(pl.xyz, d);
+                if (dn != 0.0) {
+                    float t = (pl.w - dot(pl.xyz, C)) / dn;
+                    if (t >= 0.0 && t <= dmax) {
+                        vec3 nrm = (dn > 0.0) ? -pl.xyz : pl.xyz;
+                        float cosv = -dot(nrm, axis);
+                        // θ = atan2(|n × a|, n·a): accurate near 0°, where acos is not
+                        float ang = (cosv <= 0.0) ? 90.0 : degrees(atan(length(cross(nrm, axis)), cosv));
+                        e = face_element[p];
+                        tq = uint(min(round(t / t_unit), 2147483648.0));
+                        aq = uint(min(round(ang / a_unit), 2147483648.0));
+                        t_out = t;
+                        c_out = abs(dn);
+                    }
+                }
+            }
+        }
+    }
+    if (write_map != 0 && inside && mine) {
+        uint k = 3u * ((gid.y + uint(map_at.y)) * uint(map_at.z) + gid.x + uint(map_at.x));
+        map[k] = uint(e);
+        map[k + 1u] = floatBitsToUint(t_out);
+        map[k + 2u] = floatBitsToUint(c_out);
+    }
+    s_el[li] = e;
+    s_t[li] = tq;
+    s_a[li] = aq;
+    barrier();
+    if (write_map == 0 && e >= 0) {
+        bool leader = true;
+        for (uint k = 0u; k < li; k++) {
+            if (s_el[k] == e) { leader = false; break; }
+        }
+        if (leader) {
+            uint cnt = 0u, tlo = 0u, thi = 0u, alo = 0u, ahi = 0u;
+            for (uint k = li; k < %(LN)du; k++) {
+                if (s_el[k] == e) {
+                    cnt += 1u;
+                    tlo += s_t[k]; if (tlo < s_t[k]) thi += 1u;
+                    alo += s_a[k]; if (alo < s_a[k]) ahi += 1u;
+                }
+            }
+            uint base = 5u * uint(e);
+            if (atomicAdd(acc[base], cnt) == 0u) {
+                touched[atomicAdd(n_touched, 1u)] = uint(e);
+            }
+            add64(base + 1u, tlo, thi);
+            add64(base + 3u, alo, ahi);
+        }
+    }
+}
+"""
+
+_COMPACT = """
+#version 430
+layout(local_size_x = 64) in;
+layout(std430, binding = 3) buffer Acc { uint acc[]; };
+layout(std430, binding = 4) readonly buffer Touched { uint n_touched; uint touched[]; };
+layout(std430, binding = 6) writeonly buffer Out { uint outv[]; };
+void main() {
+    uint i = gl_GlobalInvocationID.x;
+    if (i >= n_touched) return;
+    uint e = touched[i];
+    uint b = 5u * e;
+    outv[6u * i] = e;
+    for (uint k = 0u; k < 5u; k++) {
+        outv[6u * i + 1u + k] = acc[b + k];
+        acc[b + k] = 0u;
+    }
+}
+"""
+
+_FEATURES = _COMMON + """
+layout(std430, binding = 7) readonly buffer FeatPoints { vec4 fpoint[]; };
+layout(std430, binding = 8) readonly buffer FeatNormals { vec4 fnormal[]; };
+layout(std430, binding = 9) coherent buffer Visible { uint n_visible; uint visible[]; };
+uniform int n_features;
+uniform vec4 window;     // pinhole: u0, v0, u1, v1 of this tile in full-frame pixels (scaled camera)
+uniform vec4 Kfull;      // pinhole: fx, fy, cx, cy of the (scaled) camera
+uniform float tol;
+uniform int reach;       // pixels around the feature's pixel whose triangles are tested exactly
+void main() {
+    uint i = gl_GlobalInvocationID.x;
+    if (i >= uint(n_features)) return;
+    vec3 rel = fpoint[i].xyz - C;
+    float dist = length(rel);
+    if (!(dot(fnormal[i].xyz, rel) < 0.0 && dist <= dmax && dist > 0.0)) return;
+    vec3 c = transpose(R) * rel;
+    ivec2 tex;
+    if (mode == 0) {
+        if (c.z <= 0.0) return;
+        float x = Kfull.x * c.x / c.z + Kfull.z;
+        float y = Kfull.y * c.y / c.z + Kfull.w;
+        if (!(x >= window.x && x < window.z && y >= window.y && y < window.w)) return;
+        tex = clamp(ivec2(floor(vec2(x - window.x, y - window.y))), ivec2(0), tile - 1);
+    } else {
+        if (!face_texel(c, tex)) return;
+    }
+    // hidden when the feature's own ray meets, before it, a triangle drawn near its pixel
+    vec3 d = rel / dist;
+    bool seen = true;
+    int p0 = texelFetch(ids, tex, 0).r - 1;
+    if (p0 >= 0) {  // the plane of the triangle drawn at the feature's pixel
+        vec4 pl = plane[p0];
+        float dn = dot(pl.xyz, d);
+        float t = (pl.w - dot(pl.xyz, C)) / dn;
+        seen = !(dn != 0.0 && t >= 0.0) || t >= dist - tol;
+    }
+    int last = -1;
+    for (int dy = -reach; dy <= reach && seen; dy++) {
+        for (int dx = -reach; dx <= reach && seen; dx++) {
+            ivec2 q = tex + ivec2(dx, dy);
+            if (q.x < 0 || q.y < 0 || q.x >= tile.x || q.y >= tile.y) continue;
+            int p = texelFetch(ids, q, 0).r - 1;
+            if (p < 0 || p == last) continue;
+            last = p;
+            seen = ray_triangle(p, C, d) >= dist - tol;
+        }
+    }
+    if (seen) visible[atomicAdd(n_visible, 1u)] = i;
+}
+"""
+
+
+def _face_matrices() -> list[tuple[int, float, NDArray[np.float64]]]:
+    """The six cube faces: (axis j, sign s, M) with M's columns the face camera's x, y, z in camera axes."""
+    out = []
+    for j in range(3):
+        for s in (1.0, -1.0):
+            z = np.zeros(3)
+            z[j] = s
+            helper = np.array([0.0, 1.0, 0.0]) if j != 1 else np.array([0.0, 0.0, 1.0])
+            x = np.cross(helper, z)
+            x /= np.linalg.norm(x)
+            y = np.cross(z, x)
+            out.append((j, s, np.column_stack([x, y, z])))
+    return out
+
+
+_FACES = _face_matrices()
+
+
+def _renderer(ctx) -> str:
+    return str(ctx.info.get("GL_RENDERER", "unknown"))
+
+
+def create_context():
+    """A headless OpenGL ≥ 4.3 context through EGL; :class:`EngineError` naming what is missing otherwise."""
+    try:
+        import moderngl
+    except ImportError as exc:
+        raise EngineError(f"the gl engine needs moderngl ({exc}); install it with `pip install moderngl`") from None
+    try:
+        ctx = moderngl.create_context(standalone=True, backend="egl")
+    except Exception as exc:  # noqa: BLE001 - glcontext raises bare Exceptions naming the EGL call
+        raise EngineError(
+            f"no headless OpenGL context could be created through EGL ({exc}); install the GPU's EGL driver, "
+            "or Mesa's (Debian: libegl1 libegl-mesa0 libgl1-mesa-dri) to render on the CPU") from None
+    if ctx.version_code < 430:
+        renderer = _renderer(ctx)
+        ctx.release()
+        raise EngineError(f"the gl engine needs OpenGL 4.3 compute shaders; {renderer} offers only "
+                          f"{ctx.version_code // 100}.{ctx.version_code % 100 // 10}")
+    return ctx
+
+
+@functools.lru_cache(maxsize=1)
+def probe() -> dict:
+    """What OpenGL this process can get: {'available', 'renderer', 'hardware', 'error'}; computed once."""
+    try:
+        ctx = create_context()
+    except EngineError as exc:
+        return {"available": False, "renderer": "", "hardware": False, "error": str(exc)}
+    renderer = _renderer(ctx)
+    ctx.release()
+    hardware = not any(word in renderer.lower() for word in _SOFTWARE)
+    return {"available": True, "renderer": renderer, "hardware": hardware, "error": ""}
+
+
+def available() -> bool:
+    return probe()["available"]
+
+
+def hardware_available() -> bool:
+    """True when the OpenGL driver is a GPU's, not a software rasteriser."""
+    return probe()["hardware"]
+
+
+class GLEngine(Engine):
+    """Frames rasterised with OpenGL; per-element sums reduced on the GPU.
+
+    tile_px: frames wider or taller than this are drawn in tiles (bounds GPU memory).
+    cube_oversample: cube-face resolution for 360° frames, in face pixels per
+    equirectangular pixel at the equator (the paper's cube-map approach).
+    """
+
+    name = "gl"
+
+    def __init__(self, scene, features=None, *, tile_px: int = DEFAULT_TILE_PX,
+                 cube_oversample: float = CUBE_OVERSAMPLE, feature_test: FeatureTest | None = None,
+                 feature_reach: int = FEATURE_REACH_PX, **kwargs) -> None:
+        kwargs["threads"] = 1  # one context; its work is ordered on the GPU, not split over threads
+        super().__init__(scene, features, **kwargs)
+        if not cube_oversample >= 1:
+            raise EngineError(f"cube_oversample must be ≥ 1, got {cube_oversample}")
+        self._lock = threading.RLock()
+        self._ray_engine: Engine | None = None
+        self.cube_oversample = float(cube_oversample)
+        self.feature_reach = int(feature_reach)
+        if feature_test is None:
+            from . import embree
+
+            feature_test = "rays" if embree.available() else "depth"
+        if feature_test not in ("rays", "depth"):
+            raise EngineError(f"feature_test must be 'rays' or 'depth', got {feature_test!r}")
+        self.feature_test = feature_test
+        self.ctx = create_context()
+        self.renderer = _renderer(self.ctx)
+        with self.ctx:
+            max_tex = int(self.ctx.info.get("GL_MAX_TEXTURE_SIZE", 8192))
+            self.tile_px = max(16, min(int(tile_px), max_tex))
+            self._build_programs()
+            self._upload_scene()
+            self._upload_features()
+        self._targets: dict[tuple[int, int], tuple] = {}
+
+    # ----------------------------------------------------------------- set-up
+    def _build_programs(self) -> None:
+        ctx = self.ctx
+        self._prog = ctx.program(vertex_shader=_VERTEX, fragment_shader=_FRAGMENT)
+        self._reduce = ctx.compute_shader(_REDUCE % {"LX": 16, "LY": 16, "LN": 256})
+        self._compact = ctx.compute_shader(_COMPACT)
+        self._feat = ctx.compute_shader(_FEATURES % {"LX": 64, "LY": 1, "LN": 64})
+
+    def _upload_scene(self) -> None:
+        ctx, scene = self.ctx, self.scene
+        self._n_faces = len(scene.faces)
+        planes = np.zeros((max(1, self._n_faces), 4), np.float32)
+        if self._n_faces:
+            planes[:, :3] = self._face_normal
+            planes[:, 3] = self._face_offset
+        self._planes = ctx.buffer(planes.tobytes())
+        self._face_el = ctx.buffer(np.ascontiguousarray(np.r_[self._face_element, 0], np.int32).tobytes())
+        self._acc = ctx.buffer(reserve=max(1, self.n_elements) * 5 * 4)
+        self._acc.clear()
+        self._touched = ctx.buffer(reserve=(max(1, self.n_elements) + 1) * 4)
+        self._touched.clear()
+        self._out = ctx.buffer(reserve=max(1, self.n_elements) * 6 * 4)
+        if self._n_faces:
+            self._vbo = ctx.buffer(np.ascontiguousarray(self.local_vertices, np.float32).tobytes())
+            self._ibo = ctx.buffer(np.ascontiguousarray(scene.faces, np.uint32).tobytes())
+            self._vao = ctx.vertex_array(self._prog, [(self._vbo, "3f", "in_pos")], index_buffer=self._ibo,
+                                         index_element_size=4)
+        lo = self.local_vertices.min(axis=0) if len(self.local_vertices) else np.zeros(3)
+        hi = self.local_vertices.max(axis=0) if len(self.local_vertices) else np.zeros(3)
+        self._box = (lo, hi)
+
+    def _upload_features(self) -> None:
+        fs = self.features
+        self._n_features = 0 if fs is None else len(fs)
+        n = max(1, self._n_features)
+        pts = np.zeros((n, 4), np.float32)
+        nrm = np.zeros((n, 4), np.float32)
+        if self._n_features:
+            pts[:, :3] = fs.points - self.centre
+            nrm[:, :3] = fs.normals
+        self._fpoints = self.ctx.buffer(pts.tobytes())
+        self._fnormals = self.ctx.buffer(nrm.tobytes())
+        self._visible = self.ctx.buffer(reserve=(n + 1) * 4)
+        self._visible.clear()
+
+    def _target(self, w: int, h: int):
+        """A framebuffer of w × h (id + depth), kept for reuse (the last two sizes)."""
+        import moderngl
+
+        key = (w, h)
+        if key not in self._targets:
+            while len(self._targets) >= 2:
+                for item in self._targets.pop(next(iter(self._targets))):
+                    item.release()
+            ids = self.ctx.texture((w, h), 1, dtype="i4")
+            ids.filter = (moderngl.NEAREST, moderngl.NEAREST)  # an integer texture must not be filtered
+            depth = self.ctx.depth_texture((w, h))
+            fbo = self.ctx.framebuffer(color_attachments=[ids], depth_attachment=depth)
+            self._targets[key] = (fbo, ids, depth)
+        return self._targets[key]
+
+    def close(self) -> None:
+        with self._lock:
+            if getattr(self, "ctx", None) is not None:
+                self._targets.clear()
+                self.ctx.release()
+                self.ctx = None
+            if self._ray_engine is not None:
+                self._ray_engine.close()
+                self._ray_engine = None
+        super().close()
+
+    # ------------------------------------------------------------ arbitrary rays
+    def first_hit(self, origins: NDArray[np.float32], directions: NDArray[np.float32]) -> NDArray[np.int32]:
+        """Arbitrary rays are not frames: they go to the Embree engine (built once, on first use)."""
+        with self._lock:
+            if self._ray_engine is None:
+                from .embree import EmbreeEngine
+
+                self._ray_engine = EmbreeEngine(self.scene, None, d_max=self.d_max, threads=1)
+        return self._ray_engine.first_hit(origins, directions)
+
+    # ------------------------------------------------------------------ views
+    def _views(self, cam: Camera, R: NDArray):
+        """(kind, R_view, K, tile size, window, face info) for every draw of this frame."""
+        if isinstance(cam, EquirectangularCamera):
+            s = min(self.tile_px, max(8, math.ceil(self.cube_oversample * cam.width / math.pi)))
+            half = s / 2.0
+            for j, sign, M in _FACES:
+                yield {"mode": 1, "R": R @ M, "K": (half, half, half, half), "tile": (s, s), "M": M,
+                       "face_axis": j, "face_sign": sign, "window": (0, 0, s, s)}
+            return
+        T = self.tile_px
+        for v0 in range(0, cam.height, T):
+            for u0 in range(0, cam.width, T):
+                tw, th = min(T, cam.width - u0), min(T, cam.height - v0)
+                yield {"mode": 0, "R": R, "K": (cam.fx, cam.fy, cam.cx - u0, cam.cy - v0), "tile": (tw, th),
+                       "M": np.eye(3), "face_axis": 2, "face_sign": 1.0, "window": (u0, v0, u0 + tw, v0 + th)}
+
+    def _t_range(self, C: NDArray) -> tuple[float, float]:
+        """Distances from C between which surfaces can lie (the depth buffer's range)."""
+        lo, hi = self._box
+        nearest = float(np.linalg.norm(np.maximum(0.0, np.maximum(lo - C, C - hi))))
+        corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
+        farthest = float(np.linalg.norm(corners - C, axis=1).max())
+        t0 = max(0.0, nearest * (1 - 1e-6) - 1e-3)
+        t1 = min(self.d_max, farthest) * (1 + 1e-6) + 1e-3
+        return t0, max(t1, t0 + 1e-3)
+
+    def _draw(self, view: dict, C: NDArray, t0: float, t1: float):
+        """Render one view into its framebuffer; the id texture and depth texture."""
+        import moderngl
+
+        fbo, ids, depth = self._target(*view["tile"])
+        fbo.use()
+        fbo.clear(0.0, depth=1.0)
+        if self._n_faces:
+            ctx = self.ctx
+            ctx.enable(moderngl.DEPTH_TEST)
+            ctx.disable(moderngl.CULL_FACE)
+            ctx.depth_func = "<"
+            p = self._prog
+            p["R"].write(np.asarray(view["R"], np.float32).T.tobytes())  # column-major
+            p["C"].value = tuple(float(x) for x in C)
+            p["K"].value = tuple(float(x) for x in view["K"])
+            p["tile"].value = tuple(float(x) for x in view["tile"])
+            # the far clip must not cut what lies within t1 anywhere in a 90°-or-narrower view
+            p["clip"].value = (NEAR_M, max(2.0 * t1, NEAR_M * 10))
+            p["trange"].value = (t0, 1.0 / (t1 - t0))
+            self._planes.bind_to_storage_buffer(1)
+            self._vao.render(moderngl.TRIANGLES)
+        return ids, depth
+
+    @staticmethod
+    def _set(prog, name: str, value) -> None:
+        """Set a uniform the compiler kept (unused ones are optimised away)."""
+        if name in prog:
+            prog[name].value = value
+
+    def _set_common(self, prog, view: dict, img: tuple[int, int], C: NDArray) -> None:
+        self._set(prog, "mode", view["mode"])
+        prog["R"].write(np.asarray(self._R_cur, np.float32).T.tobytes())  # column-major: R's columns
+        self._set(prog, "C", tuple(float(x) for x in C))
+        self._set(prog, "K", tuple(float(x) for x in view["K"]))
+        self._set(prog, "tile", tuple(int(x) for x in view["tile"]))
+        self._set(prog, "img", img)
+        if "M" in prog:
+            prog["M"].write(np.asarray(view["M"], np.float32).T.tobytes())
+        self._set(prog, "face_axis", view["face_axis"])
+        self._set(prog, "face_sign", float(view["face_sign"]))
+        self._set(prog, "dmax", self.d_max)
+
+    def _frame(self, cam: Camera, R: NDArray, C: NDArray, map_buffer=None, features: bool = True) -> None:
+        """Draw and reduce every view of one frame: into the accumulators, or, given ``map_buffer``
+        (W × H × 3 uint32), into a per-pixel map of element id, distance and |cos|."""
+        self._R_cur = R
+        t0, t1 = self._t_range(C)
+        equirect = isinstance(cam, EquirectangularCamera)
+        red, feat = self._reduce, self._feat
+        for view in self._views(cam, R):
+            ids, _ = self._draw(view, C, t0, t1)
+            self.ctx.memory_barrier()
+            ids.use(location=0)
+            self._planes.bind_to_storage_buffer(1)
+            self._face_el.bind_to_storage_buffer(2)
+            self._acc.bind_to_storage_buffer(3)
+            self._touched.bind_to_storage_buffer(4)
+            (map_buffer if map_buffer is not None else self._out).bind_to_storage_buffer(5)
+            img = (cam.width, cam.height) if equirect else view["tile"]
+            self._set_common(red, view, img, C)
+            self._set(red, "ids", 0)
+            self._set(red, "t_unit", self.d_max / _FIX)
+            self._set(red, "a_unit", _ANGLE_MAX_DEG / _FIX)
+            self._set(red, "write_map", int(map_buffer is not None))
+            u0, v0 = (0, 0) if equirect else view["window"][:2]
+            self._set(red, "map_at", (int(u0), int(v0), int(cam.width)))
+            if self._n_faces:
+                self._vbo.bind_to_storage_buffer(10)
+                self._ibo.bind_to_storage_buffer(11)
+            red.run((img[0] + 15) // 16, (img[1] + 15) // 16, 1)
+            self.ctx.memory_barrier()
+            if features and self._n_features and self._n_faces:
+                self._set_common(feat, view, view["tile"], C)
+                self._set(feat, "ids", 0)
+                self._set(feat, "n_features", self._n_features)
+                self._set(feat, "window", tuple(float(x) for x in view["window"]))
+                self._set(feat, "Kfull", (cam.fx, cam.fy, cam.cx, cam.cy) if not equirect else (1.0, 1.0, 0.0, 0.0))
+                self._set(feat, "tol", OCCLUSION_TOLERANCE_M)
+                self._set(feat, "reach", self.feature_reach)
+                self._vbo.bind_to_storage_buffer(10)
+                self._ibo.bind_to_storage_buffer(11)
+                self._fpoints.bind_to_storage_buffer(7)
+                self._fnormals.bind_to_storage_buffer(8)
+                self._visible.bind_to_storage_buffer(9)
+                feat.run((self._n_features + 63) // 64, 1, 1)
+                self.ctx.memory_barrier()
+
+    def _collect(self) -> tuple[NDArray, NDArray, NDArray, NDArray]:
+        """Sorted (elements, counts, depth sums m, angle sums °) of the frame just reduced; resets the accumulators."""
+        n = int(np.frombuffer(self._touched.read(4), np.uint32)[0])
+        if n == 0:
+            return np.zeros(0, np.int32), np.zeros(0, np.int64), np.zeros(0), np.zeros(0)
+        self._acc.bind_to_storage_buffer(3)
+        self._touched.bind_to_storage_buffer(4)
+        self._out.bind_to_storage_buffer(6)
+        self._compact.run((n + 63) // 64, 1, 1)
+        self.ctx.memory_barrier()
+        rows = np.frombuffer(self._out.read(n * 24), np.uint32).reshape(n, 6).astype(np.uint64)
+        self._touched.write(np.zeros(1, np.uint32).tobytes())
+        order = np.argsort(rows[:, 0], kind="stable")
+        rows = rows[order]
+        depth = (rows[:, 2] + (rows[:, 3] << np.uint64(32))).astype(np.float64) * (self.d_max / _FIX)
+        angle = (rows[:, 4] + (rows[:, 5] << np.uint64(32))).astype(np.float64) * (_ANGLE_MAX_DEG / _FIX)
+        return rows[:, 0].astype(np.int32), rows[:, 1].astype(np.int64), depth, angle
+
+    def _collect_features(self) -> NDArray[np.int32]:
+        if not self._n_features:
+            return np.zeros(0, np.int32)
+        n = int(np.frombuffer(self._visible.read(4), np.uint32)[0])
+        idx = np.frombuffer(self._visible.read(n * 4, offset=4), np.uint32) if n else np.zeros(0, np.uint32)
+        self._visible.write(np.zeros(1, np.uint32).tobytes())
+        return np.sort(idx.astype(np.int32))
+
+    # ------------------------------------------------------------ per frame
+    def observe(self, camera: Camera, R_world_camera: NDArray, C_world: NDArray, scale: float = 1.0) -> FrameObservation:
+        if not 0 < scale <= 1:
+            raise EngineError(f"resolution scale must be in (0, 1], got {scale}")
+        cam = camera.scaled(scale) if scale != 1 else camera
+        R = np.asarray(R_world_camera, dtype=np.float64)
+        C = np.asarray(C_world, dtype=np.float64) - self.centre
+        depth_test = self.feature_test == "depth"
+        with self._lock, self.ctx:
+            self._frame(cam, R, C, features=depth_test)
+            element, count, depth, angle = self._collect()
+            features = self._collect_features() if depth_test else None
+        if features is None:
+            features = Engine.visible_features(self, camera, R, C_world)
+        return FrameObservation(
+            element=element,
+            count=count,
+            depth_mean=depth / np.maximum(count, 1),
+            angle_mean=angle / np.maximum(count, 1),
+            features=features,
+            pixel_scale=(camera.width * camera.height) / (cam.width * cam.height),
+            sampling_focal_px=camera.sampling_focal_px,
+        )
+
+    def visible_features(self, camera: Camera, R_world_camera: NDArray, C_world: NDArray) -> NDArray[np.int32]:
+        """Features seen from this pose: by exact rays (``feature_test='rays'``), or against the
+        id image rendered at the camera's full resolution (``'depth'``)."""
+        if self.feature_test == "rays":
+            return Engine.visible_features(self, camera, R_world_camera, C_world)
+        with self._lock, self.ctx:
+            R = np.asarray(R_world_camera, dtype=np.float64)
+            self._frame(camera, R, np.asarray(C_world, np.float64) - self.centre)
+            self._collect()
+            return self._collect_features()
+
+    def shaded_view(self, camera: Camera, R_world_camera: NDArray, C_world: NDArray, scale: float = 1.0
+                    ) -> tuple[NDArray[np.int32], NDArray[np.float64], NDArray[np.float64]]:
+        cam = camera.scaled(scale) if scale != 1 else camera
+        R = np.asarray(R_world_camera, dtype=np.float64)
+        C = np.asarray(C_world, dtype=np.float64) - self.centre
+        W, H = cam.width, cam.height
+        with self._lock, self.ctx:
+            buf = self.ctx.buffer(reserve=W * H * 12)
+            try:
+                self._frame(cam, R, C, map_buffer=buf, features=False)
+                out = np.frombuffer(buf.read(), np.uint32).reshape(H, W, 3)
+            finally:
+                buf.release()
+        ids = out[:, :, 0].view(np.int32).copy()
+        t = out[:, :, 1].view(np.float32).astype(np.float64)
+        cos = out[:, :, 2].view(np.float32).astype(np.float64)
+        hit = ids >= 0
+        return ids, np.where(hit, t, np.inf), np.where(hit, cos, 0.0)
