@@ -56,6 +56,7 @@ from numpy.typing import ArrayLike, NDArray
 from .camera.models import Camera, EquirectangularCamera
 from .engines import make_engine
 from .engines.base import DEFAULT_CHUNK_RAYS, Engine
+from .engines.registry import ray_engine_name
 from .errors import ModelError, SightplanError
 from .evaluate import Evaluation, EvaluationSettings, evaluate
 from .model.reality import PointCloud, check_points
@@ -644,8 +645,9 @@ def validate(
     n_model = n_both = n_far = 0
     diffs: list[NDArray] = []
     ratios: list[NDArray] = []
-    gamma = make_engine(settings.engine, scene, d_max=settings.d_max, threads=1)
-    psi_engine = make_engine(settings.engine, psi_scene, threads=1) if psi_scene is not None else None
+    rays = ray_engine_name(settings.engine)  # the validation casts its own rays: a ray caster, never a rasteriser
+    gamma = make_engine(rays, scene, d_max=settings.d_max, threads=1)
+    psi_engine = make_engine(rays, psi_scene, threads=1) if psi_scene is not None else None
     caster = _Caster(gamma, psi_engine, cloud, spacing, is_target, lam, threads)
     try:
         for f in range(len(plan)):

@@ -25,7 +25,7 @@ from .fourd import (
     with_reality,
 )
 from .loading import georef_kwargs, load_with_progress, warn_if_far
-from .main import app, console
+from .main import ENGINE_HELP, app, console
 
 
 def _fmt(x: float | None, spec: str) -> str:
@@ -73,7 +73,7 @@ def evaluate(
     prefer_actual: ActualOpt = False,
     date_basis: BasisOpt = "finish",
     unscheduled: UnscheduledOpt = "present",
-    engine: Annotated[EngineName, typer.Option(help="Visibility engine")] = "auto",
+    engine: Annotated[EngineName, typer.Option(help=ENGINE_HELP)] = "auto",
     scale: Annotated[float, typer.Option(help="Resolution scale s: cast (s·W)×(s·H) rays and scale counts")] = 1.0,
     omega: Annotated[float, typer.Option(help="Visibility threshold Ω in pixels")] = 625.0,
     k: Annotated[int, typer.Option(help="Top-k frames for R_i and O_i")] = 3,

@@ -75,3 +75,27 @@ def print_summary(s: dict) -> None:
         console.print("every product with a Body representation was tessellated (no product skipped)")
     for w in s.get("warnings") or []:
         console.print(f"[yellow]warning:[/] {w}", highlight=False)
+
+
+@app.command()
+@friendly_errors
+def engines(as_json: Annotated[bool, typer.Option("--json", help="Print as JSON")] = False) -> None:
+    """The visibility engines on this machine, what `--engine auto` picks, and the OpenGL driver found."""
+    from ..engines import available_engines, gl
+    from ..engines.registry import best_engine
+
+    names = available_engines()
+    probe = gl.probe()
+    auto = best_engine() if names else None
+    if as_json:
+        typer.echo(json.dumps({"available": names, "auto": auto, "opengl": probe}, indent=2))
+        return
+    t = Table("engine", "status", "notes", title="visibility engines", title_justify="left")
+    notes = {"embree": "CPU ray casting (Intel Embree)",
+             "gl": (f"OpenGL rasteriser on {probe['renderer']}" + ("" if probe["hardware"] else " (software: CPU)")
+                    if probe["available"] else probe["error"]),
+             "trimesh": "pure-numpy ray tracer: a slow cross-check"}
+    for name in ("embree", "gl", "trimesh"):
+        status = "auto" if name == auto else ("available" if name in names else "unavailable")
+        t.add_row(name, status, notes[name])
+    console.print(t)

@@ -13,6 +13,8 @@ from .errors import friendly_errors
 app = typer.Typer(add_completion=False, no_args_is_help=True,
                   help="Create and evaluate reality capture plans against building models.")
 console = Console()
+ENGINE_HELP = ("Visibility engine: auto (OpenGL on a GPU when there is one, else Embree), embree, gl, trimesh; "
+               "see `sightplan engines`")
 
 from . import evaluate_cmd, export_cmd, info_cmd, plan_cmd, progress_cmd, study_cmd, validate_cmd  # noqa: E402,F401  (registers the commands)
 

@@ -23,7 +23,7 @@ from .fourd import (
     with_reality,
 )
 from .loading import georef_kwargs, load_with_progress
-from .main import app, console
+from .main import ENGINE_HELP, app, console
 
 
 def _cell(v: float | None, spec: str) -> str:
@@ -44,7 +44,7 @@ def progress_command(
     date_basis: BasisOpt = "finish",
     unscheduled: UnscheduledOpt = "present",
     camera: Annotated[str | None, typer.Option(help="Camera of a poses CSV or a flight-app mission")] = None,
-    engine: Annotated[EngineName, typer.Option(help="Visibility engine")] = "auto",
+    engine: Annotated[EngineName, typer.Option(help=ENGINE_HELP)] = "auto",
     scale: Annotated[float, typer.Option(help="Resolution scale s")] = 0.5,
     feature_density: Annotated[float, typer.Option(help="Surface features per m²")] = 1.0,
     out: Annotated[Path, typer.Option(help="Folder for progress.csv and progress.png")] = Path("sightplan-progress"),

@@ -23,7 +23,7 @@ from .fourd import (
     dated_scene,
 )
 from .loading import georef_kwargs, load_with_progress
-from .main import app, console
+from .main import ENGINE_HELP, app, console
 
 
 def _fmt(x: float | None, spec: str) -> str:
@@ -87,7 +87,7 @@ def validate_command(
     reality_scale: Annotated[float, typer.Option(help="Metres per reality file unit (0.001 for millimetres)")] = 1.0,
     point_spacing: Annotated[float | None, typer.Option(
         help="Point spacing of a point cloud for splatting (m); estimated when not given")] = None,
-    engine: Annotated[EngineName, typer.Option(help="Visibility engine")] = "auto",
+    engine: Annotated[EngineName, typer.Option(help=ENGINE_HELP)] = "auto",
     scale: Annotated[float, typer.Option(help="Resolution scale s: cast (s·W)×(s·H) rays")] = 0.5,
     omega: Annotated[float, typer.Option(help="Visibility threshold Ω in pixels")] = 625.0,
     d_max: Annotated[float, typer.Option(help="D_max: farthest visible surface of the model (m)")] = 1000.0,

@@ -59,6 +59,7 @@ FeatureTest = Literal["rays", "depth"]
 NEAR_M = 1e-3  # surfaces closer than this to the camera centre are clipped
 DEFAULT_TILE_PX = 8192  # frames larger than this in either direction are drawn in tiles
 CUBE_OVERSAMPLE = 1.6  # cube-face pixels per equirectangular pixel at the equator (≥ π/2 samples every pixel)
+CUBE_REACH_PX = 1  # 360° frames: triangles drawn within this many face pixels are tested with the exact ray
 FEATURE_REACH_PX = 1  # depth-buffer feature test: triangles drawn within this many pixels are tested exactly
 _FIX = float(1 << 31)  # per-pixel fixed point: the largest value maps to 2³¹
 _ANGLE_MAX_DEG = 90.0
@@ -168,6 +169,7 @@ layout(std430, binding = 4) coherent buffer Touched { uint n_touched; uint touch
 layout(std430, binding = 5) writeonly buffer Map { uint map[]; };        // 3 per pixel when mapping
 uniform int write_map;
 uniform ivec3 map_at;    // u0, v0 of this id image in the mapped frame, and the frame's width
+uniform int cube_reach;  // face pixels around the nearest one whose triangles are tested exactly
 uniform float t_unit;    // metres per fixed-point step
 uniform float a_unit;    // degrees per fixed-point step
 shared int s_el[%(LN)d];
@@ -208,12 +210,18 @@ void main() {
             int p = texelFetch(ids, tex, 0).r - 1;
             if (mode == 1) {
                 // the face texel is the nearest face pixel, not this ray: take the nearest
-                // triangle this exact ray meets among those drawn around it
+                // triangle this exact ray meets among those drawn around it, unless the
+                // triangle drawn at the texel lies nearer still
                 vec3 dw = R * c;
                 float best = 1.0 / 0.0;
-                int last = -1;
-                for (int dy = -1; dy <= 1; dy++) {
-                    for (int dx = -1; dx <= 1; dx++) {
+                if (p >= 0) {  // the drawn triangle, by its plane: a nearer exact hit replaces it, a farther one not
+                    vec4 pc = plane[p];
+                    float tc = (pc.w - dot(pc.xyz, C)) / dot(pc.xyz, dw);
+                    if (tc >= 0.0) best = tc;
+                }
+                int last = p;
+                for (int dy = -cube_reach; dy <= cube_reach; dy++) {
+                    for (int dx = -cube_reach; dx <= cube_reach; dx++) {
                         ivec2 q = tex + ivec2(dx, dy);
                         if (q.x < 0 || q.y < 0 || q.x >= tile.x || q.y >= tile.y) continue;
                         int pq = texelFetch(ids, q, 0).r - 1;
@@ -427,7 +435,7 @@ class GLEngine(Engine):
 
     def __init__(self, scene, features=None, *, tile_px: int = DEFAULT_TILE_PX,
                  cube_oversample: float = CUBE_OVERSAMPLE, feature_test: FeatureTest | None = None,
-                 feature_reach: int = FEATURE_REACH_PX, **kwargs) -> None:
+                 feature_reach: int = FEATURE_REACH_PX, cube_reach: int = CUBE_REACH_PX, **kwargs) -> None:
         kwargs["threads"] = 1  # one context; its work is ordered on the GPU, not split over threads
         super().__init__(scene, features, **kwargs)
         if not cube_oversample >= 1:
@@ -436,6 +444,7 @@ class GLEngine(Engine):
         self._ray_engine: Engine | None = None
         self.cube_oversample = float(cube_oversample)
         self.feature_reach = int(feature_reach)
+        self.cube_reach = int(cube_reach)
         if feature_test is None:
             from . import embree
 
@@ -629,6 +638,7 @@ class GLEngine(Engine):
             self._set(red, "write_map", int(map_buffer is not None))
             u0, v0 = (0, 0) if equirect else view["window"][:2]
             self._set(red, "map_at", (int(u0), int(v0), int(cam.width)))
+            self._set(red, "cube_reach", self.cube_reach)
             if self._n_faces:
                 self._vbo.bind_to_storage_buffer(10)
                 self._ibo.bind_to_storage_buffer(11)

@@ -41,6 +41,7 @@ def sight_lines(scene: Scene, points: NDArray, stations: NDArray, radius_m: floa
     """(k, n) distance from each of k stations to each of n points, within ``radius_m``, and not hidden by the
     model (one engine casts every sight line)."""
     from ...engines import make_engine
+    from ...engines.registry import ray_engine_name
 
     if not radius_m > 0:
         raise PlanError(f"the VLOS radius must be positive, got {radius_m}")
@@ -51,7 +52,7 @@ def sight_lines(scene: Scene, points: NDArray, stations: NDArray, radius_m: floa
     unblocked = np.ones(dist.shape, bool)
     away = dist > 0
     if away.any() and len(scene.faces):
-        with make_engine(engine, scene, threads=1) as eng:
+        with make_engine(ray_engine_name(engine), scene, threads=1) as eng:
             d = (rel[away] / dist[away][:, None]).astype(np.float32)
             origin = np.broadcast_to(S[:, None, :], rel.shape)[away] - eng.centre
             hit = eng.hit_distance(origin.astype(np.float32), d)
