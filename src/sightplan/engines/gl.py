@@ -418,9 +418,17 @@ def available() -> bool:
     return probe()["available"]
 
 
+def _gpu_device_nodes() -> bool:
+    """Whether the kernel exposes a GPU at all (NVIDIA's or a DRM render node): a cheap
+    check that spares machines without one the cost of starting an OpenGL driver."""
+    import glob
+
+    return bool(glob.glob("/dev/nvidia[0-9]*") or glob.glob("/dev/dri/renderD*"))
+
+
 def hardware_available() -> bool:
     """True when the OpenGL driver is a GPU's, not a software rasteriser."""
-    return probe()["hardware"]
+    return _gpu_device_nodes() and probe()["hardware"]
 
 
 class GLEngine(Engine):

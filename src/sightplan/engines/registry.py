@@ -32,7 +32,16 @@ def available_engines() -> list[str]:
 
 
 def best_engine() -> str:
-    """What ``auto`` means on this machine."""
+    """What ``auto`` means on this machine: the OpenGL engine on a GPU, else Embree.
+
+    Without a GPU device this never starts an OpenGL driver (that costs about a second).
+    """
+    from . import embree, gl
+
+    if gl.hardware_available():
+        return "gl"
+    if embree.available():
+        return "embree"
     avail = available_engines()
     if not avail:
         raise EngineError("no visibility engine is available: install embreex (or trimesh with rtree)")
