@@ -9,7 +9,7 @@ STAMP := $(VENV)/.installed
 # The OpenGL engine renders headless through EGL: a GPU's driver, or Mesa's llvmpipe on the CPU.
 EGL_PACKAGES := libegl1 libegl-mesa0 libgl1-mesa-dri
 
-$(STAMP): pyproject.toml
+$(STAMP): pyproject.toml web/package.json
 	@if ! ldconfig -p | grep -q 'libEGL_mesa.so.0\|libEGL_nvidia.so.0'; then \
 	  if [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null; then \
 	    apt-get update -q && DEBIAN_FRONTEND=noninteractive apt-get install -y -q --no-install-recommends $(EGL_PACKAGES); \
@@ -18,6 +18,12 @@ $(STAMP): pyproject.toml
 	$(PY) -m venv $(VENV)
 	$(BIN)/pip install -q --upgrade pip
 	$(BIN)/pip install -q -e '.[dev]'
+	@# three.js for the HTML report's 3D view, from the npm registry, pinned by web/package-lock.json
+	@if ! command -v npm >/dev/null && [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null; then \
+	  apt-get update -q && DEBIAN_FRONTEND=noninteractive apt-get install -y -q --no-install-recommends npm; \
+	fi
+	if [ -f web/package-lock.json ]; then npm ci --prefix web --no-audit --no-fund; \
+	else npm install --prefix web --no-audit --no-fund; fi
 	touch $(STAMP)
 
 setup: $(STAMP)

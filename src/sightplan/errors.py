@@ -37,3 +37,7 @@ class EngineError(SightplanError):
 
 class ObservationsError(SightplanError):
     """Observations that cannot be saved, loaded or merged as asked."""
+
+
+class ReportError(SightplanError):
+    """A report or export that cannot be written as asked (bad option, unwritable path, missing viewer files)."""

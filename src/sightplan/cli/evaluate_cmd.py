@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
 import typer
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
@@ -26,6 +26,9 @@ from .fourd import (
 )
 from .loading import georef_kwargs, load_with_progress, warn_if_far
 from .main import ENGINE_HELP, app, console
+
+if TYPE_CHECKING:
+    from ..report.gltf import ColourBy
 
 
 def _fmt(x: float | None, spec: str) -> str:
@@ -53,6 +56,26 @@ def summary_table(ev, title: str) -> Table:
     for row in rows:
         t.add_row(*row)
     return t
+
+
+def _check_report_options(html: Path | None, gltf: Path | None, colour_by: str,
+                          bounds: str | None) -> tuple[ColourBy, tuple[float, float] | None]:
+    """Refuse a bad --colour-by, --bounds or output path before anything is cast."""
+    from ..errors import ReportError
+    from ..report.gltf import check_colour_by, check_writable, parse_bounds
+
+    colour = check_colour_by(colour_by)
+    parsed = None if bounds is None else parse_bounds(bounds)
+    if parsed is not None and colour == "visibility":
+        raise ReportError("--bounds applies to --colour-by vr, ssd or orientation, not to visibility")
+    for path in (html, gltf):
+        if path is not None:
+            check_writable(path)
+    if html is not None:
+        from ..report.html import find_three
+
+        find_three()
+    return colour, parsed
 
 
 @app.command()
@@ -94,6 +117,16 @@ def evaluate(
         help="For a reality mesh (--mesh-elements patches) or a point cloud: area of an element patch (m², default 10)")] = None,
     cache: Annotated[bool, typer.Option(help="Reuse the model and per-frame caches")] = True,
     picture: Annotated[bool, typer.Option(help="Also write overview.png: the model coloured by visibility")] = True,
+    html: Annotated[Path | None, typer.Option(
+        help="Also write one self-contained HTML report (metrics, plots, worst elements, 3D view) to this file")] = None,
+    gltf: Annotated[Path | None, typer.Option(
+        help="Also write the model as binary glTF (.glb), one node per element, coloured by --colour-by")] = None,
+    colour_by: Annotated[str, typer.Option(
+        help="Metric that colours --gltf and the HTML's 3D view: visibility, vr (VR_i), ssd (R_i) or orientation (O_i)")
+    ] = "visibility",
+    bounds: Annotated[str | None, typer.Option(
+        help="LO,HI: the colour gradient's ends for vr, ssd or orientation (default: the range over the visible "
+             "elements)")] = None,
     threads: Annotated[int | None, typer.Option(help="Worker threads (default: all cores)")] = None,
     cluster: Annotated[str | None, typer.Option(
         help="Cast on a dask cluster: a scheduler address (tcp://host:8786) or local:N for N local worker processes")] = None,
@@ -110,6 +143,7 @@ def evaluate(
     from ..report import write_report
 
     check_date_options(date_basis, unscheduled)
+    colour, colour_bounds = _check_report_options(html, gltf, colour_by, bounds)
     settings = EvaluationSettings(engine=engine, scale=scale, d_max=d_max, feature_density=feature_density,
                                   feature_seed=seed, threads=threads,
                                   metric=MetricParams(omega=omega, k=k, min_track=min_track, min_features=min_features))
@@ -169,6 +203,17 @@ def evaluate(
         storeys_png = draw_storeys(storeys, colours, Path(out) / "storeys.png", title=f"{title} — storey cutaways")
         if storeys_png is not None:
             paths["storeys"] = storeys_png
+    if gltf is not None:
+        from ..report.gltf import write_gltf
+
+        with console.status("writing the glTF…"):
+            paths["gltf"] = write_gltf(scene, ev.metrics, gltf, colour, colour_bounds)
+    if html is not None:
+        from ..report.html import write_html
+
+        with console.status("writing the HTML report…"):
+            paths["html"] = write_html(ev, scene, the_plan, html, model_label=str(model), plan_label=plan_label,
+                                       colour_by=colour, bounds=colour_bounds)
     console.print(summary_table(ev, f"{Path(str(model)).name} × {plan_label} — engine {ev.engine}, "
                                     f"{ev.n_features:,} features, {ev.cache_hits} frames from cache"))
     console.print("wrote " + ", ".join(str(p) for p in paths.values()))
