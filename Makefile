@@ -43,6 +43,7 @@ bench: $(STAMP)
 	$(BIN)/python benchmarks/run.py
 	$(BIN)/python benchmarks/planning.py
 	$(BIN)/python benchmarks/validation.py
+	$(BIN)/python benchmarks/large.py
 
 clean:
 	rm -rf $(VENV) sightplan-demo sightplan-out sightplan-progress sightplan-study sightplan-validate .pytest_cache
