@@ -34,8 +34,8 @@ from pathlib import Path
 
 import numpy as np
 
+from run import drone_plan  # benchmarks/run.py, beside this script: the same rings
 from sightplan.camera.catalogue import get_camera
-from sightplan.camera.models import Camera
 from sightplan.engines import make_engine
 from sightplan.evaluate import EvaluationSettings
 from sightplan.metrics import compute_metrics
@@ -43,9 +43,6 @@ from sightplan.model.load import load_model
 from sightplan.model.scene import ElementTable, Scene
 from sightplan.observations.features import FeatureSet, sample_features
 from sightplan.observations.table import Observations
-from sightplan.plan.poses import R_from_gimbal
-from sightplan.plan.templates.orbit import ring_poses
-from sightplan.plan.types import Mission, Plan
 
 RESULT_PREFIX = "RESULT "
 # the columns of the observation table that grow with the number of frames
@@ -255,19 +252,6 @@ def write_ifc(path: Path, bays: int, storeys: int) -> dict:
             "by_class": {k: len(v) for k, v in sorted(by_class.items())}}
 
 
-# ---------------------------------------------------------------- plan
-def ring_plan(scene: Scene, camera: Camera, n_frames: int) -> Plan:
-    """Rings at three heights and two distances around the model, looking at its centre."""
-    lo, hi = scene.bounds()
-    centre = (lo + hi) / 2
-    half = float(np.hypot(*(hi - lo)[:2]) / 2)
-    rings = [(half + d, hi[2] + h) for d in (8.0, 20.0) for h in (2.0, 10.0, 25.0)]
-    per_ring = int(np.ceil(n_frames / len(rings)))
-    C, heading, pitch = zip(*(ring_poses(centre, radius, z, per_ring) for radius, z in rings))
-    R = R_from_gimbal(np.concatenate(heading)[:n_frames], np.concatenate(pitch)[:n_frames])
-    return Plan.build(camera, R, np.concatenate(C)[:n_frames], missions=(Mission("rings", 0, n_frames),))
-
-
 # ---------------------------------------------------------------- cases (each in its own process)
 def features_path(workdir: Path, model: str) -> Path:
     return workdir / f"{model}-features.npz"
@@ -320,7 +304,7 @@ def case_eval(args: argparse.Namespace) -> dict:
     features = FeatureSet.load(features_path(workdir, args.model))
     if features.params.get("scene") != scene.key:
         raise RuntimeError("the saved features belong to another scene")
-    plan = ring_plan(scene, get_camera("p4p"), args.frames)
+    plan = drone_plan(scene, get_camera("p4p"), args.frames)
     settings = EvaluationSettings(engine=args.engine, scale=args.scale)
     rss_model = peak_rss_mb()
     t = time.perf_counter()
