@@ -82,6 +82,23 @@ def test_engine_built_once_per_worker(client, duplex, local):
     assert set(cached.values()) <= {1}
 
 
+def test_gl_engine_on_two_workers_equals_local(client, duplex):
+    """The OpenGL engine in worker processes (llvmpipe in CI): each worker makes its own context,
+    and its fixed-point sums merge bit for bit with a local run."""
+    from sightplan.engines import gl
+
+    if not gl.available():
+        pytest.skip(gl.probe()["error"])
+    scene, plan = duplex
+    settings = EvaluationSettings(engine="gl", scale=0.05)
+    here = evaluate(scene, plan, settings, cache_dir=False)
+    there = evaluate_distributed(scene, plan, settings, cluster=client, batch_frames=4)
+    assert there.engine == here.engine == "gl"
+    for name in Observations._ARRAYS:
+        assert np.array_equal(getattr(here.observations, name), getattr(there.observations, name)), name
+    assert there.metrics.plan == here.metrics.plan
+
+
 def test_unreachable_scheduler_is_a_clear_error(duplex):
     scene, plan = duplex
     address = f"tcp://127.0.0.1:{_free_port()}"
