@@ -191,3 +191,18 @@ def test_empty_scene_sees_nothing(duplex):
     with make_engine("gl", empty) as b:
         fo = b.observe(PinholeCamera(64, 48, 60, 60, 32, 24), np.eye(3), np.zeros(3))
         assert len(fo.element) == 0 and fo.count.sum() == 0
+
+
+@needs_gl
+def test_an_opengl_failure_is_one_clear_error(duplex, monkeypatch):
+    """A driver error mid-frame (out of GPU memory, say) names the renderer and what to do, with no traceback."""
+    import moderngl
+
+    with make_engine("gl", duplex) as b:
+        def fail(*args, **kwargs):
+            raise moderngl.Error("out of memory")
+
+        monkeypatch.setattr(b, "_draw", fail)
+        expected = r"OpenGL on .* failed while drawing a 64×48 frame: out of memory;.*--engine embree"
+        with pytest.raises(EngineError, match=expected):
+            b.observe(PinholeCamera(64, 48, 60, 60, 32, 24), np.eye(3), np.zeros(3))

@@ -41,6 +41,7 @@ Arbitrary rays (sight lines, the validation's reprojection) are not frames; for 
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import math
 import threading
@@ -460,15 +461,31 @@ class GLEngine(Engine):
         if feature_test not in ("rays", "depth"):
             raise EngineError(f"feature_test must be 'rays' or 'depth', got {feature_test!r}")
         self.feature_test = feature_test
+        self._targets: dict[tuple[int, int], tuple] = {}
         self.ctx = create_context()
         self.renderer = _renderer(self.ctx)
-        with self.ctx:
-            max_tex = int(self.ctx.info.get("GL_MAX_TEXTURE_SIZE", 8192))
-            self.tile_px = max(16, min(int(tile_px), max_tex))
-            self._build_programs()
-            self._upload_scene()
-            self._upload_features()
-        self._targets: dict[tuple[int, int], tuple] = {}
+        try:
+            with self._gpu(f"loading {len(scene.faces):,} triangles"):
+                max_tex = int(self.ctx.info.get("GL_MAX_TEXTURE_SIZE", 8192))
+                self.tile_px = max(16, min(int(tile_px), max_tex))
+                self._build_programs()
+                self._upload_scene()
+                self._upload_features()
+        except EngineError:
+            self.close()
+            raise
+
+    @contextlib.contextmanager
+    def _gpu(self, doing: str):
+        """Hold the context on this thread; an OpenGL failure becomes one EngineError naming it."""
+        import moderngl
+
+        with self._lock, self.ctx:
+            try:
+                yield
+            except moderngl.Error as exc:
+                raise EngineError(f"OpenGL on {self.renderer} failed while {doing}: {str(exc).strip()}; "
+                                  "a smaller --scale, or --engine embree, avoids it") from None
 
     # ----------------------------------------------------------------- set-up
     def _build_programs(self) -> None:
@@ -702,7 +719,7 @@ class GLEngine(Engine):
         R = np.asarray(R_world_camera, dtype=np.float64)
         C = np.asarray(C_world, dtype=np.float64) - self.centre
         depth_test = self.feature_test == "depth"
-        with self._lock, self.ctx:
+        with self._gpu(f"drawing a {cam.width}×{cam.height} frame"):
             self._frame(cam, R, C, features=depth_test)
             element, count, depth, angle = self._collect()
             features = self._collect_features() if depth_test else None
@@ -723,7 +740,7 @@ class GLEngine(Engine):
         id image rendered at the camera's full resolution (``'depth'``)."""
         if self.feature_test == "rays":
             return Engine.visible_features(self, camera, R_world_camera, C_world)
-        with self._lock, self.ctx:
+        with self._gpu("testing features"):
             R = np.asarray(R_world_camera, dtype=np.float64)
             self._frame(camera, R, np.asarray(C_world, np.float64) - self.centre)
             self._collect()
@@ -735,7 +752,7 @@ class GLEngine(Engine):
         R = np.asarray(R_world_camera, dtype=np.float64)
         C = np.asarray(C_world, dtype=np.float64) - self.centre
         W, H = cam.width, cam.height
-        with self._lock, self.ctx:
+        with self._gpu(f"drawing a {W}×{H} view"):
             buf = self.ctx.buffer(reserve=W * H * 12)
             try:
                 self._frame(cam, R, C, map_buffer=buf, features=False)
