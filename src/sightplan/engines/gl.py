@@ -107,18 +107,33 @@ void main() {
 _COMMON = """
 #version 430
 layout(local_size_x = %(LX)d, local_size_y = %(LY)d) in;
-layout(binding = 0) uniform isampler2D ids;
+layout(binding = 0) uniform isampler2D ids0;   // the pinhole tile, or cube face 0 (+x)
+layout(binding = 1) uniform isampler2D ids1;   // cube faces −x, +y, −y, +z, −z
+layout(binding = 2) uniform isampler2D ids2;
+layout(binding = 3) uniform isampler2D ids3;
+layout(binding = 4) uniform isampler2D ids4;
+layout(binding = 5) uniform isampler2D ids5;
 layout(std430, binding = 1) readonly buffer Planes { vec4 plane[]; };
-uniform int mode;        // 0 pinhole tile, 1 cube face of an equirectangular frame
+uniform int mode;        // 0 pinhole tile, 1 the six cube faces of an equirectangular frame
 uniform mat3 R;          // camera -> world
 uniform vec3 C;
 uniform vec4 K;          // pinhole: fx, fy, cx - u0, cy - v0; cube face: S/2, S/2, S/2, S/2
 uniform ivec2 tile;      // pixels of the id image (pinhole tile or cube face)
 uniform ivec2 img;       // pinhole: tile size; equirect: the W x H grid
-uniform mat3 M;          // cube face -> camera
-uniform int face_axis;   // 0, 1, 2
-uniform float face_sign; // +1 or -1
+uniform mat3 M[6];       // cube face -> camera, in the order of the samplers
 uniform float dmax;
+
+// primitive id + 1 drawn at texel q of id image f (0 for the pinhole tile)
+int fetch_id(int f, ivec2 q) {
+    switch (f) {
+        case 0: return texelFetch(ids0, q, 0).r;
+        case 1: return texelFetch(ids1, q, 0).r;
+        case 2: return texelFetch(ids2, q, 0).r;
+        case 3: return texelFetch(ids3, q, 0).r;
+        case 4: return texelFetch(ids4, q, 0).r;
+        default: return texelFetch(ids5, q, 0).r;
+    }
+}
 layout(std430, binding = 10) readonly buffer Vertices { float vtx[]; };
 layout(std430, binding = 11) readonly buffer Triangles { uint tri[]; };
 
@@ -150,16 +165,17 @@ int dominant(vec3 c, out float s) {
     return j;
 }
 
-// the id-image texel a camera-frame direction falls in on this cube face (false if another face)
-bool face_texel(vec3 c, out ivec2 tex) {
+// the cube face f a camera-frame direction falls in, the texel on it, and the face's axis (camera frame)
+int face_texel(vec3 c, out ivec2 tex, out vec3 axis) {
     float s;
     int j = dominant(c, s);
-    tex = ivec2(0);
-    if (j != face_axis || s != face_sign) return false;
-    vec3 q = transpose(M) * c;
+    int f = 2 * j + ((s > 0.0) ? 0 : 1);
+    vec3 q = transpose(M[f]) * c;
     vec2 uv = vec2(K.x * q.x / q.z + K.z, K.y * q.y / q.z + K.w);
     tex = clamp(ivec2(floor(uv)), ivec2(0), tile - 1);
-    return true;
+    axis = vec3(0.0);
+    axis[j] = s;
+    return f;
 }
 """
 
@@ -189,26 +205,26 @@ void main() {
     uint tq = 0u, aq = 0u;
     float t_out = 1.0 / 0.0, c_out = 0.0;
     bool inside = gid.x < uint(img.x) && gid.y < uint(img.y);
-    bool mine = false;
     if (inside) {
         vec3 c;
         ivec2 tex;
         vec3 axis;
+        int f = 0;
         if (mode == 0) {
             c = normalize(vec3((float(gid.x) + 0.5 - K.z) / K.x, (float(gid.y) + 0.5 - K.w) / K.y, 1.0));
             tex = ivec2(gid);
             axis = R[2];
-            mine = true;
         } else {
             float lon = 6.283185307179586 * (float(gid.x) + 0.5) / float(img.x) - 3.141592653589793;
             float lat = 1.5707963267948966 - 3.141592653589793 * (float(gid.y) + 0.5) / float(img.y);
             float cl = cos(lat);
             c = vec3(cl * sin(lon), -sin(lat), cl * cos(lon));
-            mine = face_texel(c, tex);
-            axis = face_sign * R[face_axis];
+            vec3 a;
+            f = face_texel(c, tex, a);
+            axis = R * a;
         }
-        if (mine) {
-            int p = texelFetch(ids, tex, 0).r - 1;
+        {
+            int p = fetch_id(f, tex) - 1;
             if (mode == 1) {
                 // the face texel is the nearest face pixel, not this ray: take the nearest
                 // triangle this exact ray meets among those drawn around it, unless the
@@ -225,7 +241,7 @@ void main() {
                     for (int dx = -cube_reach; dx <= cube_reach; dx++) {
                         ivec2 q = tex + ivec2(dx, dy);
                         if (q.x < 0 || q.y < 0 || q.x >= tile.x || q.y >= tile.y) continue;
-                        int pq = texelFetch(ids, q, 0).r - 1;
+                        int pq = fetch_id(f, q) - 1;
                         if (pq < 0 || pq == last) continue;
                         last = pq;
                         float tq_ = ray_triangle(pq, C, dw);
@@ -254,7 +270,7 @@ void main() {
             }
         }
     }
-    if (write_map != 0 && inside && mine) {
+    if (write_map != 0 && inside) {
         uint k = 3u * ((gid.y + uint(map_at.y)) * uint(map_at.z) + gid.x + uint(map_at.x));
         map[k] = uint(e);
         map[k + 1u] = floatBitsToUint(t_out);
@@ -325,6 +341,7 @@ void main() {
     if (!(dot(fnormal[i].xyz, rel) < 0.0 && dist <= dmax && dist > 0.0)) return;
     vec3 c = transpose(R) * rel;
     ivec2 tex;
+    int f = 0;
     if (mode == 0) {
         if (c.z <= 0.0) return;
         float x = Kfull.x * c.x / c.z + Kfull.z;
@@ -332,12 +349,13 @@ void main() {
         if (!(x >= window.x && x < window.z && y >= window.y && y < window.w)) return;
         tex = clamp(ivec2(floor(vec2(x - window.x, y - window.y))), ivec2(0), tile - 1);
     } else {
-        if (!face_texel(c, tex)) return;
+        vec3 a;
+        f = face_texel(c, tex, a);
     }
     // hidden when the feature's own ray meets, before it, a triangle drawn near its pixel
     vec3 d = rel / dist;
     bool seen = true;
-    int p0 = texelFetch(ids, tex, 0).r - 1;
+    int p0 = fetch_id(f, tex) - 1;
     if (p0 >= 0) {  // the plane of the triangle drawn at the feature's pixel
         vec4 pl = plane[p0];
         float dn = dot(pl.xyz, d);
@@ -349,7 +367,7 @@ void main() {
         for (int dx = -reach; dx <= reach && seen; dx++) {
             ivec2 q = tex + ivec2(dx, dy);
             if (q.x < 0 || q.y < 0 || q.x >= tile.x || q.y >= tile.y) continue;
-            int p = texelFetch(ids, q, 0).r - 1;
+            int p = fetch_id(f, q) - 1;
             if (p < 0 || p == last) continue;
             last = p;
             seen = ray_triangle(p, C, d) >= dist - tol;
@@ -376,6 +394,8 @@ def _face_matrices() -> list[tuple[int, float, NDArray[np.float64]]]:
 
 
 _FACES = _face_matrices()
+# the six face matrices as the shaders' `uniform mat3 M[6]`: column-major float32
+_FACE_MATRICES_GL = b"".join(np.asarray(M, np.float32).T.tobytes() for _, _, M in _FACES)
 
 
 def _renderer(ctx) -> str:
@@ -532,20 +552,29 @@ class GLEngine(Engine):
         self._visible = self.ctx.buffer(reserve=(n + 1) * 4)
         self._visible.clear()
 
-    def _target(self, w: int, h: int):
-        """A framebuffer of w × h (id + depth), kept for reuse (the last two sizes)."""
+    def _target(self, w: int, h: int, slot: int = 0):
+        """Framebuffer ``slot`` of w × h (id + depth), kept for reuse: the six cube faces of a
+        360° frame are slots 0–5 of one size; a size not used in the last seven draws is freed."""
         import moderngl
 
-        key = (w, h)
+        key = (w, h, slot)
         if key not in self._targets:
-            while len(self._targets) >= 2:
-                for item in self._targets.pop(next(iter(self._targets))):
-                    item.release()
+            while len(self._targets) >= 7:  # free the least recently used size, all its slots
+                size = next(iter(self._targets))[:2]
+                released: set[int] = set()
+                for k in [k for k in self._targets if k[:2] == size]:
+                    for item in self._targets.pop(k):
+                        if id(item) not in released:  # a shared depth buffer is released once
+                            released.add(id(item))
+                            item.release()
             ids = self.ctx.texture((w, h), 1, dtype="i4")
             ids.filter = (moderngl.NEAREST, moderngl.NEAREST)  # an integer texture must not be filtered
-            depth = self.ctx.depth_texture((w, h))
+            shared = self._targets.get((w, h, 0)) if slot else None  # the faces share slot 0's depth buffer
+            depth = shared[2] if shared is not None else self.ctx.depth_texture((w, h))
             fbo = self.ctx.framebuffer(color_attachments=[ids], depth_attachment=depth)
             self._targets[key] = (fbo, ids, depth)
+        else:
+            self._targets[key] = self._targets.pop(key)  # most recently used last
         return self._targets[key]
 
     def close(self) -> None:
@@ -575,16 +604,16 @@ class GLEngine(Engine):
         if isinstance(cam, EquirectangularCamera):
             s = min(self.tile_px, max(8, math.ceil(self.cube_oversample * cam.width / math.pi)))
             half = s / 2.0
-            for j, sign, M in _FACES:
-                yield {"mode": 1, "R": R @ M, "K": (half, half, half, half), "tile": (s, s), "M": M,
-                       "face_axis": j, "face_sign": sign, "window": (0, 0, s, s)}
+            for slot, (_, _, M) in enumerate(_FACES):
+                yield {"mode": 1, "R": R @ M, "K": (half, half, half, half), "tile": (s, s), "slot": slot,
+                       "window": (0, 0, s, s)}
             return
         T = self.tile_px
         for v0 in range(0, cam.height, T):
             for u0 in range(0, cam.width, T):
                 tw, th = min(T, cam.width - u0), min(T, cam.height - v0)
                 yield {"mode": 0, "R": R, "K": (cam.fx, cam.fy, cam.cx - u0, cam.cy - v0), "tile": (tw, th),
-                       "M": np.eye(3), "face_axis": 2, "face_sign": 1.0, "window": (u0, v0, u0 + tw, v0 + th)}
+                       "slot": 0, "window": (u0, v0, u0 + tw, v0 + th)}
 
     def _t_range(self, C: NDArray) -> tuple[float, float]:
         """Distances from C between which surfaces can lie (the depth buffer's range)."""
@@ -600,7 +629,7 @@ class GLEngine(Engine):
         """Render one view into its framebuffer; the id texture and depth texture."""
         import moderngl
 
-        fbo, ids, depth = self._target(*view["tile"])
+        fbo, ids, depth = self._target(*view["tile"], view["slot"])
         fbo.use()
         fbo.clear(0.0, depth=1.0)
         if self._n_faces:
@@ -634,9 +663,7 @@ class GLEngine(Engine):
         self._set(prog, "tile", tuple(int(x) for x in view["tile"]))
         self._set(prog, "img", img)
         if "M" in prog:
-            prog["M"].write(np.asarray(view["M"], np.float32).T.tobytes())
-        self._set(prog, "face_axis", view["face_axis"])
-        self._set(prog, "face_sign", float(view["face_sign"]))
+            prog["M"].write(_FACE_MATRICES_GL)
         self._set(prog, "dmax", self.d_max)
 
     def _frame(self, cam: Camera, R: NDArray, C: NDArray, map_buffer=None, features: bool = True) -> None:
@@ -646,10 +673,16 @@ class GLEngine(Engine):
         t0, t1 = self._t_range(C)
         equirect = isinstance(cam, EquirectangularCamera)
         red, feat = self._reduce, self._feat
-        for view in self._views(cam, R):
-            ids, _ = self._draw(view, C, t0, t1)
+        views = list(self._views(cam, R))
+        passes = [views] if equirect else [[v] for v in views]  # six faces reduce in one pass
+        for group in passes:
+            for unit, v in enumerate(group):
+                ids, _ = self._draw(v, C, t0, t1)
+                ids.use(location=unit)
             self.ctx.memory_barrier()
-            ids.use(location=0)
+            view = group[0]
+            for unit in range(len(group), 6):  # every sampler needs a texture; unused ones repeat the first
+                self._target(*view["tile"], view["slot"])[1].use(location=unit)
             self._planes.bind_to_storage_buffer(1)
             self._face_el.bind_to_storage_buffer(2)
             self._acc.bind_to_storage_buffer(3)
@@ -657,7 +690,6 @@ class GLEngine(Engine):
             (map_buffer if map_buffer is not None else self._out).bind_to_storage_buffer(5)
             img = (cam.width, cam.height) if equirect else view["tile"]
             self._set_common(red, view, img, C)
-            self._set(red, "ids", 0)
             self._set(red, "t_unit", self.d_max / _FIX)
             self._set(red, "a_unit", _ANGLE_MAX_DEG / _FIX)
             self._set(red, "write_map", int(map_buffer is not None))
@@ -671,7 +703,6 @@ class GLEngine(Engine):
             self.ctx.memory_barrier()
             if features and self._n_features and self._n_faces:
                 self._set_common(feat, view, view["tile"], C)
-                self._set(feat, "ids", 0)
                 self._set(feat, "n_features", self._n_features)
                 self._set(feat, "window", tuple(float(x) for x in view["window"]))
                 self._set(feat, "Kfull", (cam.fx, cam.fy, cam.cx, cam.cy) if not equirect else (1.0, 1.0, 0.0, 0.0))
