@@ -6,22 +6,25 @@ STAMP := $(VENV)/.installed
 
 .PHONY: setup demo test lint bench clean
 
-# The OpenGL engine renders headless through EGL: a GPU's driver, or Mesa's llvmpipe on the CPU.
-EGL_PACKAGES := libegl1 libegl-mesa0 libgl1-mesa-dri
+# System packages, from Debian's archive when missing (as root; otherwise a note says what to install):
+# - EGL: the OpenGL engine renders headless, on a GPU's driver or on Mesa's llvmpipe;
+# - chromium: the browser the tests open the HTML report in;
+# - npm: three.js for the report's 3D view.
 
 $(STAMP): pyproject.toml web/package.json
-	@if ! ldconfig -p | grep -q 'libEGL_mesa.so.0\|libEGL_nvidia.so.0'; then \
+	@missing=""; \
+	ldconfig -p | grep -q 'libEGL_mesa.so.0\|libEGL_nvidia.so.0' || missing="libegl1 libegl-mesa0 libgl1-mesa-dri"; \
+	command -v chromium >/dev/null || missing="$$missing chromium"; \
+	command -v npm >/dev/null || missing="$$missing npm"; \
+	if [ -n "$$missing" ]; then \
 	  if [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null; then \
-	    apt-get update -q && DEBIAN_FRONTEND=noninteractive apt-get install -y -q --no-install-recommends $(EGL_PACKAGES); \
-	  else echo "note: no EGL driver found; install $(EGL_PACKAGES) for the gl engine"; fi; \
+	    apt-get update -q && DEBIAN_FRONTEND=noninteractive apt-get install -y -q --no-install-recommends $$missing; \
+	  else echo "note: install these Debian packages for every feature and test: $$missing"; fi; \
 	fi
 	$(PY) -m venv $(VENV)
 	$(BIN)/pip install -q --upgrade pip
 	$(BIN)/pip install -q -e '.[dev]'
 	@# three.js for the HTML report's 3D view, from the npm registry, pinned by web/package-lock.json
-	@if ! command -v npm >/dev/null && [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null; then \
-	  apt-get update -q && DEBIAN_FRONTEND=noninteractive apt-get install -y -q --no-install-recommends npm; \
-	fi
 	if [ -f web/package-lock.json ]; then npm ci --prefix web --no-audit --no-fund; \
 	else npm install --prefix web --no-audit --no-fund; fi
 	touch $(STAMP)
