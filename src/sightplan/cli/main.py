@@ -16,7 +16,7 @@ console = Console()
 ENGINE_HELP = ("Visibility engine: auto (OpenGL on a GPU when there is one, else Embree), embree, gl, trimesh; "
                "see `sightplan engines`")
 
-from . import evaluate_cmd, export_cmd, info_cmd, plan_cmd, progress_cmd, study_cmd, validate_cmd  # noqa: E402,F401  (registers the commands)
+from . import evaluate_cmd, export_cmd, info_cmd, plan_cmd, progress_cmd, serve_cmd, study_cmd, validate_cmd  # noqa: E402,F401  (registers the commands)
 
 
 @app.command()

@@ -1,0 +1,68 @@
+"""Where the server keeps its data and how it may be reached."""
+
+from __future__ import annotations
+
+import ipaddress
+import socket
+from dataclasses import dataclass
+from pathlib import Path
+
+from ..errors import SightplanError
+
+DEFAULT_DATA_DIR = Path("sightplan-data")
+DEFAULT_MAX_UPLOAD_MB = 200.0
+
+
+class ServerConfigError(SightplanError):
+    """A server setting that cannot be used (a host it may not bind to, a bad folder or database)."""
+
+
+def is_loopback(host: str) -> bool:
+    """True for 127.0.0.0/8, ::1 and names that resolve only to them (``localhost``)."""
+    try:
+        return ipaddress.ip_address(host.strip("[]")).is_loopback
+    except ValueError:
+        pass
+    try:
+        addresses = {info[4][0] for info in socket.getaddrinfo(host, None)}
+    except OSError:
+        return False
+    return bool(addresses) and all(ipaddress.ip_address(a.split("%")[0]).is_loopback for a in addresses)
+
+
+def check_host(host: str) -> None:
+    """Refuse any address but the loopback one: without accounts, the server is for the one user on this machine."""
+    if not is_loopback(host):
+        raise ServerConfigError(
+            f"cannot serve on {host}: the server has no accounts yet, so it runs for one user on this machine only. "
+            "Use --host 127.0.0.1 (the default); serving to a team needs accounts, which are not built yet")
+
+
+@dataclass(frozen=True)
+class ServerConfig:
+    """data_dir: the server's folder (uploaded files, plan versions, results, the SQLite database);
+    database_url: any SQLAlchemy URL, default SQLite in ``data_dir``; max_upload_bytes: the largest upload accepted;
+    workers: background jobs run at the same time."""
+
+    data_dir: Path = DEFAULT_DATA_DIR
+    database_url: str | None = None
+    host: str = "127.0.0.1"
+    port: int = 8000
+    max_upload_bytes: int = int(DEFAULT_MAX_UPLOAD_MB * 1024 * 1024)
+    workers: int = 2
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "data_dir", Path(self.data_dir).expanduser().resolve())
+        if self.max_upload_bytes <= 0:
+            raise ServerConfigError(f"the upload limit must be positive, got {self.max_upload_bytes} bytes")
+        if self.workers < 1:
+            raise ServerConfigError(f"at least one worker is needed, got {self.workers}")
+
+    @property
+    def url(self) -> str:
+        return self.database_url or f"sqlite:///{self.data_dir / 'sightplan.db'}"
+
+    @property
+    def embedded(self) -> bool:
+        """True when the database is the SQLite file in the data folder."""
+        return self.database_url is None

@@ -1,0 +1,80 @@
+"""``/api/jobs``: background work and its progress, as JSON or as Server-Sent Events."""
+
+from __future__ import annotations
+
+import asyncio
+import json
+from collections.abc import AsyncIterator
+from typing import Annotated
+
+from fastapi import APIRouter, Query, Request
+from fastapi.responses import StreamingResponse
+from sqlalchemy import select
+from starlette.concurrency import run_in_threadpool
+
+from ..deps import ServerState, SessionDep, StateDep, found
+from ..models import FINAL_STATES, Job
+from ..schemas import ErrorOut, JobOut
+
+router = APIRouter(prefix="/api/jobs", tags=["jobs"])
+NOT_FOUND = {404: {"model": ErrorOut, "description": "No such job"}}
+POLL_S = 0.2
+HEARTBEAT_S = 15.0
+
+
+@router.get("", response_model=list[JobOut], summary="List jobs, newest first")
+def list_jobs(session: SessionDep,
+              project_id: Annotated[int | None, Query(description="Only this project's")] = None,
+              limit: Annotated[int, Query(ge=1, le=1000)] = 100) -> list[Job]:
+    query = select(Job).order_by(Job.id.desc()).limit(limit)
+    if project_id is not None:
+        query = query.where(Job.project_id == project_id)
+    return list(session.scalars(query))
+
+
+@router.get("/{job_id}", response_model=JobOut, summary="Get a job's status and progress", responses=NOT_FOUND)
+def read_job(job_id: int, session: SessionDep) -> Job:
+    return found(session.get(Job, job_id), "job", job_id)
+
+
+def _snapshot(state: ServerState, job_id: int) -> JobOut | None:
+    with state.db.session() as s:
+        job = s.get(Job, job_id)
+        return None if job is None else JobOut.model_validate(job)
+
+
+async def job_events(request: Request, state: ServerState, job_id: int) -> AsyncIterator[str]:
+    """``progress`` events whenever the job changes, then one ``done`` or ``failed`` event; a comment line every
+    15 s keeps proxies from closing an idle stream."""
+    last: tuple | None = None
+    quiet = 0.0
+    while True:
+        job = await run_in_threadpool(_snapshot, state, job_id)
+        if job is None:
+            yield f"event: failed\ndata: {json.dumps({'detail': f'job {job_id} was deleted'})}\n\n"
+            return
+        key = (job.status, job.progress_done, job.progress_total, job.message)
+        if job.status in FINAL_STATES:
+            yield f"event: {job.status}\ndata: {job.model_dump_json()}\n\n"
+            return
+        if key != last:
+            last, quiet = key, 0.0
+            yield f"event: progress\ndata: {job.model_dump_json()}\n\n"
+        elif quiet >= HEARTBEAT_S:
+            quiet = 0.0
+            yield ": waiting\n\n"
+        if await request.is_disconnected():
+            return
+        await asyncio.sleep(POLL_S)
+        quiet += POLL_S
+
+
+@router.get("/{job_id}/events", response_class=StreamingResponse,
+            summary="Stream a job's progress as Server-Sent Events until it is done or failed",
+            responses={200: {"description": "`event: progress` with the job as JSON on each change, then "
+                                            "`event: done` or `event: failed`", "content": {"text/event-stream": {}}},
+                       **NOT_FOUND})
+def stream_job(job_id: int, request: Request, session: SessionDep, state: StateDep) -> StreamingResponse:
+    found(session.get(Job, job_id), "job", job_id)
+    return StreamingResponse(job_events(request, state, job_id), media_type="text/event-stream",
+                             headers={"Cache-Control": "no-cache", "X-Accel-Buffering": "no"})

@@ -1,0 +1,235 @@
+"""``/api/projects/{project_id}/plans``: from a template or an uploaded file; versions; edits; exports."""
+
+from __future__ import annotations
+
+import json
+import re
+import zipfile
+from pathlib import Path
+from typing import Annotated, Any, Literal
+
+from fastapi import APIRouter, BackgroundTasks, Body, File, Form, HTTPException, Query, Response, UploadFile
+from fastapi.responses import FileResponse
+from sqlalchemy import func, select
+from sqlalchemy.orm import Session
+
+from ...errors import PlanError, SightplanError
+from ...model.scene import Scene
+from ...plan.types import Plan as PlanData
+from ..deps import ServerState, SessionDep, StateDep, get_project, in_project
+from ..models import Job, Model, Plan, PlanVersion
+from ..schemas import ErrorOut, PlanOut, PlanVersionOut, TemplatePlanIn
+from ..services import checked_plan_json, load_scene, read_uploaded_plan, template_plan
+from ..storage import PLAN_SUFFIXES, display_name
+from ..uploads import receive_upload
+
+router = APIRouter(prefix="/api/projects/{project_id}/plans", tags=["plans"])
+NOT_FOUND = {404: {"model": ErrorOut, "description": "No such project, plan, version or model"}}
+BAD_PLAN = {422: {"model": ErrorOut, "description": "The plan or a parameter is invalid (the library's message)"}}
+NOT_READY = {409: {"model": ErrorOut, "description": "The model is not loaded (yet)"}}
+ExportFormat = Literal["qgc", "wpl", "wpml", "litchi", "kml", "geojson"]
+MEDIA = {".plan": "application/json", ".waypoints": "text/plain", ".kmz": "application/vnd.google-earth.kmz",
+         ".csv": "text/csv", ".kml": "application/vnd.google-earth.kml+xml", ".geojson": "application/geo+json",
+         ".zip": "application/zip"}
+
+
+def plan_out(plan: Plan) -> PlanOut:
+    return PlanOut(id=plan.id, project_id=plan.project_id, model_id=plan.model_id, name=plan.name, source=plan.source,
+                   created_at=plan.created_at, latest_version=max((v.number for v in plan.versions), default=0),
+                   versions=[PlanVersionOut.model_validate(v) for v in plan.versions])
+
+
+def ready_scene(state: ServerState, session: Session, project_id: int, model_id: int) -> tuple[Model, Scene]:
+    model = in_project(session, Model, model_id, project_id, "model")
+    if model.status != "ready":
+        detail = f": {model.error}" if model.error else ""
+        raise HTTPException(409, f"model {model_id} is {model.status}, not ready{detail}")
+    return model, load_scene(state.storage, model.stored_name)[0]
+
+
+def commit_version(state: ServerState, session: Session, plan_row: Plan, data: PlanData, note: str) -> PlanOut:
+    """Write ``data`` as the plan's next version (file and row) and commit; on any failure neither is left."""
+    from ...plan.format import write_plan
+
+    path = state.storage.plan_path(state.storage.new_name(".json"))
+    try:
+        session.add(plan_row)
+        session.flush()
+        number = (session.scalar(select(func.max(PlanVersion.number)).where(PlanVersion.plan_id == plan_row.id))
+                  or 0) + 1
+        write_plan(data, path)
+        session.add(PlanVersion(plan_id=plan_row.id, number=number, stored_name=path.name, frames=len(data),
+                                missions=len(data.missions), note=note[:500]))
+        session.commit()
+    except BaseException:
+        session.rollback()
+        path.unlink(missing_ok=True)
+        raise
+    session.refresh(plan_row)
+    return plan_out(plan_row)
+
+
+@router.post("", response_model=PlanOut, status_code=201, summary="Create a plan from a template",
+             description="facade, orbit or lawnmower around one of the project's models, split into missions and "
+                         "checked as `sightplan plan` does; the model's georeference is recorded for exports.",
+             responses={**NOT_FOUND, **BAD_PLAN, **NOT_READY})
+def create_from_template(project_id: int, body: TemplatePlanIn, session: SessionDep, state: StateDep) -> PlanOut:
+    get_project(session, project_id)
+    _, scene = ready_scene(state, session, project_id, body.model_id)
+    data = template_plan(scene, body)
+    row = Plan(project_id=project_id, model_id=body.model_id, name=body.name or f"{body.template} plan",
+               source=f"template {body.template} ({body.camera})")
+    return commit_version(state, session, row, data, f"{body.template} template")
+
+
+@router.post("/upload", response_model=PlanOut, status_code=201, summary="Upload a plan file",
+             description="Any format the library reads: sightplan JSON, OpenSfM reconstruction.json, poses CSV, "
+                         "QGroundControl .plan, QGC WPL 110 .waypoints, DJI WPML .kmz. Flight-app missions are placed "
+                         "with the georeference of the model given.",
+             responses={**NOT_FOUND, **BAD_PLAN, **NOT_READY, 400: {"model": ErrorOut, "description": "Empty file"},
+                        413: {"model": ErrorOut, "description": "Over the upload limit"},
+                        415: {"model": ErrorOut, "description": "Not a plan file extension"}})
+async def upload_plan(project_id: int, session: SessionDep, state: StateDep,
+                      file: Annotated[UploadFile, File(description="The plan file")],
+                      name: Annotated[str, Form(max_length=200, description="Default: the file's name")] = "",
+                      model_id: Annotated[int | None, Form(description="The project's model the plan is for")] = None,
+                      camera: Annotated[str | None, Form(description="Camera of a poses CSV or a flight-app mission")]
+                      = None) -> PlanOut:
+    get_project(session, project_id)
+    scene = ready_scene(state, session, project_id, model_id)[1] if model_id is not None else None
+    original = display_name(file.filename or "")
+    tmp, _ = await receive_upload(state, file, PLAN_SUFFIXES, "plan")
+    try:
+        data = read_uploaded_plan(tmp, camera, scene)
+    except SightplanError as exc:
+        raise PlanError(str(exc).replace(str(tmp), original).replace(tmp.name, original)) from None
+    finally:
+        tmp.unlink(missing_ok=True)
+    row = Plan(project_id=project_id, model_id=model_id, name=name or original, source=f"upload {original}")
+    return commit_version(state, session, row, data, f"uploaded {original}")
+
+
+@router.get("", response_model=list[PlanOut], summary="List the project's plans", responses=NOT_FOUND)
+def list_plans(project_id: int, session: SessionDep) -> list[PlanOut]:
+    get_project(session, project_id)
+    return [plan_out(p) for p in session.scalars(select(Plan).where(Plan.project_id == project_id).order_by(Plan.id))]
+
+
+@router.get("/{plan_id}", response_model=PlanOut, summary="Get a plan with its versions", responses=NOT_FOUND)
+def read_plan_row(project_id: int, plan_id: int, session: SessionDep) -> PlanOut:
+    return plan_out(in_project(session, Plan, plan_id, project_id, "plan"))
+
+
+def get_version(session: Session, project_id: int, plan_id: int, number: int) -> PlanVersion:
+    plan = in_project(session, Plan, plan_id, project_id, "plan")
+    for v in plan.versions:
+        if v.number == number:
+            return v
+    raise HTTPException(404, f"plan {plan_id} has no version {number} (it has 1 to {len(plan.versions)})")
+
+
+@router.get("/{plan_id}/versions/{number}", response_model=dict[str, Any],
+            summary="Get a version's plan JSON (sightplan plan format, version 1)", responses=NOT_FOUND)
+def read_version(project_id: int, plan_id: int, number: int, session: SessionDep, state: StateDep) -> dict[str, Any]:
+    version = get_version(session, project_id, plan_id, number)
+    return json.loads(state.storage.plan_path(version.stored_name).read_text(encoding="utf-8"))
+
+
+@router.put("/{plan_id}", response_model=PlanOut, status_code=201, summary="Save an edited plan as a new version",
+            description="The body is a whole sightplan plan JSON (frames moved, deleted or inserted), validated as a "
+                        "plan file is read. Earlier versions stay as they were.",
+            responses={**NOT_FOUND, **BAD_PLAN})
+def put_version(project_id: int, plan_id: int, session: SessionDep, state: StateDep,
+                body: Annotated[dict[str, Any], Body(description="The edited plan JSON")],
+                note: Annotated[str, Query(max_length=500, description="What changed")] = "edited") -> PlanOut:
+    plan = in_project(session, Plan, plan_id, project_id, "plan")
+    return commit_version(state, session, plan, checked_plan_json(state.storage, body), note)
+
+
+@router.delete("/{plan_id}", status_code=204, response_class=Response,
+               summary="Delete a plan, its versions and their evaluations",
+               responses={**NOT_FOUND, 409: {"model": ErrorOut, "description": "An evaluation of it is running"}})
+def delete_plan(project_id: int, plan_id: int, session: SessionDep, state: StateDep) -> Response:
+    from ..models import Evaluation
+
+    plan = in_project(session, Plan, plan_id, project_id, "plan")
+    version_ids = [v.id for v in plan.versions]
+    evaluations = list(session.scalars(select(Evaluation).where(Evaluation.plan_version_id.in_(version_ids))))
+    busy = session.scalars(select(Job).where(Job.status.in_(("queued", "running")),
+                                             Job.evaluation_id.in_([e.id for e in evaluations]))).first()
+    if busy is not None:
+        raise HTTPException(409, f"job {busy.id} is still evaluating plan {plan_id}; delete it when it is done")
+    files = [state.storage.plan_path(v.stored_name) for v in plan.versions]
+    files += [state.storage.evaluation_dir(e.result_dir) for e in evaluations]
+    session.delete(plan)
+    session.commit()
+    state.storage.remove(*files)
+    return Response(status_code=204)
+
+
+def _slug(text: str) -> str:
+    return re.sub(r"[^A-Za-z0-9._-]+", "_", text).strip("._") or "plan"
+
+
+@router.get("/{plan_id}/versions/{number}/export", response_class=FileResponse,
+            summary="Export a plan version for a flight app or a map (a download)",
+            description="Placed with the plan's georeference, else the model's (IfcMapConversion or IfcSite), as "
+                        "`sightplan export` does; several files (a QGC plan per mission, Litchi parts) come as a zip.",
+            responses={200: {"description": "The exported file", "content": {m: {} for m in sorted(set(MEDIA.values()))}},
+                       **NOT_FOUND, **NOT_READY,
+                       422: {"model": ErrorOut, "description": "No georeference, or a frame a drone cannot take"}})
+def export_version(project_id: int, plan_id: int, number: int, session: SessionDep, state: StateDep,
+                   background: BackgroundTasks,
+                   format: Annotated[ExportFormat, Query(description="qgc, wpl, wpml (DJI .kmz), litchi, kml, geojson")],
+                   model_id: Annotated[int | None, Query(description="Model whose georeference places the plan "
+                                                                     "(default: the plan's model)")] = None,
+                   speed: Annotated[float, Query(gt=0, description="Flight speed (m/s)")] = 5.0,
+                   mission: Annotated[int | None, Query(ge=1, description="Only this mission (from 1)")] = None,
+                   ) -> FileResponse:
+    import numpy as np
+
+    from ...export import EXTENSIONS, export_plan
+    from ...geo import Georeference, GeoreferenceError, resolve_georeference
+    from ...plan.format import read_plan
+
+    version = get_version(session, project_id, plan_id, number)
+    plan_row = version.plan
+    data = read_plan(state.storage.plan_path(version.stored_name))
+    model_id = model_id if model_id is not None else plan_row.model_id
+    scene = ready_scene(state, session, project_id, model_id)[1] if model_id is not None else None
+    model_geo = Georeference.from_scene_metadata(scene.metadata) if scene is not None else None
+    if data.parameters.get("georeference") is None and model_geo is None:
+        where = (f"model {model_id} has no IfcMapConversion and its IfcSite no RefLatitude/RefLongitude"
+                 if scene is not None else "no model is given (model_id)")
+        raise GeoreferenceError(f"a {format} export needs a georeference and none was found: plan {plan_id} records "
+                                f"none and {where}. Georeference the IFC, or upload a plan that records one")
+    geo = resolve_georeference(data.parameters.get("georeference"), model_geo, what=f"a {format} export")
+    if data.parameters.get("takeoff_m") is not None:
+        takeoff = np.asarray(data.parameters["takeoff_m"], float)
+    elif scene is not None:
+        from ...plan.checks.feasibility import corner_stations
+
+        takeoff = corner_stations(scene, data)[0]
+        takeoff[2] = scene.bounds()[0][2]
+    else:
+        raise PlanError("the plan records no take-off point: give model_id to take the south-west corner of its region")
+    if mission is not None and mission > len(data.missions):
+        raise PlanError(f"mission {mission}: the plan has {len(data.missions)} mission(s), numbered from 1")
+    folder = state.storage.temp_path()
+    folder.mkdir()
+    background.add_task(state.storage.remove, folder)
+    stem = f"{_slug(plan_row.name)}_v{number}"
+    try:
+        paths = export_plan(data, format, folder / (stem + EXTENSIONS[format]), geo, takeoff, speed_m_s=speed,
+                            mission=None if mission is None else mission - 1)
+    except BaseException:
+        state.storage.remove(folder)
+        raise
+    if len(paths) == 1:
+        path = Path(paths[0])
+    else:
+        path = folder / f"{stem}_{format}.zip"
+        with zipfile.ZipFile(path, "w", zipfile.ZIP_DEFLATED) as zf:
+            for p in paths:
+                zf.write(p, Path(p).name)
+    return FileResponse(path, media_type=MEDIA.get(path.suffix, "application/octet-stream"), filename=path.name)

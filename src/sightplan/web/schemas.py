@@ -1,0 +1,191 @@
+"""Request and response bodies of the REST API."""
+
+from __future__ import annotations
+
+import datetime as dt
+from typing import Annotated, Any, Literal
+
+from pydantic import AfterValidator, BaseModel, ConfigDict, Field
+
+JobStatus = Literal["queued", "running", "done", "failed"]
+
+
+def _utc(value: dt.datetime) -> dt.datetime:
+    """Times are stored in UTC; a database without time zones (SQLite) gives them back naive."""
+    return value if value.tzinfo is not None else value.replace(tzinfo=dt.UTC)
+
+
+Time = Annotated[dt.datetime, AfterValidator(_utc)]
+
+
+class Orm(BaseModel):
+    model_config = ConfigDict(from_attributes=True)
+
+
+class ErrorOut(BaseModel):
+    detail: str = Field(description="One readable message")
+
+
+class InfoOut(BaseModel):
+    name: str = "sightplan"
+    version: str
+    mode: Literal["single-user"] = "single-user"
+    login: bool = Field(False, description="Whether requests need a login (never, in single-user mode)")
+    message: str
+    database: str = Field(description="'embedded SQLite' or the database's dialect")
+    data_dir: str
+    max_upload_bytes: int
+    templates: list[str]
+    export_formats: list[str]
+
+
+class ProjectIn(BaseModel):
+    name: str = Field(min_length=1, max_length=200)
+
+
+class ProjectOut(Orm):
+    id: int
+    name: str
+    created_at: Time
+
+
+class ModelOut(Orm):
+    id: int
+    project_id: int
+    original_name: str = Field(description="The uploaded file's name, kept as metadata only")
+    size_bytes: int
+    status: Literal["queued", "loading", "ready", "failed"]
+    error: str | None
+    elements: int | None
+    targets: int | None
+    triangles: int | None
+    skipped: int | None = Field(description="Products without usable geometry (see load_report)")
+    georeferenced: bool | None
+    created_at: Time
+
+
+class ModelDetailOut(ModelOut):
+    load_report: dict[str, Any] | None
+
+
+class JobOut(Orm):
+    id: int
+    project_id: int
+    kind: Literal["load_model", "evaluate"]
+    model_id: int | None
+    evaluation_id: int | None
+    status: JobStatus
+    progress_done: float
+    progress_total: float
+    message: str
+    error: str | None
+    created_at: Time
+    started_at: Time | None
+    finished_at: Time | None
+
+
+class ModelUploadOut(BaseModel):
+    model: ModelOut
+    job: JobOut
+
+
+class TemplatePlanIn(BaseModel):
+    """A plan from a template around one of the project's models (as ``sightplan plan``)."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    name: str = Field("", max_length=200, description="Default: the template's name")
+    model_id: int
+    template: Literal["facade", "orbit", "lawnmower"]
+    camera: str = Field("p4p", description="A camera of the catalogue (GET /api/cameras)")
+    safety_distance: float = Field(10.0, description="facade: least distance g to the model (m); also the flight check's")
+    overlap: float = Field(0.8, description="Image overlap, 0 ≤ l < 1")
+    footprint: Literal["box", "outline"] = "box"
+    radius: list[float] = Field(default_factory=list, description="orbit: ring radii (m), one per ring")
+    height: list[float] = Field(default_factory=list, description="orbit: ring heights (m), one per ring")
+    step: float | None = Field(None, description="orbit: degrees between frames (default: by overlap)")
+    aim: Literal["centre", "surface"] = "centre"
+    altitude: float | None = Field(None, description="lawnmower: camera height above the model's base (m)")
+    gsd: float | None = Field(None, description="lawnmower: ground sampling distance on the model's top (m/px)")
+    side_overlap: float = Field(0.7, description="lawnmower: overlap between lines")
+    oblique_pitch: float | None = Field(None, description="lawnmower: add crossed lines at this gimbal pitch (°)")
+    split: bool = Field(True, description="Split into missions that keep line of sight and fit a battery")
+
+
+class PlanVersionOut(Orm):
+    number: int
+    frames: int
+    missions: int
+    note: str
+    created_at: Time
+
+
+class PlanOut(Orm):
+    id: int
+    project_id: int
+    model_id: int | None
+    name: str
+    source: str
+    created_at: Time
+    latest_version: int
+    versions: list[PlanVersionOut]
+
+
+class SettingsIn(BaseModel):
+    """Evaluation settings (``sightplan evaluate``'s options of the same names)."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    engine: Literal["auto", "embree", "gl", "trimesh"] = "auto"
+    scale: float = Field(1.0, gt=0, le=1, description="Resolution scale s")
+    omega: float = Field(625.0, ge=0, description="Visibility threshold Ω (px)")
+    k: int = Field(3, ge=1)
+    min_track: int = Field(5, ge=1)
+    min_features: int = Field(50, ge=0)
+    feature_density: float = Field(1.0, ge=0)
+    seed: int = Field(0, ge=0)
+    d_max: float = Field(1000.0, gt=0)
+
+
+class EvaluationIn(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+    plan_id: int
+    version: int | None = Field(None, description="Default: the plan's latest version")
+    model_id: int | None = Field(None, description="Default: the plan's model")
+    settings: SettingsIn = Field(default_factory=SettingsIn)
+
+
+class EvaluationOut(Orm):
+    id: int
+    project_id: int
+    plan_id: int
+    plan_version: int
+    model_id: int
+    status: JobStatus
+    progress_done: int
+    progress_total: int
+    settings: dict[str, Any]
+    metrics: dict[str, Any] | None = Field(description="The plan metrics (as report.json's 'metrics') once done")
+    error: str | None
+    created_at: Time
+    started_at: Time | None
+    finished_at: Time | None
+
+
+class EvaluationStartOut(BaseModel):
+    evaluation: EvaluationOut
+    job: JobOut
+
+
+class ElementsOut(BaseModel):
+    evaluation_id: int
+    elements: list[dict[str, Any]] = Field(description="One row per target element, the columns of elements.csv")
+
+
+class CameraOut(BaseModel):
+    id: str
+    name: str
+    model: Literal["pinhole", "equirectangular"]
+    width: int
+    height: int

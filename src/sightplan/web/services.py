@@ -1,0 +1,122 @@
+"""The library calls behind the API: load a stored model, build a plan from a template, read an uploaded plan,
+rebuild a finished evaluation. No database here."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import replace
+from pathlib import Path
+from typing import Any
+
+from ..errors import PlanError
+from ..evaluate import Evaluation, EvaluationSettings
+from ..metrics import MetricParams
+from ..model.load import IFC_EXTENSIONS
+from ..model.scene import Scene
+from ..model.summary import LoadReport
+from ..plan.types import Plan
+from .schemas import SettingsIn, TemplatePlanIn
+from .storage import Storage
+
+
+def load_scene(storage: Storage, stored_name: str, progress=None) -> tuple[Scene, LoadReport]:
+    """The stored model as a Scene (tessellated once, then from the data folder's cache)."""
+    from ..model.load import load_model
+
+    path = storage.model_path(stored_name)
+    extra: dict[str, Any] = {}
+    if progress is not None and path.suffix.lower() in IFC_EXTENSIONS:
+        extra["progress"] = progress
+    return load_model(path, cache=True, cache_dir=storage.cache, **extra)
+
+
+def report_summary(report: LoadReport) -> dict[str, Any]:
+    """The load report as JSON, without the file path the server chose."""
+    d = report.to_dict()
+    d.pop("source", None)
+    return d
+
+
+def evaluation_settings(s: dict[str, Any]) -> EvaluationSettings:
+    v = SettingsIn(**s)
+    return EvaluationSettings(engine=v.engine, scale=v.scale, d_max=v.d_max, feature_density=v.feature_density,
+                              feature_seed=v.seed, metric=MetricParams(omega=v.omega, k=v.k, min_track=v.min_track,
+                                                                       min_features=v.min_features))
+
+
+def with_site(plan: Plan, scene: Scene) -> Plan:
+    """The plan with the model's georeference (if any) and the take-off point on the model's base, for exports
+    (as ``sightplan plan`` records them)."""
+    from ..geo import Georeference
+
+    params = dict(plan.parameters)
+    geo = Georeference.from_scene_metadata(scene.metadata)
+    if geo is not None and "georeference" not in params:
+        params["georeference"] = geo.to_dict()
+    station = plan.missions[0].ground_station if plan.missions and plan.missions[0].ground_station else None
+    if station is not None and "takeoff_m" not in params:
+        params["takeoff_m"] = [float(station[0]), float(station[1]), float(scene.bounds()[0][2])]
+    return replace(plan, parameters=params)
+
+
+def template_plan(scene: Scene, body: TemplatePlanIn) -> Plan:
+    """A plan from a template around ``scene``, split into missions and checked as ``sightplan plan`` does."""
+    from ..camera.catalogue import get_camera
+    from ..plan.checks.feasibility import FlightSettings, check_plan, plan_flights
+    from ..plan.templates import facade_grid, lawnmower, orbit
+
+    cam = get_camera(body.camera)
+    if body.template == "facade":
+        plan = facade_grid(scene, cam, body.safety_distance, body.overlap, footprint=body.footprint)
+    elif body.template == "orbit":
+        if not body.radius or not body.height:
+            raise PlanError("an orbit needs 'radius' and 'height', one value per ring")
+        plan = orbit(scene, cam, body.radius, body.height, step_deg=body.step, overlap=body.overlap, aim=body.aim)
+    else:
+        plan = lawnmower(scene, cam, altitude_m=body.altitude, gsd_m=body.gsd, front_overlap=body.overlap,
+                         side_overlap=body.side_overlap, oblique_pitch_deg=body.oblique_pitch)
+    settings = FlightSettings(safety_distance_m=body.safety_distance)
+    report = (plan_flights if body.split else check_plan)(scene, plan, settings)
+    return with_site(report.plan, scene)
+
+
+def read_uploaded_plan(path: Path, camera: str | None, scene: Scene | None) -> Plan:
+    """A plan from an uploaded file in any format ``load_plan`` reads; flight-app missions are placed with the
+    model's georeference."""
+    from ..plan.load import load_plan
+
+    kwargs: dict[str, Any] = {}
+    if scene is not None:
+        from ..geo import Georeference
+
+        kwargs = {"georef": Georeference.from_scene_metadata(scene.metadata), "ground_z": float(scene.bounds()[0][2])}
+    plan = load_plan(path, camera=camera or None, **kwargs)
+    return with_site(plan, scene) if scene is not None else plan
+
+
+def checked_plan_json(storage: Storage, data: Any) -> Plan:
+    """An edited plan JSON validated exactly as a plan file is read (``read_plan``)."""
+    from ..plan.format import read_plan
+
+    tmp = storage.temp_path(".json")
+    try:
+        tmp.write_text(json.dumps(data), encoding="utf-8")
+        return read_plan(tmp)
+    except (TypeError, ValueError) as exc:
+        raise PlanError(f"the plan is not valid JSON: {exc}") from None
+    finally:
+        tmp.unlink(missing_ok=True)
+
+
+def rebuilt_evaluation(result: Path, settings: dict[str, Any], metrics_json: dict[str, Any]) -> Evaluation:
+    """A finished evaluation from its saved observations: the metrics are recomputed, nothing is cast."""
+    from ..metrics import compute_metrics
+    from ..observations.table import Observations
+
+    obs = Observations.load(result / "observations.npz")
+    ev_settings = evaluation_settings(settings)
+    meta = json.loads((result / "report.json").read_text(encoding="utf-8"))
+    return Evaluation(obs, compute_metrics(obs, ev_settings.metric), ev_settings, str(meta["parameters"]["engine"]),
+                      int(metrics_json.get("features", obs.n_features)),
+                      {k: v for k, v in (meta.get("timings") or {}).items() if v is not None},
+                      int(meta.get("cache_hits", 0)))

@@ -1,0 +1,215 @@
+"""The background worker: model loads and evaluations run on a thread pool inside the server process, never in a
+request. Progress goes to the database as it happens, so a page reload (or a new client) sees it."""
+
+from __future__ import annotations
+
+import json
+import logging
+import time
+from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
+
+from sqlalchemy import select
+
+from ..errors import SightplanError
+from .db import Database
+from .models import Evaluation, Job, Model, PlanVersion, utcnow
+from .services import evaluation_settings, load_scene, report_summary
+from .storage import Storage
+
+log = logging.getLogger("sightplan.web")
+INTERRUPTED = "interrupted: the server stopped before this job finished; start it again"
+PROGRESS_INTERVAL_S = 0.2
+
+
+def failure_message(exc: BaseException) -> str:
+    if isinstance(exc, SightplanError):
+        return str(exc)
+    return f"internal error: {type(exc).__name__}: {exc}"
+
+
+def recover_interrupted(db: Database) -> int:
+    """Jobs a previous server process left queued or running can never finish: mark them failed, with their model
+    or evaluation. Finished results are untouched. Returns how many."""
+    with db.session() as s:
+        jobs = s.scalars(select(Job).where(Job.status.in_(("queued", "running")))).all()
+        for job in jobs:
+            job.status, job.error, job.finished_at = "failed", INTERRUPTED, utcnow()
+            if job.model_id is not None:
+                model = s.get(Model, job.model_id)
+                if model is not None and model.status in ("queued", "loading"):
+                    model.status, model.error = "failed", INTERRUPTED
+            if job.evaluation_id is not None:
+                ev = s.get(Evaluation, job.evaluation_id)
+                if ev is not None and ev.status in ("queued", "running"):
+                    ev.status, ev.error, ev.finished_at = "failed", INTERRUPTED, utcnow()
+        return len(jobs)
+
+
+class Worker:
+    """Runs jobs by id on ``workers`` threads."""
+
+    def __init__(self, db: Database, storage: Storage, workers: int) -> None:
+        self.db = db
+        self.storage = storage
+        self._pool = ThreadPoolExecutor(max_workers=workers, thread_name_prefix="sightplan-job")
+
+    def submit(self, job_id: int) -> None:
+        self._pool.submit(self._run, job_id)
+
+    def shutdown(self, wait: bool = True) -> None:
+        self._pool.shutdown(wait=wait, cancel_futures=True)
+
+    # ------------------------------------------------------------------ running
+    def _progress(self, job_id: int, total: float, evaluation_id: int | None = None) -> Callable[[float], None]:
+        """A callback writing ``done`` of ``total`` to the job (and evaluation) at most every 0.2 s, and at the end."""
+        last = [0.0]
+
+        def update(done: float) -> None:
+            now = time.monotonic()
+            if done < total and now - last[0] < PROGRESS_INTERVAL_S:
+                return
+            last[0] = now
+            with self.db.session() as s:
+                job = s.get(Job, job_id)
+                if job is not None:
+                    job.progress_done, job.progress_total = float(done), float(total)
+                if evaluation_id is not None:
+                    ev = s.get(Evaluation, evaluation_id)
+                    if ev is not None:
+                        ev.progress_done, ev.progress_total = int(done), int(total)
+
+        return update
+
+    def _run(self, job_id: int) -> None:
+        with self.db.session() as s:
+            job = s.get(Job, job_id)
+            if job is None or job.status != "queued":
+                return
+            job.status, job.started_at = "running", utcnow()
+            kind = job.kind
+        try:
+            if kind == "load_model":
+                self._load_model(job_id)
+            else:
+                self._evaluate(job_id)
+        except Exception as exc:  # every failure is recorded on the job; a bug is logged with its traceback too
+            if not isinstance(exc, SightplanError):
+                log.exception("job %s failed", job_id)
+            self._fail(job_id, failure_message(exc))
+            return
+        with self.db.session() as s:
+            job = s.get(Job, job_id)
+            if job is not None:
+                job.status, job.finished_at, job.message = "done", utcnow(), job.message or "done"
+
+    def _fail(self, job_id: int, message: str) -> None:
+        with self.db.session() as s:
+            job = s.get(Job, job_id)
+            if job is None:
+                return
+            job.status, job.error, job.finished_at = "failed", message, utcnow()
+            if job.model_id is not None and job.kind == "load_model":
+                model = s.get(Model, job.model_id)
+                if model is not None:
+                    path = self.storage.model_path(model.stored_name)
+                    message = message.replace(str(path), model.original_name).replace(model.stored_name,
+                                                                                      model.original_name)
+                    job.error = message
+                    model.status, model.error = "failed", message
+                    self.storage.remove(path)
+            if job.evaluation_id is not None:
+                ev = s.get(Evaluation, job.evaluation_id)
+                if ev is not None:
+                    ev.status, ev.error, ev.finished_at = "failed", message, utcnow()
+                    self.storage.remove(self.storage.evaluation_dir(ev.result_dir))
+
+    def _load_model(self, job_id: int) -> None:
+        with self.db.session() as s:
+            job = s.get(Job, job_id)
+            assert job is not None and job.model_id is not None
+            model = s.get(Model, job.model_id)
+            assert model is not None
+            model.status = "loading"
+            job.message = f"tessellating {model.original_name}"
+            job.progress_total = 1.0
+            stored = model.stored_name
+            model_id = model.id
+        scene, report = load_scene(self.storage, stored, progress=self._progress(job_id, 1.0))
+        from ..geo import Georeference
+
+        try:
+            geo = Georeference.from_scene_metadata(scene.metadata) is not None
+        except SightplanError:
+            geo = False
+        with self.db.session() as s:
+            model = s.get(Model, model_id)
+            job = s.get(Job, job_id)
+            if model is None or job is None:
+                return
+            model.status = "ready"
+            model.elements, model.targets = int(scene.n_elements), int(scene.targets.sum())
+            model.triangles, model.skipped = int(len(scene.faces)), len(report.skipped)
+            model.load_report = report_summary(report)
+            model.georeferenced = geo
+            job.progress_done = job.progress_total = 1.0
+            job.message = f"{model.elements} elements, {model.triangles:,} triangles"
+
+    def _evaluate(self, job_id: int) -> None:
+        from ..evaluate import evaluate
+        from ..plan.format import read_plan
+        from ..report.tables import element_rows, frame_rows, report_dict
+
+        with self.db.session() as s:
+            job = s.get(Job, job_id)
+            assert job is not None and job.evaluation_id is not None
+            ev_row = s.get(Evaluation, job.evaluation_id)
+            assert ev_row is not None
+            model = s.get(Model, ev_row.model_id)
+            version = s.get(PlanVersion, ev_row.plan_version_id)
+            if model is None or version is None:
+                raise SightplanError("the model or the plan version was deleted")
+            if model.status != "ready":
+                raise SightplanError(f"model {model.id} is not ready ({model.status})")
+            ev_row.status, ev_row.started_at = "running", utcnow()
+            job.message = f"evaluating plan version {version.number} against {model.original_name}"
+            evaluation_id, stored_model, stored_plan = ev_row.id, model.stored_name, version.stored_name
+            settings_json, result_name = dict(ev_row.settings), ev_row.result_dir
+            model_label, plan_label = model.original_name, f"{version.plan.name} v{version.number}"
+        settings = evaluation_settings(settings_json)
+        scene, _ = load_scene(self.storage, stored_model)
+        plan = read_plan(self.storage.plan_path(stored_plan))
+        progress = self._progress(job_id, len(plan), evaluation_id)
+        result = evaluate(scene, plan, settings, cache_dir=False, progress=lambda i, n: progress(i))
+        out = self.storage.evaluation_dir(result_name)
+        out.mkdir(parents=True, exist_ok=True)
+        report = report_dict(result, scene, plan, model_path=model_label, plan_path=plan_label)
+        (out / "report.json").write_text(json.dumps(report, indent=1, allow_nan=False), encoding="utf-8")
+        (out / "elements.json").write_text(json.dumps(_jsonable(element_rows(result, scene))), encoding="utf-8")
+        (out / "frames.json").write_text(json.dumps(_jsonable(frame_rows(result, plan))), encoding="utf-8")
+        result.observations.save(out / "observations.npz")
+        with self.db.session() as s:
+            ev_row = s.get(Evaluation, evaluation_id)
+            job = s.get(Job, job_id)
+            if ev_row is None or job is None:
+                return
+            ev_row.status, ev_row.finished_at, ev_row.metrics = "done", utcnow(), report["metrics"]
+            ev_row.progress_done = ev_row.progress_total = len(plan)
+            vc = report["metrics"]["VC_pct"]
+            job.message = f"VC {vc:.1f} %" if vc is not None else "done"
+
+
+def _jsonable(rows: list[dict]) -> list[dict]:
+    """Rows with NaN and inf as null and numpy numbers as Python ones."""
+    import math
+
+    import numpy as np
+
+    def cell(v):
+        if isinstance(v, np.generic):
+            v = v.item()
+        if isinstance(v, float) and not math.isfinite(v):
+            return None
+        return v
+
+    return [{k: cell(v) for k, v in row.items()} for row in rows]
