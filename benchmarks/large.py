@@ -24,9 +24,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import resource
 import shutil
-import subprocess
 import sys
 import tempfile
 import time
@@ -34,7 +32,8 @@ from pathlib import Path
 
 import numpy as np
 
-from run import drone_plan  # benchmarks/run.py, beside this script: the same rings
+# benchmarks/run.py, beside this script: the same rings, memory probes, child processes and tables
+from run import console, drone_plan, emit, numeric_table, peak_rss_mb, rss_mb, run_script
 from sightplan.camera.catalogue import get_camera
 from sightplan.engines import make_engine
 from sightplan.evaluate import EvaluationSettings
@@ -62,19 +61,6 @@ BUILDING_PITCH_M = 15.0
 BAY_M = 6.0
 IFC_STOREY_M = 3.6
 SLAB_M = 0.25
-
-
-def peak_rss_mb() -> float:
-    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
-
-
-def rss_mb() -> float | None:
-    """This process's resident memory now (Linux), None where /proc is not there."""
-    try:
-        pages = int(Path("/proc/self/statm").read_text().split()[1])
-    except (OSError, IndexError, ValueError):
-        return None
-    return pages * os.sysconf("SC_PAGE_SIZE") / 2**20
 
 
 # ---------------------------------------------------------------- models
@@ -317,7 +303,7 @@ def case_eval(args: argparse.Namespace) -> dict:
             "features": features.key, "feature_params": features.params}
     parts: list[Observations] = []
     peaks: list[float] = []
-    now: list[float | None] = []
+    now: list[float] = []
     frame_s: list[float] = []
     with engine:
         for a in range(0, len(plan), args.batch):
@@ -351,17 +337,13 @@ def run_case(case: str, args: argparse.Namespace, **extra) -> dict:
     """Run one case in a fresh interpreter; its JSON result, or {'error': ...}."""
     options = {"workdir": args.workdir, "elements": args.elements, "bays": args.bays, "storeys": args.storeys,
                "frames": args.frames, "scale": args.scale, **extra}
-    cmd = [sys.executable, str(Path(__file__).resolve()), "--case", case]
+    argv = ["--case", case]
     for key, value in options.items():
-        cmd += [f"--{key}", str(value)]
-    t = time.perf_counter()
-    proc = subprocess.run(cmd, stdout=subprocess.PIPE, text=True)
-    lines = [line for line in proc.stdout.splitlines() if line.startswith(RESULT_PREFIX)]
-    if lines:
-        result = json.loads(lines[-1][len(RESULT_PREFIX):])
-    else:
+        argv += [f"--{key}", str(value)]
+    proc, result, wall = run_script(__file__, argv, RESULT_PREFIX)
+    if result is None:
         result = {"error": f"no result (exit status {proc.returncode})"}
-    result["wall_s"] = time.perf_counter() - t
+    result["wall_s"] = wall
     return result
 
 
@@ -369,22 +351,17 @@ def child(args: argparse.Namespace) -> int:
     try:
         result = CASES[args.case](args)
     except Exception as exc:  # reported to the parent as this configuration's result
-        print(f"{RESULT_PREFIX}{json.dumps({'error': f'{type(exc).__name__}: {exc}'})}", flush=True)
+        emit(RESULT_PREFIX, {"error": f"{type(exc).__name__}: {exc}"})
         raise
-    print(f"{RESULT_PREFIX}{json.dumps(result, default=float)}", flush=True)
+    emit(RESULT_PREFIX, result)
     return 0
 
 
 # ---------------------------------------------------------------- report
 def print_table(results: dict) -> None:
-    from rich.console import Console
-    from rich.table import Table
-
-    console = Console()
     console.width = max(console.width, 124)
-    models = Table(title="Models")
-    for col in ("model", "elements", "triangles", "features", "size", "load / build s", "features s", "peak RSS MB"):
-        models.add_column(col, justify="left" if col in ("model", "size") else "right")
+    models = numeric_table(("model", "elements", "triangles", "features", "size", "load / build s", "features s",
+                            "peak RSS MB"), left=("model", "size"), title="Models")
     for name, m in results["models"].items():
         if "error" in m:
             models.add_row(name, f"[red]{m['error']}[/red]", *[""] * 6)
@@ -395,11 +372,10 @@ def print_table(results: dict) -> None:
                        f"{m.get('load_s', m.get('build_s', 0.0)):.2f}", f"{m['features_s']:.1f}",
                        f"{m['peak_rss_mb']:,.0f}")
     console.print(models)
-    runs = Table(title=f"Evaluation (20 MP frames at scale {results['settings']['scale']}, "
-                       f"{os.cpu_count()} CPU cores)")
-    for col in ("model", "engine", "frames", "batch", "build s", "1st frame s", "s/frame", "RSS built MB",
-                "peak 1st batch MB", "peak MB", "obs MB", "VC"):
-        runs.add_column(col, justify="left" if col in ("model", "engine") else "right")
+    runs = numeric_table(("model", "engine", "frames", "batch", "build s", "1st frame s", "s/frame", "RSS built MB",
+                          "peak 1st batch MB", "peak MB", "obs MB", "VC"), left=("model", "engine"),
+                         title=f"Evaluation (20 MP frames at scale {results['settings']['scale']}, "
+                               f"{os.cpu_count()} CPU cores)")
     for r in results["runs"]:
         if "error" in r:
             runs.add_row(r["model"], r["engine"], str(results["settings"]["frames"]), str(r["batch"]),

@@ -80,7 +80,33 @@ def peak_rss_mb() -> float:
 
 
 def rss_mb() -> float:
+    """This process's resident memory now (MB)."""
     return psutil.Process().memory_info().rss / 2**20
+
+
+def emit(prefix: str, result: dict) -> None:
+    """Hand a child process's result to its parent: one JSON line after ``prefix`` on stdout."""
+    print(prefix + json.dumps(result, default=float), flush=True)
+
+
+def run_script(script: str | Path, options: list[str], prefix: str, capture_stderr: bool = False
+               ) -> tuple[subprocess.CompletedProcess, dict | None, float]:
+    """Run a benchmark script in a fresh interpreter (so its peak RSS is its own): the finished
+    process, the result it emitted last under ``prefix`` (None if none), and its wall seconds."""
+    cmd = [sys.executable, str(Path(script).resolve()), *options]
+    t = time.perf_counter()
+    proc = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE if capture_stderr else None, text=True)
+    wall = time.perf_counter() - t
+    lines = [line for line in proc.stdout.splitlines() if line.startswith(prefix)]
+    return proc, (json.loads(lines[-1][len(prefix):]) if lines else None), wall
+
+
+def numeric_table(columns: tuple[str, ...], left: tuple[str, ...], no_wrap: tuple[str, ...] = (), **kwargs) -> Table:
+    """A rich table of these columns: the ``left`` ones (labels) left-aligned, the numbers right-aligned."""
+    table = Table(**kwargs)
+    for name in columns:
+        table.add_column(name, justify="left" if name in left else "right", no_wrap=name in no_wrap)
+    return table
 
 
 class TreeMemory(threading.Thread):
@@ -324,20 +350,16 @@ def own_cpu_s() -> float:
 
 
 def run_child(spec: str, args, scene_cache: str) -> dict:
-    cmd = [sys.executable, str(Path(__file__).resolve()), "--cell", spec, "--model", args.model,
-           "--frames", str(args.frames), "--frames-360", str(args.frames_360),
-           "--baseline-frames", str(args.baseline_frames), "--cluster", args.cluster, "--scene-cache", scene_cache]
-    t, busy, own = time.perf_counter(), busy_cpu_s(), own_cpu_s()
-    proc = subprocess.run(cmd, capture_output=True, text=True)
-    wall = time.perf_counter() - t
+    options = ["--cell", spec, "--model", args.model, "--frames", str(args.frames), "--frames-360", str(args.frames_360),
+               "--baseline-frames", str(args.baseline_frames), "--cluster", args.cluster, "--scene-cache", scene_cache]
+    busy, own = busy_cpu_s(), own_cpu_s()
+    proc, res, wall = run_script(__file__, options, CELL_PREFIX, capture_stderr=True)
     # cores kept busy by other processes meanwhile: > 0.2 or so and the cell's timings are inflated
     others = max(0.0, (busy_cpu_s() - busy) - (own_cpu_s() - own)) / wall
-    lines = [line for line in proc.stdout.splitlines() if line.startswith(CELL_PREFIX)]
-    if proc.returncode != 0 or not lines:
+    if proc.returncode != 0 or res is None:
         tail = "\n".join((proc.stderr or proc.stdout).strip().splitlines()[-8:])
         console.print(f"[red]cell {spec} failed (exit {proc.returncode}):[/red]\n{tail}", markup=True, highlight=False)
         return {"spec": spec, "error": tail or f"exit {proc.returncode}", "process_s": wall, "other_cpu_cores": others}
-    res = json.loads(lines[-1][len(CELL_PREFIX):])
     res.update(process_s=wall, other_cpu_cores=others)
     return res
 
@@ -365,15 +387,16 @@ def fmt_small(x: float) -> str:
 
 def print_table(rows: list[dict], info: dict, args) -> None:
     drone, pano = frame_size("drone", 1.0), frame_size("360", 1.0)
-    table = Table(title=f"sightplan on {args.model}: {info['cpu_model']}, {info['cpu_cores']} cores",
-                  box=box.SIMPLE_HEAD, collapse_padding=True, caption_justify="left",
-                  caption=(f"20 MP: {drone[0]}×{drone[1]} at the scale given; 360°: {pano[0]}×{pano[1]}. "
-                           f"× paper: the paper's {PAPER_S_PER_FRAME_P1:.2f} s per 20 MP frame (GPU) over ours, "
-                           f"> 1 is faster. gl: {info.get('gl_renderer') or 'unavailable'}. "
-                           f"† per ray on {args.baseline_frames} frame(s) at scale {args.baseline_scale:g}, extrapolated; "
-                           "peak memory at that scale. Dask: peak summed memory of client and workers."))
-    for name in ("engine", "frame", "scale", "s/frame", "× paper", "peak MB", "frames", "Mrays/s"):
-        table.add_column(name, justify="left" if name in ("engine", "frame") else "right", no_wrap=name != "engine")
+    columns = ("engine", "frame", "scale", "s/frame", "× paper", "peak MB", "frames", "Mrays/s")
+    table = numeric_table(columns, left=("engine", "frame"), no_wrap=columns[1:],
+                          title=f"sightplan on {args.model}: {info['cpu_model']}, {info['cpu_cores']} cores",
+                          box=box.SIMPLE_HEAD, collapse_padding=True, caption_justify="left",
+                          caption=(f"20 MP: {drone[0]}×{drone[1]} at the scale given; 360°: {pano[0]}×{pano[1]}. "
+                                   f"× paper: the paper's {PAPER_S_PER_FRAME_P1:.2f} s per 20 MP frame (GPU) over ours, "
+                                   f"> 1 is faster. gl: {info.get('gl_renderer') or 'unavailable'}. "
+                                   f"† per ray on {args.baseline_frames} frame(s) at scale {args.baseline_scale:g}, "
+                                   "extrapolated; peak memory at that scale. "
+                                   "Dask: peak summed memory of client and workers."))
     last = None
     for r in rows:
         if last is not None and r["label"] != last:
@@ -427,7 +450,7 @@ def main(argv=None) -> int:
         except ValueError as exc:
             ap.error(str(exc))
         res = run_cell(args.cell, args)
-        print(CELL_PREFIX + json.dumps(res, default=float), flush=True)
+        emit(CELL_PREFIX, res)
         return 0
 
     available = available_engines()

@@ -10,10 +10,10 @@ from __future__ import annotations
 
 import argparse
 import json
-import resource
 import time
 from pathlib import Path
 
+from run import peak_rss_mb  # benchmarks/run.py, beside this script
 from sightplan.camera.catalogue import get_camera
 from sightplan.evaluate import EvaluationSettings, evaluate
 from sightplan.model.load import load_model
@@ -39,7 +39,7 @@ def main(argv=None) -> int:
     t = time.perf_counter()
     val = validate(scene, plan, reality, 0.03, settings, evaluation=ev)
     validate_s = time.perf_counter() - t
-    peak_mb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    peak_mb = peak_rss_mb()
     res = {"model": args.model, "frames": len(plan), "scale": args.scale, "evaluate_s": evaluate_s,
            "validate_s": validate_s, "timings": val.timings, "metrics": val.plan_metrics(), "peak_rss_mb": peak_mb}
     print(f"{len(plan)} frames at scale {args.scale}: evaluate {evaluate_s:.1f} s, validate {validate_s:.1f} s "

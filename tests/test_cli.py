@@ -146,9 +146,9 @@ def test_date_before_anything_is_built(tmp_path):
 
 
 def test_schedule_that_links_nothing(tmp_path):
-    csv = tmp_path / "schedule.csv"
-    csv.write_text("global_id,start,finish\n0000000000000000000000,2025-01-01,2025-02-01\n")
-    assert_clean_error(run_cli("evaluate", "sample", "--schedule", str(csv), cwd=tmp_path), "none is in this model",
+    schedule = tmp_path / "schedule.csv"
+    schedule.write_text("global_id,start,finish\n0000000000000000000000,2025-01-01,2025-02-01\n")
+    assert_clean_error(run_cli("evaluate", "sample", "--schedule", str(schedule), cwd=tmp_path), "none is in this model",
                        "rules file")
 
 

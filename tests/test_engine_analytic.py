@@ -30,8 +30,8 @@ def _engine_param(name: str):
     return pytest.param(name, marks=pytest.mark.skipif(name not in available_engines(), reason=f"{name} unavailable"))
 
 
-BOTH = [_engine_param(n) for n in ENGINES]
-EMBREE = [_engine_param("embree"), _engine_param("gl")]
+ALL_ENGINES = [_engine_param(n) for n in ENGINES]
+FAST_ENGINES = [_engine_param("embree"), _engine_param("gl")]  # the large frames: not the slow trimesh
 
 # Camera looking north (+Y), image right = +X (east), image down = −Z. Columns of R are the
 # camera's x, y, z axes in world coordinates.
@@ -181,7 +181,7 @@ def test_wall_count_closed_form():
     assert np.count_nonzero(elem == 0) == 71 * 35
 
 
-@pytest.mark.parametrize("engine", BOTH)
+@pytest.mark.parametrize("engine", ALL_ENGINES)
 @pytest.mark.parametrize("flip", [False, True], ids=["front", "back"])
 def test_head_on_wall(engine, flip):
     rects = [wall_y(element=0, flip=flip, **WALL)]
@@ -205,7 +205,7 @@ def test_head_on_wall(engine, flip):
     eng.close()
 
 
-@pytest.mark.parametrize("engine", EMBREE)
+@pytest.mark.parametrize("engine", FAST_ENGINES)
 def test_head_on_wall_large(engine):
     rects = [wall_y(element=0, y=10.0, x0=-3.0303, x1=4.0707, z0=-2.0202, z1=1.5303)]
     scene = build_scene(rects, 1)
@@ -223,7 +223,7 @@ def test_head_on_wall_large(engine):
     assert fo.sampling_focal_px == pytest.approx(1000.0)
 
 
-@pytest.mark.parametrize("engine", BOTH)
+@pytest.mark.parametrize("engine", ALL_ENGINES)
 def test_off_centre_principal_point_nonsquare(engine):
     """fx ≠ fy and an off-centre principal point: count by hand, ρ uses √(fx·fy)."""
     cam = PinholeCamera(160, 120, 120.0, 90.0, 70.3, 64.1)
@@ -244,7 +244,7 @@ def test_off_centre_principal_point_nonsquare(engine):
     assert fo.sampling_focal_px == pytest.approx(math.sqrt(120.0 * 90.0))
 
 
-@pytest.mark.parametrize("engine", BOTH)
+@pytest.mark.parametrize("engine", ALL_ENGINES)
 @pytest.mark.parametrize("tilt", [20.0, 55.0, -35.0])
 def test_tilted_wall_theta_equals_tilt(engine, tilt):
     """A wall turned by α about the vertical axis, seen on-axis: θ_p = |α| at every pixel."""
@@ -263,7 +263,7 @@ def test_tilted_wall_theta_equals_tilt(engine, tilt):
     assert angle == pytest.approx(abs(tilt), abs=1e-3)
 
 
-@pytest.mark.parametrize("engine", BOTH)
+@pytest.mark.parametrize("engine", ALL_ENGINES)
 def test_off_axis_camera_facing_surface_is_clamped_to_90(engine):
     """Pixels seeing a wall whose camera-facing normal points away from −a count θ = 90°.
 
@@ -288,7 +288,7 @@ def test_off_axis_camera_facing_surface_is_clamped_to_90(engine):
         assert depth == pytest.approx(d, rel=1e-3)
 
 
-@pytest.mark.parametrize("engine", BOTH)
+@pytest.mark.parametrize("engine", ALL_ENGINES)
 def test_occluder_hides_exactly_its_projection(engine):
     wall = wall_y(element=0, **WALL)
     # occluder at y = 5: x_img = 80 + 20·x, y_img = 60 − 20·z → x ∈ [−0.513, 0.722] → 69.74 … 94.44 (24 columns: 70.5 … 93.5),
@@ -311,7 +311,7 @@ def test_occluder_hides_exactly_its_projection(engine):
     assert a1 == pytest.approx(0.0, abs=1e-3)
 
 
-@pytest.mark.parametrize("engine", BOTH)
+@pytest.mark.parametrize("engine", ALL_ENGINES)
 def test_back_face_counts_the_same(engine):
     """Seen from behind (camera north of the wall looking south) the wall counts the same."""
     rects = [wall_y(element=0, **WALL)]
@@ -331,7 +331,7 @@ def test_back_face_counts_the_same(engine):
     assert angle == pytest.approx(0.0, abs=1e-3)
 
 
-@pytest.mark.parametrize("engine", BOTH)
+@pytest.mark.parametrize("engine", ALL_ENGINES)
 def test_d_max(engine):
     rects = [wall_y(element=0, **WALL)]
     scene = build_scene(rects, 1)
@@ -356,7 +356,7 @@ def test_d_max(engine):
     assert depth == pytest.approx(d, rel=1e-6)
 
 
-@pytest.mark.parametrize("engine", BOTH)
+@pytest.mark.parametrize("engine", ALL_ENGINES)
 def test_schedule_element_built_after_capture_neither_counts_nor_occludes(engine):
     wall = wall_y(element=0, **WALL)
     occ = wall_y(element=1, y=5.0, x0=-0.513, x1=0.722, z0=-0.398, z1=0.283)
@@ -497,7 +497,7 @@ def test_equirect_cube_off_centre(engine, H, rotated):
 
 
 # --------------------------------------------------------------------------- resolution scale
-@pytest.mark.parametrize("engine", BOTH)
+@pytest.mark.parametrize("engine", ALL_ENGINES)
 def test_resolution_scale_half(engine):
     rects = [wall_y(element=0, **WALL)]
     eng = make_engine(engine, build_scene(rects, 1))
@@ -518,7 +518,7 @@ def test_resolution_scale_half(engine):
     assert abs(count * fo.pixel_scale - full) <= 2 * (71 + 35) + 4
 
 
-@pytest.mark.parametrize("engine", BOTH)
+@pytest.mark.parametrize("engine", ALL_ENGINES)
 def test_resolution_scale_equirect(engine):
     """A 360° frame at scale ½: 4 full-resolution pixels per rendered pixel; counts match the half-size grid."""
     C = np.array([0.3, 0.2, -0.1])
@@ -532,7 +532,7 @@ def test_resolution_scale_equirect(engine):
     assert np.abs(got - np.bincount(elem, minlength=6)).max() <= amb.sum()
 
 
-@pytest.mark.parametrize("engine", BOTH)
+@pytest.mark.parametrize("engine", ALL_ENGINES)
 def test_far_from_origin_coordinates(engine):
     """Georeferenced-size coordinates (≈ 5·10⁶ m): counts and distances are unchanged."""
     shift = np.array([512345.67, 5432109.87, 312.5])
@@ -547,7 +547,7 @@ def test_far_from_origin_coordinates(engine):
     assert angle == pytest.approx(0.0, abs=1e-2)
 
 
-@pytest.mark.parametrize("engine", EMBREE)
+@pytest.mark.parametrize("engine", FAST_ENGINES)
 def test_resolution_scale_large(engine):
     rects = [wall_y(element=0, y=10.0, x0=-3.0303, x1=4.0707, z0=-2.0202, z1=1.5303)]
     eng = make_engine(engine, build_scene(rects, 1))

@@ -413,6 +413,8 @@ def test_pitch_out_of_range_names_the_frame(tmp_path):
         with pytest.raises(PlanError, match=r"up45 have a gimbal pitch of \+45\.0°, outside .*-90° to \+30°"):
             export_plan(plan, fmt, tmp_path / f"x.{fmt}", georef, TAKEOFF)
     assert export_plan(plan, "qgc", tmp_path / "ok.plan", georef, TAKEOFF)  # QGroundControl: −90..+90
+    items = json.loads((tmp_path / "ok.plan").read_text())["mission"]["items"]
+    assert [it["params"][0] for it in items if it["command"] == 205] == pytest.approx([-10.0, 45.0])
     assert not (tmp_path / "x.wpml").exists()
 
 
@@ -423,6 +425,8 @@ def test_rolled_camera_is_refused_but_mapped(tmp_path):
     with pytest.raises(PlanError, match="tilted have a camera roll of \\+5.0°"):
         export_plan(plan, "qgc", tmp_path / "x.plan", georef, TAKEOFF)
     assert export_plan(plan, "geojson", tmp_path / "x.geojson", georef, TAKEOFF)
+    features = json.loads((tmp_path / "x.geojson").read_text())["features"]
+    assert [f["properties"]["frames"] for f in features if f["properties"]["kind"] == "waypoint"] == [["level"], ["tilted"]]
 
 
 def test_360_camera_exports_heading_only(tmp_path):

@@ -9,7 +9,7 @@ import trimesh
 from sightplan.camera.catalogue import get_camera
 from sightplan.errors import PlanError
 from sightplan.model.scene import ElementTable, Scene
-from sightplan.plan.checks.battery import Aircraft
+from sightplan.plan.checks.battery import Aircraft, Rover, split_by_rover
 from sightplan.plan.checks.feasibility import (
     FlightSettings,
     check_plan,
@@ -125,8 +125,6 @@ def test_mission_ground_station_survives_the_plan_file():
 
 
 def test_a_walked_route_splits_by_the_rovers_battery_and_checks_clean(tower):
-    from sightplan.plan.checks.battery import Rover, split_by_rover
-
     # a straight 100 m walk 5 m south of the tower, a frame every 2 m (51 frames)
     C = np.stack([np.linspace(-40.0, 60.0, 51), np.full(51, -5.0), np.full(51, 1.5)], axis=1)
     walker = Rover("test walker", speed_m_s=1.0, capture_s=2.0, limit_time_s=60.0, reserve=0.0)

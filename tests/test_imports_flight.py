@@ -405,8 +405,6 @@ def test_detect_format_by_name_and_first_line(tmp_path):
 
 def test_relative_heights_take_off_from_the_models_ground(tmp_path):
     """An app's home altitude (488 m here) is not the model's datum: with ground_z, heights above home start there."""
-    from sightplan.geo import Georeference
-    from sightplan.plan.load import load_plan
 
     def item(cmd, params, frame=3):
         return {"type": "SimpleItem", "command": cmd, "frame": frame, "params": params, "autoContinue": True}

@@ -29,7 +29,7 @@ from sightplan.model.scene import ElementTable, Scene
 from sightplan.plan.ring import ring_plan
 from sightplan.plan.types import Plan
 from sightplan.report.gltf import scene_glb, write_gltf
-from sightplan.report.html import write_html
+from sightplan.report.html import worst_elements, write_html
 from sightplan.report.overview import OCCLUDER, UNSEEN, VISIBLE
 
 CHROMIUM = Path("/usr/bin/chromium")
@@ -325,6 +325,15 @@ def test_html_metric_table_and_data(sample, sample_html):
     pngs = [a["src"] for t, a in page.tags if t == "img"]
     assert len(pngs) == 2 and all(s.startswith("data:image/png;base64,") for s in pngs)
     assert all(base64.b64decode(s.split(",", 1)[1])[:8] == b"\x89PNG\r\n\x1a\n" for s in pngs)
+
+
+def test_worst_unseen_elements_come_most_pixels_first_then_by_class_and_name(sample):
+    scene, _, ev = sample
+    em, el = ev.metrics.elements, scene.elements
+    unseen = [i for i in range(scene.n_elements) if em.is_target[i] and not em.visible[i]]
+    expected = sorted(unseen, key=lambda i: (-float(em.pixels_total[i]), str(el.ifc_class[i]), str(el.name[i])))
+    _, rows, total = worst_elements(ev, scene, n=len(unseen))["unseen"]
+    assert len(unseen) > 1 and total == len(unseen) and rows.tolist() == expected
 
 
 def test_html_embeds_a_valid_glb(sample, sample_html):

@@ -243,13 +243,6 @@ def test_mspdi_outline_summary_and_actual_dates(tmp_path):
     assert [str(d) for d in task_finishes(tasks, prefer_actual=True)] == ["2024-02-14", "2024-03-01", "2024-03-05"]
 
 
-def test_mspdi_unreadable_date_names_the_task_and_the_text(tmp_path):
-    path = tmp_path / "p.xml"
-    path.write_text(MSPDI_SMALL.replace("DATE", "1-3-2024"))
-    with pytest.raises(ScheduleError, match=r"p\.xml: task '9' \('Roof'\), Finish '1-3-2024' is not a date"):
-        read_mspdi(path)
-
-
 def test_mspdi_finish_before_start_names_the_task(tmp_path):
     path = tmp_path / "p.xml"
     path.write_text(MSPDI_SMALL.replace("DATE", "2024-02-11T17:00:00"))
@@ -297,12 +290,17 @@ def test_xer_tasks_in_windows_1252(tmp_path):
     assert read_xer(path)["A1000"].name == "Béton – coulage dalle"
 
 
-def test_xer_unreadable_date_names_the_task_and_the_text(tmp_path):
-    path = tmp_path / "p.xer"
-    path.write_text(XER_SMALL.replace("2015-03-06 17:00", "06/03/2015"), encoding="utf-8")
-    with pytest.raises(ScheduleError, match=r"p\.xer: task 'A1000' \('Béton – coulage dalle'\), target_end_date "
-                                            r"'06/03/2015' is not a date"):
-        read_xer(path)
+@pytest.mark.parametrize("name, text, reader, message", [
+    ("p.xml", MSPDI_SMALL.replace("DATE", "1-3-2024"), read_mspdi,
+     r"p\.xml: task '9' \('Roof'\), Finish '1-3-2024' is not a date"),
+    ("p.xer", XER_SMALL.replace("2015-03-06 17:00", "06/03/2015"), read_xer,
+     r"p\.xer: task 'A1000' \('Béton – coulage dalle'\), target_end_date '06/03/2015' is not a date"),
+])
+def test_unreadable_date_names_the_task_and_the_text(tmp_path, name, text, reader, message):
+    path = tmp_path / name
+    path.write_text(text, encoding="utf-8")
+    with pytest.raises(ScheduleError, match=message):
+        reader(path)
 
 
 def test_xer_needs_the_header_and_the_task_table(tmp_path):

@@ -12,7 +12,8 @@ from sightplan.camera.catalogue import get_camera
 from sightplan.errors import PlanError
 from sightplan.evaluate import EvaluationSettings, evaluate
 from sightplan.model.scene import ElementTable, Scene
-from sightplan.plan.templates import facade_grid, orbit, waypoint_spacing
+from sightplan.plan.poses import gimbal_from_R
+from sightplan.plan.templates import facade_grid, indoor_route, indoor_routes, orbit, read_routes, waypoint_spacing
 
 P4P = get_camera("p4p")  # 8.8 mm on 13.2 × 8.8 mm, 5472 × 3648: tan(hfov/2) = 0.75, tan(vfov/2) = 0.5
 
@@ -143,8 +144,6 @@ def test_lawnmower_by_ground_sampling_distance_and_bad_altitudes():
 
 
 def test_indoor_route_samples_the_polyline():
-    from sightplan.plan.templates import indoor_route
-
     cam = get_camera("theta-z1")
     plan = indoor_route(cam, [[0, 0, 1.6], [10, 0, 1.6], [10, 5, 1.6]], step_m=2.0)
     # 15 m of route every ≤ 2 m: ceil(7.5) + 1 = 9 frames, 1.875 m apart, both ends included
@@ -161,8 +160,6 @@ def test_indoor_route_samples_the_polyline():
 def test_orbit_aimed_at_the_nearest_surface():
     box = box_scene()  # 20 × 10 × 8 m from the origin, centre (10, 5)
     plan = orbit(box, P4P, [30.0, 12.0], [4.0, 20.0], step_deg=90, aim="surface")
-    from sightplan.plan.poses import gimbal_from_R
-
     heading, pitch, _ = gimbal_from_R(plan.R_world_camera)
     # ring 1 at 4 m: due north (10, 35) faces the north wall head-on, due east (40, 5) the east wall
     np.testing.assert_allclose(plan.C_world[:2], [[10, 35, 4], [40, 5, 4]], atol=1e-9)
@@ -176,8 +173,6 @@ def test_orbit_aimed_at_the_nearest_surface():
 
 
 def test_routes_per_storey_from_a_csv(tmp_path):
-    from sightplan.plan.templates import indoor_routes, read_routes
-
     f = tmp_path / "routes.csv"
     f.write_text("route,x,y,z\nground,0,0,1.5\nground,10,0,1.5\nfirst,0,0,4.5\nfirst,0,6,4.5\nfirst,3,6,4.5\n")
     polylines, names = read_routes(f)

@@ -387,7 +387,7 @@ def test_html_report_download(client, project, evaluations):
 
 
 # --------------------------------------------------------------------------- exports
-def test_exports_every_format(client, project, orbit_plans):
+def test_exports_every_format(client, project, orbit_plans, data_dir):
     pid = orbit_plans[0]
     for fmt, check in (("qgc", lambda b: len(zipfile.ZipFile(BytesIO(b)).namelist()) == 2),  # a file per mission
                        ("wpl", lambda b: len(zipfile.ZipFile(BytesIO(b)).namelist()) == 2),
@@ -404,6 +404,7 @@ def test_exports_every_format(client, project, orbit_plans):
     assert r.status_code == 422
     r = client.get(f"/api/projects/{project}/plans/{pid}/versions/1/export", params={"format": "kml", "mission": 9})
     assert r.status_code == 422 and "mission 9" in r.json()["detail"]
+    assert not any((data_dir / "tmp").iterdir())  # no export folder is left behind, refused or downloaded
 
 
 def test_export_without_georeference_is_422_naming_it(client, project, data_dir):

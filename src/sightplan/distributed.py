@@ -20,10 +20,10 @@ import numpy as np
 from .engines import make_engine
 from .engines.base import Engine
 from .errors import SightplanError
-from .evaluate import Evaluation, EvaluationSettings, ProgressCallback
+from .evaluate import Evaluation, EvaluationSettings, ProgressCallback, observation_meta, scene_features
 from .metrics import compute_metrics
 from .model.scene import Scene
-from .observations.features import FeatureSet, sample_features
+from .observations.features import FeatureSet
 from .observations.table import Observations
 from .plan.types import Plan
 
@@ -58,8 +58,7 @@ def observe_batch(scene: Scene, features: FeatureSet, plan: Plan, settings: Eval
     frames = [engine.observe(plan.camera_of(i), plan.R_world_camera[i], plan.C_world[i], settings.scale)
               for i in range(len(plan))]
     cast_s = time.perf_counter() - t0
-    meta = {"engine": engine.name, "scale": settings.scale, "d_max": settings.d_max, "scene": scene_key,
-            "features": features_key, "feature_params": features.params}
+    meta = observation_meta(engine.name, settings, scene_key, features_key, features.params)
     return Observations.from_frames(frames, scene.targets, scene.present, len(features), meta), cast_s
 
 
@@ -111,11 +110,7 @@ def evaluate_distributed(
     timings: dict[str, float] = {}
     t_start = time.perf_counter()
     scene_key = scene.key
-    if features is None:
-        features = sample_features(scene, settings.feature_density, settings.feature_seed)
-    elif features.params.get("scene") not in (None, scene_key):
-        raise SightplanError("the feature set was sampled on another scene (another model, options or capture date); "
-                             "sample it again for this one")
+    features = scene_features(scene, settings, features)
     timings["features_s"] = time.perf_counter() - t_start
     n = len(plan)
     bounds = [(a, min(a + batch_frames, n)) for a in range(0, n, batch_frames)]

@@ -63,6 +63,23 @@ class Evaluation:
     cache_hits: int = 0
 
 
+def scene_features(scene: Scene, settings: EvaluationSettings, features: FeatureSet | None = None) -> FeatureSet:
+    """``features`` when they were sampled on ``scene``, or the settings' sampling of it when None."""
+    if features is None:
+        return sample_features(scene, settings.feature_density, settings.feature_seed)
+    if features.params.get("scene") not in (None, scene.key):
+        raise SightplanError("the feature set was sampled on another scene (another model, options or capture date); "
+                             "sample it again for this one")
+    return features
+
+
+def observation_meta(engine: str, settings: EvaluationSettings, scene_key: str, features_key: str,
+                     feature_params: dict) -> dict:
+    """What an Observations table records about how it was cast."""
+    return {"engine": engine, "scale": settings.scale, "d_max": settings.d_max, "scene": scene_key,
+            "features": features_key, "feature_params": feature_params}
+
+
 def observe_plan(
     scene: Scene,
     plan: Plan,
@@ -74,16 +91,13 @@ def observe_plan(
     """Cast every frame of ``plan`` (or take it from ``cache``) into one Observations table."""
     timings: dict[str, float] = {}
     t0 = time.perf_counter()
-    if features is None:
-        features = sample_features(scene, settings.feature_density, settings.feature_seed)
-    elif features.params.get("scene") not in (None, scene.key):
-        raise SightplanError("the feature set was sampled on another scene (another model, options or capture date); "
-                             "sample it again for this one")
+    features = scene_features(scene, settings, features)
     timings["features_s"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     engine = make_engine(settings.engine, scene, features, d_max=settings.d_max, threads=settings.threads)
     timings["engine_build_s"] = time.perf_counter() - t0
-    context = FrameCache.context_key(__version__, OBSERVATION_RULES, scene.key, features.key, engine.name,
+    features_key = features.key
+    context = FrameCache.context_key(__version__, OBSERVATION_RULES, scene.key, features_key, engine.name,
                                      settings.scale, settings.d_max)
     keys = plan.frame_keys() if cache is not None else [None] * len(plan)
     frames: list[FrameObservation] = []
@@ -102,9 +116,8 @@ def observe_plan(
                 progress(i + 1, len(plan))
     timings["cast_s"] = time.perf_counter() - t0
     timings["frames_cast"] = cast
-    meta = {"engine": engine.name, "scale": settings.scale, "d_max": settings.d_max, "scene": scene.key,
-            "features": features.key, "feature_params": features.params}
-    obs = Observations.from_frames(frames, scene.targets, scene.present, len(features), meta)
+    obs = Observations.from_frames(frames, scene.targets, scene.present, len(features),
+                                   observation_meta(engine.name, settings, scene.key, features_key, features.params))
     return obs, engine.name, timings
 
 

@@ -239,6 +239,12 @@ class Georeference:
             P = np.stack([e, n, u], axis=1)
         return self._from_plane(np.asarray(P, float))
 
+    def height_at(self, latitude_deg: float, longitude_deg: float, z_m: float, near_height_m: float = 0.0) -> float:
+        """The height, in the georeference's datum, of model height ``z_m`` under (or over) a latitude/longitude:
+        the model (x, y) of that point at ``near_height_m``, taken to model height ``z_m``."""
+        x, y, _ = self.from_geodetic(latitude_deg, longitude_deg, near_height_m)[0]
+        return float(self.to_geodetic([x, y, z_m])[2][0])
+
     def north_offset_deg(self, xyz: ArrayLike) -> NDArray[np.float64]:
         """(n,) degrees to add to a model heading at each point to get the true heading
         (the true azimuth of model +Y there, measured on the WGS84 ellipsoid)."""

@@ -22,6 +22,7 @@ from __future__ import annotations
 import base64
 import csv
 import html
+import json
 import math
 import warnings
 from collections.abc import Iterable, Mapping, Sequence
@@ -408,6 +409,9 @@ td,th{border:1px solid #ccc;padding:.3em .7em;text-align:right}th{background:#f3
 img{max-width:100%;margin:1em 0;display:block}caption{text-align:left;font-weight:bold;padding:.3em 0}"""
 
 
+_STRENGTH_CLASS = {"strong": "strong", "moderate": "moderate", "n/a": "na"}
+
+
 def _fmt(v: float | None, spec: str) -> str:
     return "—" if v is None else format(v, spec)
 
@@ -430,13 +434,13 @@ def write_html(study: Study, path: str | Path, images: Iterable[Path] = ()) -> P
         cells = []
         for q in study.qualities:
             p = study.pair(m, q)
-            cls = {"strong": "strong", "moderate": "moderate", "n/a": "na"}.get(p.strength, "")
+            cls = _STRENGTH_CLASS.get(p.strength, "")
             cells.append(f"<td class='{cls}'>{_fmt(p.r, '+.2f')}</td>")
         out.append(f"<tr><th>{esc(DISPLAY[m])}</th>{''.join(cells)}</tr>")
     out.append("</table><table><caption>All pairs</caption>"
                "<tr><th>metric</th><th>quality</th><th>n</th><th>r</th><th>p</th><th>strength</th></tr>")
     for p in study.pairs:
-        cls = {"strong": "strong", "moderate": "moderate", "n/a": "na"}.get(p.strength, "")
+        cls = _STRENGTH_CLASS.get(p.strength, "")
         out.append(f"<tr class='{cls}'><td>{esc(DISPLAY[p.metric])}</td><td>{esc(DISPLAY[p.quality])}</td>"
                    f"<td>{p.n}</td><td>{_fmt(p.r, '+.3f')}</td><td>{_fmt(p.p, '.3g')}</td><td>{p.strength}</td></tr>")
     out.append("</table>")
@@ -466,9 +470,6 @@ def write_study(study: Study, out: str | Path, pairs: Iterable[tuple[str, str]] 
 def collect_table(folders: Sequence[str | Path], path: str | Path) -> Path:
     """Write a study table from output folders: each holds ``report.json`` (``sightplan evaluate --out``)
     and ``validation.json`` (``sightplan validate --out``), one data set per folder, named by the folder."""
-    import csv
-    import json
-
     rows = []
     for folder in map(Path, folders):
         row: dict = {"dataset": folder.name}

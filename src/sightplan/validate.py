@@ -477,6 +477,7 @@ class _Caster:
         og = C - g.centre
         og32 = og.astype(np.float32)
         op = None if self.psi is None else C - self.psi.centre
+        op32 = None if op is None else op.astype(np.float32)
         for p0 in starts:
             p1 = min(p0 + chunk, n_px)
             n = p1 - p0
@@ -487,7 +488,7 @@ class _Caster:
             if psi_img is not None:
                 dp[:n] = psi_img[p0:p1]
             else:
-                pp = self.psi.first_hit(np.broadcast_to(op.astype(np.float32), dirs.shape), dirs)
+                pp = self.psi.first_hit(np.broadcast_to(op32, dirs.shape), dirs)
                 _plane_t(pp, dirs, op, self.psi._face_normal, self.psi._face_offset, dp[:n])
             k = _accumulate(prim, tg[:n], dp[:n], g._face_element, self.is_target, g.d_max, self.lam, back, complete,
                             both_n, diff_sum, stats, samp_d, samp_r, max(1, n // _SAMPLES_PER_CHUNK))
@@ -705,10 +706,8 @@ def validate(
     else:
         tri = psi_scene.vertices[psi_scene.faces]
         inside = (tri.max(axis=1) >= lo).all(axis=1) & (tri.min(axis=1) <= hi).all(axis=1)
-        faces_in = psi_scene.faces[inside]
-        area_in = float(0.5 * np.linalg.norm(np.cross(tri[inside, 1] - tri[inside, 0], tri[inside, 2] - tri[inside, 0]),
-                                             axis=1).sum())
-        psi_pts, _ = sample_surface(psi_scene.vertices, faces_in, _n_samples(area_in, ct_density_per_m2), rng)
+        area_in = float(psi_scene.face_areas()[inside].sum())
+        psi_pts, _ = sample_surface(psi_scene.vertices, psi_scene.faces[inside], _n_samples(area_in, ct_density_per_m2), rng)
         psi_pts = psi_pts[((psi_pts >= lo) & (psi_pts <= hi)).all(axis=1)]
     prec_hit = points_near_mesh(psi_pts, scene.vertices, scene.faces, lam)
     precision = float(prec_hit.mean()) if len(psi_pts) else None

@@ -24,14 +24,15 @@ from .fourd import (
     dated_scene,
     with_reality,
 )
-from .loading import georef_kwargs, load_with_progress, warn_if_far
+from .loading import georef_kwargs, load_with_progress, print_warnings, warn_if_far
 from .main import ENGINE_HELP, app, console
 
 if TYPE_CHECKING:
     from ..report.gltf import ColourBy
 
 
-def _fmt(x: float | None, spec: str) -> str:
+def cell(x: float | None, spec: str) -> str:
+    """A table cell: ``x`` formatted with ``spec``, or a dash for a missing value."""
     return "—" if x is None else format(x, spec)
 
 
@@ -41,13 +42,13 @@ def summary_table(ev, title: str) -> Table:
     pct = lambda x: None if x is None else 100 * x  # noqa: E731
     t = Table("metric", "value", "unit", "meaning", title=title, title_justify="left")
     rows = [
-        ("VC", _fmt(pct(p.VC), ".2f"), "%", f"visual coverage: {p.n_visible} of {p.z} elements seen by ≥ Ω px"),
-        ("V̄C", _fmt(pct(p.VC_bar), ".2f"), "%", f"relative visual coverage: of the {p.n_observed} observed elements"),
-        ("VR", _fmt(p.VR, ".2f"), "frames", "redundant visibility per visible element"),
-        ("R", _fmt(p.R, ".4f"), "m/px", "back-projection resolution (surface sampling distance)"),
-        ("O", _fmt(p.O, ".2f"), "°", "viewpoint orientation (0° = head-on)"),
-        ("T", _fmt(p.T, ".1f"), "features", "stability: stable features per frame"),
-        ("stable", _fmt(pct(p.stable_share), ".1f"), "%", "frames with ≥ Λ stable features"),
+        ("VC", cell(pct(p.VC), ".2f"), "%", f"visual coverage: {p.n_visible} of {p.z} elements seen by ≥ Ω px"),
+        ("V̄C", cell(pct(p.VC_bar), ".2f"), "%", f"relative visual coverage: of the {p.n_observed} observed elements"),
+        ("VR", cell(p.VR, ".2f"), "frames", "redundant visibility per visible element"),
+        ("R", cell(p.R, ".4f"), "m/px", "back-projection resolution (surface sampling distance)"),
+        ("O", cell(p.O, ".2f"), "°", "viewpoint orientation (0° = head-on)"),
+        ("T", cell(p.T, ".1f"), "features", "stability: stable features per frame"),
+        ("stable", cell(pct(p.stable_share), ".1f"), "%", "frames with ≥ Λ stable features"),
         ("time", f"{ev.timings['total_s']:.1f}", "s",
          f"{p.n_frames} frames, all from the cache" if not ev.timings["frames_cast"] else
          f"{p.n_frames} frames, {ev.timings['frames_cast']} cast ({ev.timings['s_per_frame']:.3f} s each), "
@@ -163,8 +164,7 @@ def evaluate(
                              **georef_kwargs(scene))
         plan_label = plan
         warn_if_far(console, scene, the_plan)
-        for warning in the_plan.parameters.get("warnings", []):
-            console.print(f"[yellow]warning:[/] {warning}", highlight=False)
+        print_warnings(console, the_plan.parameters.get("warnings", []))
     if save_plan is not None:
         from ..plan.format import write_plan
 
@@ -194,7 +194,7 @@ def evaluate(
         from ..report.overview import draw_overview, draw_storeys, visibility_colours
 
         vc = ev.metrics.plan.VC
-        title = f"{Path(str(model)).name} — {plan_label}: VC {_fmt(None if vc is None else 100 * vc, '.1f')} %"
+        title = f"{Path(str(model)).name} — {plan_label}: VC {cell(None if vc is None else 100 * vc, '.1f')} %"
         with console.status("drawing the overview…"), make_engine(ev.engine, scene, threads=threads) as eng:
             view = overview_view(eng, the_plan.C_world)
             storeys = storey_views(scene, ev.engine, threads)

@@ -13,7 +13,6 @@ from .main import app, console
 
 ExportFormat = Literal["qgc", "wpl", "wpml", "litchi", "kml", "geojson"]
 MIN_ALTITUDE_M = 2.0
-SUFFIX = {"qgc": ".plan", "wpl": ".waypoints", "wpml": ".kmz", "litchi": ".csv", "kml": ".kml", "geojson": ".geojson"}
 
 
 def parse_origin(text: str):
@@ -54,8 +53,8 @@ def export_command(
     """Export a plan to a flight app (QGroundControl, Mission Planner, DJI Pilot 2, Litchi) or to KML/GeoJSON."""
     import numpy as np
 
-    from ..errors import PlanError
-    from ..export import export_plan
+    from ..export import EXTENSIONS
+    from ..export.files import export_files, takeoff_point
     from ..geo import Georeference, resolve_georeference
     from ..plan.load import load_plan
     from .loading import load_with_progress
@@ -69,22 +68,11 @@ def export_command(
     geo = resolve_georeference(user, plan.parameters.get("georeference"),
                                Georeference.from_scene_metadata(scene.metadata) if scene is not None else None,
                                what=f"a {fmt} export")
-    if takeoff:
-        takeoff_m = parse_point(takeoff, "--takeoff")
-    elif plan.parameters.get("takeoff_m") is not None:
-        takeoff_m = np.asarray(plan.parameters["takeoff_m"], float)
-    elif scene is not None:
-        from ..plan.checks.feasibility import corner_stations
-
-        takeoff_m = corner_stations(scene, plan)[0]
-        takeoff_m[2] = scene.bounds()[0][2]
-    else:
-        raise PlanError("the plan records no take-off point: give --takeoff x,y,z (model frame, on the ground) "
-                        "or --model MODEL to take the south-west corner of the plan's region")
-    if mission is not None and not 1 <= mission <= len(plan.missions):
-        raise PlanError(f"--mission {mission}: the plan has {len(plan.missions)} mission(s), numbered from 1")
-    out = output or Path(plan_file).with_suffix(SUFFIX[fmt])
-    paths = export_plan(plan, fmt, out, geo, takeoff_m, speed_m_s=speed, mission=None if mission is None else mission - 1)
+    takeoff_m = parse_point(takeoff, "--takeoff") if takeoff else takeoff_point(
+        plan, scene, hint="give --takeoff x,y,z (model frame, on the ground) or --model MODEL to take the south-west "
+                          "corner of the plan's region")
+    out = output or Path(plan_file).with_suffix(EXTENSIONS[fmt])
+    paths = export_files(plan, fmt, out, geo, takeoff_m, speed_m_s=speed, mission=mission, mission_label="--mission")
     console.print(f"georeference: {geo.describe()}", highlight=False)
     low = np.flatnonzero(plan.C_world[:, 2] - takeoff_m[2] < MIN_ALTITUDE_M)
     if len(low):

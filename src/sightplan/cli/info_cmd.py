@@ -10,7 +10,7 @@ from rich.table import Table
 
 from ..model.mesh import MeshGrouping
 from .errors import friendly_errors
-from .loading import load_with_progress
+from .loading import load_with_progress, print_warnings
 from .main import app, console
 
 
@@ -73,8 +73,7 @@ def print_summary(s: dict) -> None:
         console.print(t)
     else:
         console.print("every product with a Body representation was tessellated (no product skipped)")
-    for w in s.get("warnings") or []:
-        console.print(f"[yellow]warning:[/] {w}", highlight=False)
+    print_warnings(console, s.get("warnings") or [])
 
 
 @app.command()

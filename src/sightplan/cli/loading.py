@@ -37,6 +37,12 @@ def georef_kwargs(scene) -> dict:
     return {"georef": Georeference.from_scene_metadata(scene.metadata), "ground_z": float(scene.bounds()[0][2])}
 
 
+def print_warnings(console: Console, warnings) -> None:
+    """Each warning on a line of its own, in yellow."""
+    for warning in warnings:
+        console.print(f"[yellow]warning:[/] {warning}", highlight=False)
+
+
 def warn_if_far(console: Console, scene, plan, limit_m: float = 5000.0) -> None:
     """A warning when the plan's frames lie kilometres from the model: another place, frame or unit."""
     import numpy as np

@@ -11,6 +11,7 @@ from rich.table import Column, Table
 
 from ..engines.base import EngineName
 from .errors import friendly_errors
+from .evaluate_cmd import cell
 from .fourd import (
     ActualOpt,
     BasisOpt,
@@ -22,12 +23,8 @@ from .fourd import (
     link_with_schedule,
     with_reality,
 )
-from .loading import georef_kwargs, load_with_progress
+from .loading import georef_kwargs, load_with_progress, print_warnings
 from .main import ENGINE_HELP, app, console
-
-
-def _cell(v: float | None, spec: str) -> str:
-    return "—" if v is None else format(v, spec)
 
 
 @app.command("progress")
@@ -71,14 +68,13 @@ def progress_command(
         series = evaluate_series(scene, the_plan, days, settings, basis=date_basis, unscheduled=unscheduled,  # type: ignore[arg-type]
                                  cache_dir=None if cache else False,
                                  progress=lambda i, n, d: bar.update(task, completed=i, description=d))
-    for w in series.warnings:
-        console.print(f"[yellow]warning:[/] {w}", highlight=False)
+    print_warnings(console, series.warnings)
     t = Table(Column("date", no_wrap=True, min_width=10), "built", "VC %", "V̄C %", "VR", "R (m/px)", "O (°)", "T", "stable %",
               title=f"{Path(plan).name} over the schedule of {Path(str(model)).name}", title_justify="left")
     for r in series.rows():
-        t.add_row(r["date"] + (" (=)" if r["same_as"] else ""), str(r["built"]), _cell(r["VC"], ".1f"),
-                  _cell(r["VC_bar"], ".1f"), _cell(r["VR"], ".1f"), _cell(r["R"], ".4f"), _cell(r["O"], ".1f"),
-                  _cell(r["T"], ".0f"), _cell(r["stable_share"], ".0f"))
+        t.add_row(r["date"] + (" (=)" if r["same_as"] else ""), str(r["built"]), cell(r["VC"], ".1f"),
+                  cell(r["VC_bar"], ".1f"), cell(r["VR"], ".1f"), cell(r["R"], ".4f"), cell(r["O"], ".1f"),
+                  cell(r["T"], ".0f"), cell(r["stable_share"], ".0f"))
     console.print(t)
     out.mkdir(parents=True, exist_ok=True)
     csv_path = series.write_csv(out / "progress.csv")

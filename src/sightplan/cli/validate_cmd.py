@@ -12,6 +12,7 @@ from rich.table import Table
 
 from ..engines.base import EngineName
 from .errors import friendly_errors
+from .evaluate_cmd import cell
 from .fourd import (
     ActualOpt,
     BasisOpt,
@@ -22,12 +23,8 @@ from .fourd import (
     check_date_options,
     dated_scene,
 )
-from .loading import georef_kwargs, load_with_progress
+from .loading import georef_kwargs, load_with_progress, print_warnings
 from .main import ENGINE_HELP, app, console
-
-
-def _fmt(x: float | None, spec: str) -> str:
-    return "—" if x is None else format(x, spec)
 
 
 def validation_table(v, title: str) -> Table:
@@ -36,14 +33,14 @@ def validation_table(v, title: str) -> Table:
     n = v.counts
     t = Table("metric", "value", "unit", "meaning", title=title, title_justify="left")
     rows = [
-        ("A", _fmt(v.A, ".4f"), "m", "accuracy: VR-weighted mean |dΓ − dΨ| over pixels where both are hit"),
-        ("Ce", _fmt(pct(v.Ce), ".2f"), "%", f"completeness per element: mean c_i over {v.z} elements"),
-        ("Cv", _fmt(pct(v.Cv), ".2f"), "%", f"completeness per visible element: mean c_i over {v.n_visible}"),
-        ("Ct", _fmt(pct(v.Ct), ".2f"), "%", f"overall completeness: {n['ct_samples']:,} points on Γ with Ψ within λ"),
-        ("precision", _fmt(pct(v.precision), ".2f"), "%",
+        ("A", cell(v.A, ".4f"), "m", "accuracy: VR-weighted mean |dΓ − dΨ| over pixels where both are hit"),
+        ("Ce", cell(pct(v.Ce), ".2f"), "%", f"completeness per element: mean c_i over {v.z} elements"),
+        ("Cv", cell(pct(v.Cv), ".2f"), "%", f"completeness per visible element: mean c_i over {v.n_visible}"),
+        ("Ct", cell(pct(v.Ct), ".2f"), "%", f"overall completeness: {n['ct_samples']:,} points on Γ with Ψ within λ"),
+        ("precision", cell(pct(v.precision), ".2f"), "%",
          f"{n['precision_samples']:,} points of Ψ in Γ's box with Γ within λ"),
-        ("recall", _fmt(pct(v.recall), ".2f"), "%", "= Ct"),
-        ("F", _fmt(pct(v.F), ".2f"), "%", "F-score at λ: 2PR/(P + R)"),
+        ("recall", cell(pct(v.recall), ".2f"), "%", "= Ct"),
+        ("F", cell(pct(v.F), ".2f"), "%", "F-score at λ: 2PR/(P + R)"),
         ("λ", f"{v.lam:.4f}", "m", f"1.2 × registration error {v.registration_error_m:g} m"),
         ("time", f"{v.timings['total_s']:.1f}", "s", f"{v.n_frames} frames, reality: {v.reality_kind}"),
     ]
@@ -109,8 +106,7 @@ def validate_command(
     scene, _ = load_with_progress(console, model, cache)
     scene = dated_scene(console, scene, model, schedule, rules, prefer_actual, date, date_basis, unscheduled)
     the_plan = load_plan(plan, camera=get_camera(camera) if camera else None, transform=transform, **georef_kwargs(scene))
-    for warning in the_plan.parameters.get("warnings", []):
-        console.print(f"[yellow]warning:[/] {warning}", highlight=False)
+    print_warnings(console, the_plan.parameters.get("warnings", []))
     with console.status(f"loading {reality.name}…"):
         psi = load_reality_input(reality, reality_scale, cache)
     what = (f"{len(psi.faces):,} triangles" if hasattr(psi, "faces") else f"{len(psi.points):,} points")
@@ -124,8 +120,7 @@ def validate_command(
         bar.update(task, description="comparing with the reality", completed=0)
         v = validate(scene, the_plan, psi, registration_error, settings, ev, point_spacing_m=point_spacing, seed=seed,
                      progress=lambda i, n: bar.update(task, completed=i))
-    for warning in v.warnings:
-        console.print(f"[yellow]warning:[/] {warning}", highlight=False)
+    print_warnings(console, v.warnings)
     console.print(validation_table(v, f"{Path(str(model)).name} × {Path(plan).name} × {reality.name}"))
     out.mkdir(parents=True, exist_ok=True)
     report = v.to_dict()

@@ -62,6 +62,8 @@ DEFAULT_TILE_PX = 8192  # frames larger than this in either direction are drawn 
 CUBE_OVERSAMPLE = 1.6  # cube-face pixels per equirectangular pixel at the equator (≥ π/2 samples every pixel)
 CUBE_REACH_PX = 1  # 360° frames: triangles drawn within this many face pixels are tested with the exact ray
 FEATURE_REACH_PX = 1  # depth-buffer feature test: triangles drawn within this many pixels are tested exactly
+_REDUCE_GROUP = 16  # the reduction's work groups are 16 × 16 pixels
+_LINEAR_GROUP = 64  # work-group size of the one-dimensional passes (feature test, compaction)
 _FIX = float(1 << 31)  # per-pixel fixed point: the largest value maps to 2³¹
 _ANGLE_MAX_DEG = 90.0
 _SOFTWARE = ("llvmpipe", "softpipe", "swrast", "software", "lavapipe")
@@ -223,50 +225,45 @@ void main() {
             f = face_texel(c, tex, a);
             axis = R * a;
         }
-        {
-            int p = fetch_id(f, tex) - 1;
-            if (mode == 1) {
-                // the face texel is the nearest face pixel, not this ray: take the nearest
-                // triangle this exact ray meets among those drawn around it, unless the
-                // triangle drawn at the texel lies nearer still
-                vec3 dw = R * c;
-                float best = 1.0 / 0.0;
-                if (p >= 0) {  // the drawn triangle, by its plane: a nearer exact hit replaces it, a farther one not
-                    vec4 pc = plane[p];
-                    float tc = (pc.w - dot(pc.xyz, C)) / dot(pc.xyz, dw);
-                    if (tc >= 0.0) best = tc;
-                }
-                int last = p;
-                for (int dy = -cube_reach; dy <= cube_reach; dy++) {
-                    for (int dx = -cube_reach; dx <= cube_reach; dx++) {
-                        ivec2 q = tex + ivec2(dx, dy);
-                        if (q.x < 0 || q.y < 0 || q.x >= tile.x || q.y >= tile.y) continue;
-                        int pq = fetch_id(f, q) - 1;
-                        if (pq < 0 || pq == last) continue;
-                        last = pq;
-                        float tq_ = ray_triangle(pq, C, dw);
-                        if (tq_ < best) { best = tq_; p = pq; }
-                    }
+        vec3 d = R * c;  // the pixel's ray, world frame
+        int p = fetch_id(f, tex) - 1;
+        if (mode == 1) {
+            // the face texel is the nearest face pixel, not this ray: take the nearest
+            // triangle this exact ray meets among those drawn around it, unless the
+            // triangle drawn at the texel lies nearer still
+            float best = 1.0 / 0.0;
+            if (p >= 0) {  // the drawn triangle, by its plane: a nearer exact hit replaces it, a farther one not
+                vec4 pc = plane[p];
+                float tc = (pc.w - dot(pc.xyz, C)) / dot(pc.xyz, d);
+                if (tc >= 0.0) best = tc;
+            }
+            int last = p;
+            for (int dy = -cube_reach; dy <= cube_reach; dy++) {
+                for (int dx = -cube_reach; dx <= cube_reach; dx++) {
+                    ivec2 q = tex + ivec2(dx, dy);
+                    if (q.x < 0 || q.y < 0 || q.x >= tile.x || q.y >= tile.y) continue;
+                    int pq = fetch_id(f, q) - 1;
+                    if (pq < 0 || pq == last) continue;
+                    last = pq;
+                    float tq_ = ray_triangle(pq, C, d);
+                    if (tq_ < best) { best = tq_; p = pq; }
                 }
             }
-            if (p >= 0) {
-                vec4 pl = plane[p];
-                vec3 d = R * c;
-                float dn = dot(pl.xyz, d);
-                if (dn != 0.0) {
-                    float t = (pl.w - dot(pl.xyz, C)) / dn;
-                    if (t >= 0.0 && t <= dmax) {
-                        vec3 nrm = (dn > 0.0) ? -pl.xyz : pl.xyz;
-                        float cosv = -dot(nrm, axis);
-                        // θ = atan2(|n × a|, n·a): accurate near 0°, where acos is not
-                        float ang = (cosv <= 0.0) ? 90.0 : degrees(atan(length(cross(nrm, axis)), cosv));
-                        e = face_element[p];
-                        tq = uint(min(round(t / t_unit), 2147483648.0));
-                        aq = uint(min(round(ang / a_unit), 2147483648.0));
-                        t_out = t;
-                        c_out = abs(dn);
-                    }
-                }
+        }
+        if (p >= 0) {
+            vec4 pl = plane[p];
+            float dn = dot(pl.xyz, d);
+            float t = (pl.w - dot(pl.xyz, C)) / dn;
+            if (dn != 0.0 && t >= 0.0 && t <= dmax) {
+                vec3 nrm = (dn > 0.0) ? -pl.xyz : pl.xyz;
+                float cosv = -dot(nrm, axis);
+                // θ = atan2(|n × a|, n·a): accurate near 0°, where acos is not
+                float ang = (cosv <= 0.0) ? 90.0 : degrees(atan(length(cross(nrm, axis)), cosv));
+                e = face_element[p];
+                tq = uint(min(round(t / t_unit), 2147483648.0));
+                aq = uint(min(round(ang / a_unit), 2147483648.0));
+                t_out = t;
+                c_out = abs(dn);
             }
         }
     }
@@ -307,7 +304,7 @@ void main() {
 
 _COMPACT = """
 #version 430
-layout(local_size_x = 64) in;
+layout(local_size_x = %(LX)d) in;
 layout(std430, binding = 3) buffer Acc { uint acc[]; };
 layout(std430, binding = 4) readonly buffer Touched { uint n_touched; uint touched[]; };
 layout(std430, binding = 6) writeonly buffer Out { uint outv[]; };
@@ -378,8 +375,8 @@ void main() {
 """
 
 
-def _face_matrices() -> list[tuple[int, float, NDArray[np.float64]]]:
-    """The six cube faces: (axis j, sign s, M) with M's columns the face camera's x, y, z in camera axes."""
+def _face_matrices() -> list[NDArray[np.float64]]:
+    """The six cube faces (+x, −x, +y, −y, +z, −z): M with columns the face camera's x, y, z in camera axes."""
     out = []
     for j in range(3):
         for s in (1.0, -1.0):
@@ -389,13 +386,13 @@ def _face_matrices() -> list[tuple[int, float, NDArray[np.float64]]]:
             x = np.cross(helper, z)
             x /= np.linalg.norm(x)
             y = np.cross(z, x)
-            out.append((j, s, np.column_stack([x, y, z])))
+            out.append(np.column_stack([x, y, z]))
     return out
 
 
 _FACES = _face_matrices()
 # the six face matrices as the shaders' `uniform mat3 M[6]`: column-major float32
-_FACE_MATRICES_GL = b"".join(np.asarray(M, np.float32).T.tobytes() for _, _, M in _FACES)
+_FACE_MATRICES_GL = b"".join(np.asarray(M, np.float32).T.tobytes() for M in _FACES)
 
 
 def _renderer(ctx) -> str:
@@ -491,6 +488,7 @@ class GLEngine(Engine):
                 self._build_programs()
                 self._upload_scene()
                 self._upload_features()
+                self._fix_state()
         except EngineError:
             self.close()
             raise
@@ -511,9 +509,10 @@ class GLEngine(Engine):
     def _build_programs(self) -> None:
         ctx = self.ctx
         self._prog = ctx.program(vertex_shader=_VERTEX, fragment_shader=_FRAGMENT)
-        self._reduce = ctx.compute_shader(_REDUCE % {"LX": 16, "LY": 16, "LN": 256})
-        self._compact = ctx.compute_shader(_COMPACT)
-        self._feat = ctx.compute_shader(_FEATURES % {"LX": 64, "LY": 1, "LN": 64})
+        g = _REDUCE_GROUP
+        self._reduce = ctx.compute_shader(_REDUCE % {"LX": g, "LY": g, "LN": g * g})
+        self._compact = ctx.compute_shader(_COMPACT % {"LX": _LINEAR_GROUP})
+        self._feat = ctx.compute_shader(_FEATURES % {"LX": _LINEAR_GROUP, "LY": 1})
 
     def _upload_scene(self) -> None:
         ctx, scene = self.ctx, self.scene
@@ -534,9 +533,8 @@ class GLEngine(Engine):
             self._ibo = ctx.buffer(np.ascontiguousarray(scene.faces, np.uint32).tobytes())
             self._vao = ctx.vertex_array(self._prog, [(self._vbo, "3f", "in_pos")], index_buffer=self._ibo,
                                          index_element_size=4)
-        lo = self.local_vertices.min(axis=0) if len(self.local_vertices) else np.zeros(3)
-        hi = self.local_vertices.max(axis=0) if len(self.local_vertices) else np.zeros(3)
-        self._box = (lo, hi)
+        v = self.local_vertices if len(self.local_vertices) else np.zeros((1, 3))
+        self._box = (v.min(axis=0), v.max(axis=0))
 
     def _upload_features(self) -> None:
         fs = self.features
@@ -551,6 +549,31 @@ class GLEngine(Engine):
         self._fnormals = self.ctx.buffer(nrm.tobytes())
         self._visible = self.ctx.buffer(reserve=(n + 1) * 4)
         self._visible.clear()
+
+    def _fix_state(self) -> None:
+        """What no frame changes, set once: depth test, storage-buffer bindings, constant uniforms."""
+        import moderngl
+
+        ctx = self.ctx
+        ctx.enable(moderngl.DEPTH_TEST)
+        ctx.disable(moderngl.CULL_FACE)
+        ctx.depth_func = "<"
+        for binding, buf in ((1, self._planes), (2, self._face_el), (3, self._acc), (4, self._touched),
+                             (6, self._out), (7, self._fpoints), (8, self._fnormals), (9, self._visible)):
+            buf.bind_to_storage_buffer(binding)
+        if self._n_faces:
+            self._vbo.bind_to_storage_buffer(10)
+            self._ibo.bind_to_storage_buffer(11)
+        for prog in (self._reduce, self._feat):
+            if "M" in prog:
+                prog["M"].write(_FACE_MATRICES_GL)
+            self._set(prog, "dmax", self.d_max)
+        self._set(self._reduce, "t_unit", self.d_max / _FIX)
+        self._set(self._reduce, "a_unit", _ANGLE_MAX_DEG / _FIX)
+        self._set(self._reduce, "cube_reach", self.cube_reach)
+        self._set(self._feat, "n_features", self._n_features)
+        self._set(self._feat, "tol", OCCLUSION_TOLERANCE_M)
+        self._set(self._feat, "reach", self.feature_reach)
 
     def _target(self, w: int, h: int, slot: int = 0):
         """Framebuffer ``slot`` of w × h (id + depth), kept for reuse: the six cube faces of a
@@ -600,11 +623,12 @@ class GLEngine(Engine):
 
     # ------------------------------------------------------------------ views
     def _views(self, cam: Camera, R: NDArray):
-        """(kind, R_view, K, tile size, window, face info) for every draw of this frame."""
+        """Every draw of this frame: {mode, R (the view's camera -> world), K, tile size, framebuffer slot,
+        window (u0, v0, u1, v1 in frame pixels)}."""
         if isinstance(cam, EquirectangularCamera):
             s = min(self.tile_px, max(8, math.ceil(self.cube_oversample * cam.width / math.pi)))
             half = s / 2.0
-            for slot, (_, _, M) in enumerate(_FACES):
+            for slot, M in enumerate(_FACES):
                 yield {"mode": 1, "R": R @ M, "K": (half, half, half, half), "tile": (s, s), "slot": slot,
                        "window": (0, 0, s, s)}
             return
@@ -619,24 +643,19 @@ class GLEngine(Engine):
         """Distances from C between which surfaces can lie (the depth buffer's range)."""
         lo, hi = self._box
         nearest = float(np.linalg.norm(np.maximum(0.0, np.maximum(lo - C, C - hi))))
-        corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
-        farthest = float(np.linalg.norm(corners - C, axis=1).max())
+        farthest = float(np.linalg.norm(np.maximum(np.abs(C - lo), np.abs(hi - C))))  # the farthest corner
         t0 = max(0.0, nearest * (1 - 1e-6) - 1e-3)
         t1 = min(self.d_max, farthest) * (1 + 1e-6) + 1e-3
         return t0, max(t1, t0 + 1e-3)
 
     def _draw(self, view: dict, C: NDArray, t0: float, t1: float):
-        """Render one view into its framebuffer; the id texture and depth texture."""
+        """Render one view into its framebuffer; its id texture."""
         import moderngl
 
-        fbo, ids, depth = self._target(*view["tile"], view["slot"])
+        fbo, ids, _ = self._target(*view["tile"], view["slot"])
         fbo.use()
         fbo.clear(0.0, depth=1.0)
         if self._n_faces:
-            ctx = self.ctx
-            ctx.enable(moderngl.DEPTH_TEST)
-            ctx.disable(moderngl.CULL_FACE)
-            ctx.depth_func = "<"
             p = self._prog
             p["R"].write(np.asarray(view["R"], np.float32).T.tobytes())  # column-major
             p["C"].value = tuple(float(x) for x in C)
@@ -645,9 +664,8 @@ class GLEngine(Engine):
             # the far clip must not cut what lies within t1 anywhere in a 90°-or-narrower view
             p["clip"].value = (NEAR_M, max(2.0 * t1, NEAR_M * 10))
             p["trange"].value = (t0, 1.0 / (t1 - t0))
-            self._planes.bind_to_storage_buffer(1)
             self._vao.render(moderngl.TRIANGLES)
-        return ids, depth
+        return ids
 
     @staticmethod
     def _set(prog, name: str, value) -> None:
@@ -655,65 +673,44 @@ class GLEngine(Engine):
         if name in prog:
             prog[name].value = value
 
-    def _set_common(self, prog, view: dict, img: tuple[int, int], C: NDArray) -> None:
+    def _set_view(self, prog, view: dict, img: tuple[int, int], R: NDArray, C: NDArray) -> None:
+        """The uniforms the reduction and the feature test share that change with the view."""
         self._set(prog, "mode", view["mode"])
-        prog["R"].write(np.asarray(self._R_cur, np.float32).T.tobytes())  # column-major: R's columns
+        prog["R"].write(np.asarray(R, np.float32).T.tobytes())  # column-major: R's columns
         self._set(prog, "C", tuple(float(x) for x in C))
         self._set(prog, "K", tuple(float(x) for x in view["K"]))
         self._set(prog, "tile", tuple(int(x) for x in view["tile"]))
         self._set(prog, "img", img)
-        if "M" in prog:
-            prog["M"].write(_FACE_MATRICES_GL)
-        self._set(prog, "dmax", self.d_max)
 
     def _frame(self, cam: Camera, R: NDArray, C: NDArray, map_buffer=None, features: bool = True) -> None:
         """Draw and reduce every view of one frame: into the accumulators, or, given ``map_buffer``
         (W × H × 3 uint32), into a per-pixel map of element id, distance and |cos|."""
-        self._R_cur = R
         t0, t1 = self._t_range(C)
         equirect = isinstance(cam, EquirectangularCamera)
         red, feat = self._reduce, self._feat
         views = list(self._views(cam, R))
         passes = [views] if equirect else [[v] for v in views]  # six faces reduce in one pass
+        (map_buffer if map_buffer is not None else self._out).bind_to_storage_buffer(5)
+        self._set(red, "write_map", int(map_buffer is not None))
         for group in passes:
             for unit, v in enumerate(group):
-                ids, _ = self._draw(v, C, t0, t1)
+                ids = self._draw(v, C, t0, t1)
+                ids.use(location=unit)
+            for unit in range(len(group), 6):  # every sampler needs a texture; unused ones repeat the last
                 ids.use(location=unit)
             self.ctx.memory_barrier()
             view = group[0]
-            for unit in range(len(group), 6):  # every sampler needs a texture; unused ones repeat the first
-                self._target(*view["tile"], view["slot"])[1].use(location=unit)
-            self._planes.bind_to_storage_buffer(1)
-            self._face_el.bind_to_storage_buffer(2)
-            self._acc.bind_to_storage_buffer(3)
-            self._touched.bind_to_storage_buffer(4)
-            (map_buffer if map_buffer is not None else self._out).bind_to_storage_buffer(5)
             img = (cam.width, cam.height) if equirect else view["tile"]
-            self._set_common(red, view, img, C)
-            self._set(red, "t_unit", self.d_max / _FIX)
-            self._set(red, "a_unit", _ANGLE_MAX_DEG / _FIX)
-            self._set(red, "write_map", int(map_buffer is not None))
-            u0, v0 = (0, 0) if equirect else view["window"][:2]
+            self._set_view(red, view, img, R, C)
+            u0, v0 = view["window"][:2]  # (0, 0) for the cube faces
             self._set(red, "map_at", (int(u0), int(v0), int(cam.width)))
-            self._set(red, "cube_reach", self.cube_reach)
-            if self._n_faces:
-                self._vbo.bind_to_storage_buffer(10)
-                self._ibo.bind_to_storage_buffer(11)
-            red.run((img[0] + 15) // 16, (img[1] + 15) // 16, 1)
+            red.run((img[0] + _REDUCE_GROUP - 1) // _REDUCE_GROUP, (img[1] + _REDUCE_GROUP - 1) // _REDUCE_GROUP, 1)
             self.ctx.memory_barrier()
             if features and self._n_features and self._n_faces:
-                self._set_common(feat, view, view["tile"], C)
-                self._set(feat, "n_features", self._n_features)
+                self._set_view(feat, view, view["tile"], R, C)
                 self._set(feat, "window", tuple(float(x) for x in view["window"]))
                 self._set(feat, "Kfull", (cam.fx, cam.fy, cam.cx, cam.cy) if not equirect else (1.0, 1.0, 0.0, 0.0))
-                self._set(feat, "tol", OCCLUSION_TOLERANCE_M)
-                self._set(feat, "reach", self.feature_reach)
-                self._vbo.bind_to_storage_buffer(10)
-                self._ibo.bind_to_storage_buffer(11)
-                self._fpoints.bind_to_storage_buffer(7)
-                self._fnormals.bind_to_storage_buffer(8)
-                self._visible.bind_to_storage_buffer(9)
-                feat.run((self._n_features + 63) // 64, 1, 1)
+                feat.run((self._n_features + _LINEAR_GROUP - 1) // _LINEAR_GROUP, 1, 1)
                 self.ctx.memory_barrier()
 
     def _collect(self) -> tuple[NDArray, NDArray, NDArray, NDArray]:
@@ -721,10 +718,7 @@ class GLEngine(Engine):
         n = int(np.frombuffer(self._touched.read(4), np.uint32)[0])
         if n == 0:
             return np.zeros(0, np.int32), np.zeros(0, np.int64), np.zeros(0), np.zeros(0)
-        self._acc.bind_to_storage_buffer(3)
-        self._touched.bind_to_storage_buffer(4)
-        self._out.bind_to_storage_buffer(6)
-        self._compact.run((n + 63) // 64, 1, 1)
+        self._compact.run((n + _LINEAR_GROUP - 1) // _LINEAR_GROUP, 1, 1)
         self.ctx.memory_barrier()
         rows = np.frombuffer(self._out.read(n * 24), np.uint32).reshape(n, 6).astype(np.uint64)
         self._touched.write(np.zeros(1, np.uint32).tobytes())

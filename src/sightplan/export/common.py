@@ -107,6 +107,12 @@ def same_angle(a: float, b: float, tol: float = 1e-6) -> bool:
     return abs(wrap180(a - b)) <= tol
 
 
+def number_text(v: float, digits: int = 6) -> str:
+    """``v`` with at most ``digits`` decimals, trailing zeros dropped ("0" for zero and minus zero)."""
+    text = f"{float(v):.{digits}f}".rstrip("0").rstrip(".")
+    return "0" if text in ("", "-0") else text
+
+
 def build_flight(plan: Plan, georef: Georeference, takeoff_m: ArrayLike, *, fmt: str, speed_m_s: float = 5.0,
                  mission: int | None = None) -> Flight:
     """The plan's frames grouped into waypoints with photo actions; see the module docstring.

@@ -47,11 +47,16 @@ def _footprints(flight: Flight, wp: Waypoint) -> tuple[list[tuple[str, np.ndarra
     return rings, skipped
 
 
-def _properties(flight: Flight, number: int, index: int, wp: Waypoint) -> dict:
-    return {"mission": flight.missions[wp.mission].name, "mission_number": number, "waypoint": index,
-            "altitude_m": wp.altitude_m, "height_m": wp.height_m,
-            "frames": [p.name for p in wp.photos], "heading_deg": [p.heading_deg for p in wp.photos],
-            "pitch_deg": [p.pitch_deg for p in wp.photos]}
+def _waypoint(flight: Flight, number: int, index: int, wp: Waypoint) -> tuple[dict, list[tuple[str, np.ndarray]]]:
+    """The waypoint's properties (``kind`` "waypoint", the frames without a footprint noted) and its footprints."""
+    rings, skipped = _footprints(flight, wp)
+    props = {"kind": "waypoint", "mission": flight.missions[wp.mission].name, "mission_number": number, "waypoint": index,
+             "altitude_m": wp.altitude_m, "height_m": wp.height_m,
+             "frames": [p.name for p in wp.photos], "heading_deg": [p.heading_deg for p in wp.photos],
+             "pitch_deg": [p.pitch_deg for p in wp.photos]}
+    if skipped:
+        props.update({"footprint_skipped": skipped, "footprint_note": FOOTPRINT_NOTE})
+    return props, rings
 
 
 # ---- GeoJSON ---------------------------------------------------------------------------------
@@ -66,10 +71,7 @@ def geojson_document(flight: Flight) -> dict:
                          "geometry": {"type": "LineString",
                                       "coordinates": [[w.longitude_deg, w.latitude_deg, w.height_m] for w in wps]}})
         for index, wp in enumerate(wps):
-            rings, skipped = _footprints(flight, wp)
-            props = {"kind": "waypoint", **_properties(flight, number, index, wp)}
-            if skipped:
-                props.update({"footprint_skipped": skipped, "footprint_note": FOOTPRINT_NOTE})
+            props, rings = _waypoint(flight, number, index, wp)
             features.append({"type": "Feature", "properties": props,
                              "geometry": {"type": "Point", "coordinates": [wp.longitude_deg, wp.latitude_deg, wp.height_m]}})
             for frame, ring in rings:
@@ -129,14 +131,11 @@ def kml_bytes(flight: Flight, title: str) -> bytes:
         prints = _el(folder, "Folder")
         _el(prints, "name", "footprints")
         for index, wp in enumerate(wps):
-            rings, skipped = _footprints(flight, wp)
+            props, rings = _waypoint(flight, number, index, wp)
             pm = _el(folder, "Placemark")
             _el(pm, "name", f"{name} waypoint {index + 1}")
             style = _el(_el(pm, "Style"), "IconStyle")
             _el(style, "heading", repr(wp.photos[0].heading_deg))
-            props = {"kind": "waypoint", **_properties(flight, number, index, wp)}
-            if skipped:
-                props.update({"footprint_skipped": skipped, "footprint_note": FOOTPRINT_NOTE})
             _data(pm, props)
             point = _el(pm, "Point")
             _el(point, "altitudeMode", "absolute")

@@ -18,7 +18,7 @@ from __future__ import annotations
 import csv
 from pathlib import Path
 
-from .common import Flight, Waypoint, mission_paths, same_angle
+from .common import Flight, Waypoint, mission_paths, number_text, same_angle
 
 MAX_ACTIONS = 15
 MAX_WAYPOINTS = 99
@@ -28,11 +28,6 @@ HEADER = (["latitude", "longitude", "altitude(m)", "heading(deg)", "curvesize(m)
           + [f"action{kind}{k}" for k in range(1, MAX_ACTIONS + 1) for kind in ("type", "param")]
           + ["altitudemode", "speed(m/s)", "poi_latitude", "poi_longitude", "poi_altitude(m)", "poi_altitudemode",
              "photo_timeinterval", "photo_distinterval"])
-
-
-def _num(v: float, digits: int = 6) -> str:
-    text = f"{float(v):.{digits}f}".rstrip("0").rstrip(".")
-    return "0" if text in ("", "-0") else text
 
 
 def rows_of(waypoint: Waypoint) -> list[tuple[float, float, list[tuple[int, float]]]]:
@@ -58,12 +53,12 @@ def rows_of(waypoint: Waypoint) -> list[tuple[float, float, list[tuple[int, floa
 
 
 def _row(flight: Flight, wp: Waypoint, heading: float, pitch: float, actions: list[tuple[int, float]]) -> list[str]:
-    cells = [_num(wp.latitude_deg, 9), _num(wp.longitude_deg, 9), _num(wp.altitude_m, 4), _num(heading % 360.0),
-             "0", "0", "2", _num(pitch)]
+    cells = [number_text(wp.latitude_deg, 9), number_text(wp.longitude_deg, 9), number_text(wp.altitude_m, 4),
+             number_text(heading % 360.0), "0", "0", "2", number_text(pitch)]
     for k in range(MAX_ACTIONS):
         kind, param = actions[k] if k < len(actions) else (NO_ACTION, 0.0)
-        cells += [str(kind), _num(param)]
-    cells += ["0", _num(flight.speed_m_s), "0", "0", "0", "0", "-1", "-1"]
+        cells += [str(kind), number_text(param)]
+    cells += ["0", number_text(flight.speed_m_s), "0", "0", "0", "0", "-1", "-1"]
     return cells
 
 

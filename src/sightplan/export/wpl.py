@@ -11,17 +11,12 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from .common import Flight, mission_paths
+from .common import Flight, mission_paths, number_text
 from .qgc import FRAME_GLOBAL, FRAME_GLOBAL_RELATIVE_ALT, NAV_WAYPOINT, mission_items
 
 
-def _num(v: float, digits: int = 8) -> str:
-    text = f"{float(v):.{digits}f}".rstrip("0").rstrip(".")
-    return "0" if text in ("", "-0") else text
-
-
 def _line(seq: int, current: int, frame: int, command: int, params: list[float]) -> str:
-    p = [_num(v) for v in params[:4]] + [_num(params[4], 9), _num(params[5], 9), _num(params[6], 4)]
+    p = [number_text(v, 8) for v in params[:4]] + [number_text(v, 9) for v in params[4:6]] + [number_text(params[6], 4)]
     return "\t".join([str(seq), str(current), str(frame), str(command), *p, "1"])
 
 

@@ -28,7 +28,7 @@ from pathlib import Path
 from xml.etree import ElementTree as ET
 
 from ..camera.catalogue import list_cameras
-from .common import Flight, Waypoint, same_angle, wrap180
+from .common import Flight, Waypoint, number_text, same_angle, wrap180
 
 KML_NS = "http://www.opengis.net/kml/2.2"
 WPML_NS = "http://www.dji.com/wpmz/1.0.2"
@@ -48,16 +48,11 @@ def _drone(flight: Flight) -> tuple[int, int, int]:
     return DEFAULT_DRONE
 
 
-def _num(v: float, digits: int = 6) -> str:
-    text = f"{float(v):.{digits}f}".rstrip("0").rstrip(".")
-    return "0" if text in ("", "-0") else text
-
-
 def _el(parent: ET.Element, tag: str, text: str | float | int | None = None) -> ET.Element:
     ns, _, name = tag.partition(":") if ":" in tag else ("kml", "", tag)
     el = ET.SubElement(parent, f"{{{WPML_NS if ns == 'wpml' else KML_NS}}}{name}")
     if text is not None:
-        el.text = text if isinstance(text, str) else _num(text)
+        el.text = text if isinstance(text, str) else number_text(text)
     return el
 
 
@@ -107,7 +102,7 @@ def _placemark(folder: ET.Element, flight: Flight, wp: Waypoint, index: int, gro
         _el(pm, "wpml:useGlobalHeadingParam", 0)
         _el(pm, "wpml:useGlobalTurnParam", 0)
     else:
-        _el(pm, "wpml:executeHeight", _num(wp.altitude_m, 4))
+        _el(pm, "wpml:executeHeight", number_text(wp.altitude_m, 4))
     _el(pm, "wpml:waypointSpeed", flight.speed_m_s)
     heading = float(round(wrap180(wp.photos[0].heading_deg)))
     hp = _el(pm, "wpml:waypointHeadingParam")
@@ -133,14 +128,14 @@ def _placemark(folder: ET.Element, flight: Flight, wp: Waypoint, index: int, gro
         if not same_angle(photo.heading_deg, heading, HEADING_TOLERANCE_DEG):
             turn = wrap180(photo.heading_deg - heading)
             heading = photo.heading_deg
-            _action(group, action_id, "rotateYaw", [("aircraftHeading", _num(wrap180(heading), 6)),
+            _action(group, action_id, "rotateYaw", [("aircraftHeading", number_text(wrap180(heading), 6)),
                                                     ("aircraftPathMode", "clockwise" if turn >= 0 else "counterClockwise")])
             action_id += 1
         _action(group, action_id, "gimbalRotate", [
             ("gimbalHeadingYawBase", "north"), ("gimbalRotateMode", "absoluteAngle"), ("gimbalPitchRotateEnable", 1),
-            ("gimbalPitchRotateAngle", _num(photo.pitch_deg, 6)), ("gimbalRollRotateEnable", 0), ("gimbalRollRotateAngle", 0),
-            ("gimbalYawRotateEnable", 0), ("gimbalYawRotateAngle", 0), ("gimbalRotateTimeEnable", 0),
-            ("gimbalRotateTime", 0), ("payloadPositionIndex", 0)])
+            ("gimbalPitchRotateAngle", number_text(photo.pitch_deg, 6)), ("gimbalRollRotateEnable", 0),
+            ("gimbalRollRotateAngle", 0), ("gimbalYawRotateEnable", 0), ("gimbalYawRotateAngle", 0),
+            ("gimbalRotateTimeEnable", 0), ("gimbalRotateTime", 0), ("payloadPositionIndex", 0)])
         _action(group, action_id + 1, "takePhoto", [("payloadPositionIndex", 0), ("fileSuffix", _suffix(photo.name)),
                                                     ("useGlobalPayloadLensIndex", 1)])
         action_id += 2

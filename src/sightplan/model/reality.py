@@ -30,6 +30,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
 from ..errors import ModelError
+from .load import MESH_EXTENSIONS, POINT_CLOUD_EXTENSIONS, load_model
 from .scene import ElementTable, Scene
 from .summary import LoadReport
 
@@ -40,8 +41,7 @@ NORMAL_ANGLE_DEG = 30.0
 #: Smooth regions and pieces below this share of the patch area join a neighbour (see :func:`patch_faces`).
 SMALL_PATCH_SHARE = 0.25
 PATCH_CLASS = "RealityPatch"
-POINT_CLOUD_EXTENSIONS: tuple[str, ...] = (".las", ".laz")
-REALITY_MESH_EXTENSIONS: tuple[str, ...] = (".obj", ".ply", ".stl", ".gltf", ".glb")
+REALITY_MESH_EXTENSIONS: tuple[str, ...] = MESH_EXTENSIONS
 #: Median nearest-neighbour distance × this = the default voxel spacing.
 SPACING_PER_NN = 3.0
 #: Largest voxel grid :func:`points_to_mesh` builds (nodes); beyond it a larger spacing is needed.
@@ -239,10 +239,7 @@ def patch_faces(vertices: ArrayLike, faces: ArrayLike, patch_area_m2: float = PA
     """
     v = np.asarray(vertices, np.float64)
     f = np.asarray(faces, np.int64)
-    if not (math.isfinite(patch_area_m2) and patch_area_m2 > 0):
-        raise ModelError(f"patch area must be a positive number of m², got {patch_area_m2!r}")
-    if not (0 <= normal_angle_deg <= 180):
-        raise ModelError(f"patch normal angle must be within 0–180°, got {normal_angle_deg!r}")
+    patch_area_m2, normal_angle_deg = patch_options(patch_area_m2, normal_angle_deg)
     if len(f) == 0:
         return np.zeros(0, np.int32), 0
     tri = v[f]
@@ -699,8 +696,6 @@ def load_reality(path: str | Path, patch_area_m2: float = PATCH_AREA_M2, spacing
     :mod:`.mesh`). Elements are named 'patch 00001', ..., class RealityPatch, no discipline.
     ``origin_m`` (after ``scale``) is subtracted from every coordinate. Cached like :func:`load_model`.
     """
-    from .load import load_model
-
     path = Path(path).expanduser()
     if not path.is_file():
         raise ModelError(f"reality model file not found: {path}")

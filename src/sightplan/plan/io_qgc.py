@@ -316,7 +316,9 @@ def parse_wpl(path: Path) -> MissionSource:
 # ---- flying the commands -----------------------------------------------------------------------
 
 
-def _bearing(a: NDArray, b: NDArray) -> float | None:
+def bearing(a: NDArray, b: NDArray) -> float | None:
+    """Model heading (clockwise from +Y, [0, 360)) from point ``a`` toward ``b``; None when they are
+    less than a micrometre apart horizontally."""
     d = b[:2] - a[:2]
     if math.hypot(*d) < 1e-6:
         return None
@@ -424,11 +426,11 @@ def fly(src: MissionSource, georef: Georeference, home_xyz: NDArray, home: tuple
         p: float
         if roi is not None and roi[0] == "point":
             d = roi[1] - at
-            heading = _bearing(at, roi[1])
+            heading = bearing(at, roi[1])
             heading = leg_heading if heading is None else heading
             p = math.degrees(math.atan2(d[2], math.hypot(d[0], d[1])))
         else:
-            ahead = _bearing(at, target) if target is not None else None
+            ahead = bearing(at, target) if target is not None else None
             along = leg_heading if ahead is None else ahead
             if roi is not None:
                 heading, p = (along + roi[2]) % 360.0, roi[1]
@@ -460,7 +462,7 @@ def fly(src: MissionSource, georef: Georeference, home_xyz: NDArray, home: tuple
                 yaw_true = None
             else:
                 yaw_true = prm[3] if math.isfinite(prm[3]) else None
-            b = _bearing(pos, new)
+            b = bearing(pos, new)
             if b is not None and cmd != NAV_TAKEOFF:
                 leg_heading = b
             if trigger is not None and airborne and length > 0:
@@ -510,7 +512,7 @@ def fly(src: MissionSource, georef: Georeference, home_xyz: NDArray, home: tuple
                 continue
             if prm[3] == 1:
                 if yaw_true is None:
-                    ahead = _bearing(pos, target_after(k)) if target_after(k) is not None else None
+                    ahead = bearing(pos, target_after(k)) if target_after(k) is not None else None
                     current = float(georef.true_heading(pos, leg_heading if ahead is None else ahead)[0])
                 else:
                     current = yaw_true
@@ -625,10 +627,9 @@ def plan_from_source(src: MissionSource, georef: Georeference | None, camera: Ca
                                           source=f"{'QGroundControl planned home' if src.fmt == 'qgc' else 'home'} position "
                                                  f"of {src.path.name}")
     try:
-        home_xyz = georef.from_geodetic(home[0], home[1], home[2])[0]
         if ground_z is not None:  # take off from the model's ground: heights above home are measured from there
-            home = (home[0], home[1], float(georef.to_geodetic([[home_xyz[0], home_xyz[1], ground_z]])[2][0]))
-            home_xyz = georef.from_geodetic(home[0], home[1], home[2])[0]
+            home = (home[0], home[1], georef.height_at(home[0], home[1], ground_z, home[2]))
+        home_xyz = georef.from_geodetic(home[0], home[1], home[2])[0]
     except GeoreferenceError as exc:
         raise PlanError(f"{src.path.name}: home position: {exc}") from None
     frames, waypoints = fly(src, georef, home_xyz, home)

@@ -43,7 +43,7 @@ from ..camera.catalogue import get_camera, parse_camera_spec
 from ..camera.models import Camera
 from ..errors import CameraError, PlanError
 from ..geo import Georeference, GeoreferenceError
-from .io_qgc import differs
+from .io_qgc import bearing, differs
 from .poses import R_from_gimbal
 from .types import Mission, Plan
 
@@ -190,11 +190,6 @@ def _heading_param(pm: ET.Element, folder: ET.Element) -> ET.Element | None:
     return hp
 
 
-def _bearing(a: NDArray, b: NDArray) -> float | None:
-    d = b[:2] - a[:2]
-    return None if math.hypot(*d) < 1e-6 else math.degrees(math.atan2(d[0], d[1])) % 360.0
-
-
 def _groups(folder: ET.Element) -> list[ET.Element]:
     groups = [g for pm in _kids(folder, "Placemark") for g in _kids(pm, "actionGroup")]
     return groups + _kids(folder, "actionGroup")
@@ -222,10 +217,10 @@ class _Gimbal:
 def _along(P: NDArray, n: int) -> float | None:
     """Model heading toward the next waypoint (else from the previous one)."""
     if n + 1 < len(P):
-        b = _bearing(P[n], P[n + 1])
+        b = bearing(P[n], P[n + 1])
         if b is not None:
             return b
-    return _bearing(P[n - 1], P[n]) if n > 0 else None
+    return bearing(P[n - 1], P[n]) if n > 0 else None
 
 
 def _arrival_heading(wp: _Waypoint, folder: ET.Element, P: NDArray, n: int, georef: Georeference) -> tuple[
@@ -240,7 +235,7 @@ def _arrival_heading(wp: _Waypoint, folder: ET.Element, P: NDArray, n: int, geor
         poi = _numbers(_text(hp, "waypointPoiPoint"), 2, "waypointPoiPoint", wp.where)
         if poi is not None and (poi[0] or poi[1]):
             q = georef.from_geodetic(poi[0], poi[1], georef.to_geodetic(P[n])[2])[0]
-            b = _bearing(P[n], q)
+            b = bearing(P[n], q)
             if b is not None:
                 return None, b
     return None, _along(P, n) or 0.0
@@ -320,7 +315,7 @@ def _fly_wayline(wayline: int, folder: ET.Element, wps: list[_Waypoint], P: NDAr
                     continue
                 while span["next"] <= span["travelled"] + length + 1e-9:
                     s_leg = span["next"] - span["travelled"]
-                    photos.append(_Photo(wayline, P[n] + s_leg / length * leg, None, _bearing(P[n], P[n + 1]) or 0.0,
+                    photos.append(_Photo(wayline, P[n] + s_leg / length * leg, None, bearing(P[n], P[n + 1]) or 0.0,
                                          gimbal.current(), f"w{wayline}_wp{wp.index:03d}_d{len(photos) + 1}"))
                     span["next"] += span["step"]
                 span["travelled"] += length
@@ -367,11 +362,9 @@ def read_wpml(path: str | Path, georef: Georeference | None = None, camera: Came
         if georef is None:
             georef = Georeference.from_origin(t_lat, t_lon, t_h or 0.0, 0.0, source=f"take-off point of {path.name}")
         if ground_z is not None:
-            xy = georef.from_geodetic(t_lat, t_lon, t_h or 0.0)[0]
-            t_h = float(georef.to_geodetic([[xy[0], xy[1], ground_z]])[2][0])
+            t_h = georef.height_at(t_lat, t_lon, ground_z, t_h or 0.0)
         if t_h is None:
-            xy = georef.from_geodetic(t_lat, t_lon, 0.0)[0]
-            t_h = float(georef.to_geodetic([xy[0], xy[1], 0.0])[2][0])
+            t_h = georef.height_at(t_lat, t_lon, 0.0)
             if any_relative:
                 warnings.append("the mission has no take-off reference point (takeOffRefPoint): heights above the start "
                                 "point are taken from the model's height 0 under the first waypoint")

@@ -157,7 +157,7 @@ def histograms_png(ev: Evaluation) -> str:
     fig = _figure(11, 2.7)
     axes = fig.subplots(1, 4)
     cls = visibility_class(em)[em.is_target]
-    counts = [int((cls == k).sum()) for k in range(3)]
+    counts = np.bincount(cls, minlength=3)[:3]
     axes[0].bar(["visible", "observed\nonly", "unseen"], counts, color=[VISIBLE, OBSERVED_ONLY, UNSEEN])
     axes[0].set_title(f"target elements (z = {int(em.is_target.sum())})", fontsize=9)
     panels = ((em.VR[vis], "VR_i (frames)", True), (em.R[vis], "R_i (m/px)", False), (em.O[vis], "O_i (°)", False))
@@ -217,8 +217,9 @@ def worst_elements(ev: Evaluation, scene: Scene, n: int = 10) -> dict[str, tuple
     targets = em.is_target
     unseen = np.flatnonzero(targets & ~em.visible)
     # observed-only first (closest to being seen, most pixels), then the unseen by class and name
-    key = [(-float(em.pixels_total[i]), str(scene.elements.ifc_class[i]), str(scene.elements.name[i])) for i in unseen]
-    unseen = unseen[sorted(range(len(unseen)), key=key.__getitem__)] if len(unseen) else unseen
+    el = scene.elements
+    unseen = unseen[np.lexsort((el.name[unseen].astype(str), el.ifc_class[unseen].astype(str),
+                                -np.asarray(em.pixels_total[unseen], np.float64)))]
     vis = np.flatnonzero(targets & em.visible)
     lowest_vr = vis[np.lexsort((-np.nan_to_num(em.R[vis]), em.VR[vis]))]
     worst_ssd = vis[np.argsort(-np.nan_to_num(em.R[vis], nan=-np.inf), kind="stable")]

@@ -120,6 +120,15 @@ def _dates(source: str, row: dict[str, str], cols: dict[str, str], tid: str, nam
     return out
 
 
+def _task_of(source: str, number: int, row: dict[str, str], id_col: str, name_col: str | None) -> tuple[str, str]:
+    """(task id, task name) of a row; a row without a task id is refused."""
+    tid = row.get(id_col, "")
+    name = row.get(name_col, "") if name_col else ""
+    if not tid:
+        raise ScheduleError(f"{source}:{number}: the row ({name!r}) has no task id in column {id_col!r}")
+    return tid, name
+
+
 def _task_list(source: str, rows, cols: dict[str, str], id_col: str, start: str, finish: str) -> TaskTable:
     name_col = _pick(cols, NAME_COLS)
     parent_col, outline_col = _pick(cols, PARENT_COLS), _pick(cols, OUTLINE_COLS)
@@ -127,10 +136,7 @@ def _task_list(source: str, rows, cols: dict[str, str], id_col: str, start: str,
     tasks: list[Task] = []
     lines: dict[str, int] = {}
     for number, row in rows:
-        tid = row.get(id_col, "")
-        name = row.get(name_col, "") if name_col else ""
-        if not tid:
-            raise ScheduleError(f"{source}:{number}: the row ({name!r}) has no task id in column {id_col!r}")
+        tid, name = _task_of(source, number, row, id_col, name_col)
         if tid in lines:
             raise ScheduleError(f"{source}:{number}: task id {tid!r} is used again (first on line {lines[tid]})")
         lines[tid] = number
@@ -149,10 +155,7 @@ def _element_task_table(source: str, rows, cols: dict[str, str], gid_col: str, t
     name_col = _pick(cols, NAME_COLS[:2])  # 'name' would be the element's name here
     found: dict[str, dict] = {}
     for number, row in rows:
-        tid = row.get(task_col, "")
-        name = row.get(name_col, "") if name_col else ""
-        if not tid:
-            raise ScheduleError(f"{source}:{number}: the row ({name!r}) has no task id in column {task_col!r}")
+        tid, name = _task_of(source, number, row, task_col, name_col)
         values = {"name": name, **_dates(f"{source}:{number}", row, cols, tid, name, start, finish)}
         entry = found.get(tid)
         if entry is None:

@@ -19,6 +19,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import ScheduleError
+from ..model.load import IFC_EXTENSIONS
 from ..model.scene import Scene
 from .rules import LinkRule, closest, parse_rules, read_rules
 from .tasks import TaskTable, _fmt, task_label
@@ -180,7 +181,7 @@ def _model_ifc(scene: Scene, model_path: str | Path | None) -> Path | None:
             raise ScheduleError(f"model file not found: {path}")
         return path
     source = Path(scene.source) if scene.source else None
-    if source is not None and source.suffix.lower() in (".ifc", ".ifczip") and source.is_file():
+    if source is not None and source.suffix.lower() in IFC_EXTENSIONS and source.is_file():
         return source
     return None
 

@@ -218,11 +218,10 @@ def _dates_of(tasks: TaskTable, task_ids: Iterable[str] | None, prefer_actual: b
               skip_summary: bool = False) -> tuple[NDArray[np.datetime64], NDArray[np.datetime64]]:
     """(start, finish) arrays of the chosen tasks."""
     wanted = None if task_ids is None else set(task_ids)
-    chosen = [t for t in tasks.tasks if (wanted is None or t.id in wanted) and not (skip_summary and t.summary)]
-    pairs = [t.dates(prefer_actual) for t in chosen]
-    start = np.array([p[0] for p in pairs], dtype="datetime64[s]").reshape(len(pairs))
-    finish = np.array([p[1] for p in pairs], dtype="datetime64[s]").reshape(len(pairs))
-    return start, finish
+    chosen = np.array([(wanted is None or t.id in wanted) and not (skip_summary and t.summary) for t in tasks],
+                      bool).reshape(len(tasks))
+    start, finish = tasks.dates(prefer_actual)
+    return start[chosen], finish[chosen]
 
 
 def date_range(tasks: TaskTable, *, prefer_actual: bool = False,

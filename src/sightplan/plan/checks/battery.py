@@ -93,8 +93,8 @@ def split_by_battery(plan: Plan, ground_station: NDArray, ac: Aircraft) -> tuple
     missions, times = [], []
     for m in plan.missions:
         C = plan.C_world[m.start:m.stop]
-        out = legs_time(np.repeat(gs, len(C), axis=0), C, ac)  # ground station → each waypoint
-        back = legs_time(C, np.repeat(gs, len(C), axis=0), ac)  # each waypoint → ground station
+        out = legs_time(gs, C, ac)  # ground station → each waypoint
+        back = legs_time(C, gs, ac)  # each waypoint → ground station
         along = np.concatenate([[0.0], np.cumsum(legs_time(C[:-1], C[1:], ac))])  # first waypoint → each, in order
         a, part = 0, 1
         while a < len(C):

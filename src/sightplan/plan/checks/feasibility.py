@@ -9,6 +9,7 @@ Both return a :class:`FeasibilityReport`.
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -159,10 +160,8 @@ def split_by_line_of_sight(scene: Scene, plan: Plan, radius_m: float, stations: 
     for m in plan.missions:
         start, parts = m.start, []
         while start < m.stop:
-            run = np.zeros(len(stations), int)
-            for i in range(len(stations)):
-                blocked = np.flatnonzero(~vis[i, start:m.stop])
-                run[i] = blocked[0] if len(blocked) else m.stop - start
+            blocked = ~vis[:, start:m.stop]
+            run = np.where(blocked.any(axis=1), blocked.argmax(axis=1), m.stop - start)  # seen in a row from start
             best = int(np.argmax(run))
             parts.append((start, start + int(run[best]), tuple(map(float, stations[best]))))
             start += int(run[best])
@@ -184,8 +183,6 @@ def _split_battery(plan: Plan, default_station: NDArray, aircraft: Aircraft) -> 
 
 def _continues(before: str, name: str) -> bool:
     """Whether mission ``name`` is the battery part that follows ``before`` on the same route."""
-    import re
-
     a, b = re.fullmatch(r"(.*) \((\d+)\)", before), re.fullmatch(r"(.*) \((\d+)\)", name)
     return bool(a and b and a.group(1) == b.group(1) and int(b.group(2)) == int(a.group(2)) + 1)
 

@@ -2,6 +2,10 @@
 
 from __future__ import annotations
 
+import csv
+import json
+from pathlib import Path
+
 import numpy as np
 from numpy.typing import ArrayLike
 
@@ -62,13 +66,9 @@ def indoor_routes(camera: Camera, polylines: list[ArrayLike], step_m: float, pit
                                   "length_m": float(sum(p.parameters["length_m"] for p in parts))})
 
 
-def read_routes(path) -> tuple[list[np.ndarray], list[str]]:
+def read_routes(path: str | Path) -> tuple[list[np.ndarray], list[str]]:
     """Polylines from a file: JSON ``[[[x, y, z], …], …]`` or ``{"name": [[x, y, z], …], …}``, or CSV with
     columns ``route, x, y, z`` (rows in walking order; a route is the rows sharing a name)."""
-    import csv
-    import json
-    from pathlib import Path
-
     path = Path(path)
     try:
         text = path.read_text(encoding="utf-8")

@@ -21,8 +21,7 @@ def ring_poses(centre: NDArray, radius: float, z: float, n: int) -> tuple[NDArra
     height ``z``, and the (n,) heading and pitch in degrees that aim each at ``centre``."""
     az = np.arange(n) * 2 * np.pi / n
     C = np.stack([centre[0] + radius * np.sin(az), centre[1] + radius * np.cos(az), np.full(n, float(z))], axis=1)
-    v = centre - C
-    return C, np.degrees(np.arctan2(v[:, 0], v[:, 1])), np.degrees(np.arctan2(v[:, 2], np.hypot(v[:, 0], v[:, 1])))
+    return C, *_toward(C, centre)
 
 
 def orbit(scene: Scene, camera: Camera, radii_m: list[float], heights_m: list[float], step_deg: float | None = None,
@@ -80,6 +79,6 @@ def nearest_surface_points(scene: Scene, points: NDArray) -> NDArray[np.float64]
 
 
 def _toward(C: NDArray, target: NDArray) -> tuple[NDArray, NDArray]:
-    """(n,) heading and pitch in degrees that aim from each of C at the matching target."""
+    """(n,) heading and pitch in degrees that aim from each of C at the matching target (or at one (3,) target)."""
     v = target - C
     return np.degrees(np.arctan2(v[:, 0], v[:, 1])), np.degrees(np.arctan2(v[:, 2], np.hypot(v[:, 0], v[:, 1])))

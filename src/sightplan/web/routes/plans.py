@@ -6,7 +6,7 @@ import json
 import re
 import zipfile
 from pathlib import Path
-from typing import Annotated, Any, Literal
+from typing import Annotated, Any
 
 from fastapi import APIRouter, BackgroundTasks, Body, File, Form, HTTPException, Query, Response, UploadFile
 from fastapi.responses import FileResponse
@@ -14,6 +14,7 @@ from sqlalchemy import func, select
 from sqlalchemy.orm import Session
 
 from ...errors import PlanError, SightplanError
+from ...export import ExportFormat
 from ...model.scene import Scene
 from ...plan.types import Plan as PlanData
 from ..deps import ServerState, SessionDep, StateDep, get_project, in_project
@@ -27,7 +28,6 @@ router = APIRouter(prefix="/api/projects/{project_id}/plans", tags=["plans"])
 NOT_FOUND = {404: {"model": ErrorOut, "description": "No such project, plan, version or model"}}
 BAD_PLAN = {422: {"model": ErrorOut, "description": "The plan or a parameter is invalid (the library's message)"}}
 NOT_READY = {409: {"model": ErrorOut, "description": "The model is not loaded (yet)"}}
-ExportFormat = Literal["qgc", "wpl", "wpml", "litchi", "kml", "geojson"]
 MEDIA = {".plan": "application/json", ".waypoints": "text/plain", ".kmz": "application/vnd.google-earth.kmz",
          ".csv": "text/csv", ".kml": "application/vnd.google-earth.kml+xml", ".geojson": "application/geo+json",
          ".zip": "application/zip"}
@@ -186,9 +186,8 @@ def export_version(project_id: int, plan_id: int, number: int, session: SessionD
                    speed: Annotated[float, Query(gt=0, description="Flight speed (m/s)")] = 5.0,
                    mission: Annotated[int | None, Query(ge=1, description="Only this mission (from 1)")] = None,
                    ) -> FileResponse:
-    import numpy as np
-
-    from ...export import EXTENSIONS, export_plan
+    from ...export import EXTENSIONS
+    from ...export.files import export_files, takeoff_point
     from ...geo import Georeference, GeoreferenceError, resolve_georeference
     from ...plan.format import read_plan
 
@@ -204,24 +203,14 @@ def export_version(project_id: int, plan_id: int, number: int, session: SessionD
         raise GeoreferenceError(f"a {format} export needs a georeference and none was found: plan {plan_id} records "
                                 f"none and {where}. Georeference the IFC, or upload a plan that records one")
     geo = resolve_georeference(data.parameters.get("georeference"), model_geo, what=f"a {format} export")
-    if data.parameters.get("takeoff_m") is not None:
-        takeoff = np.asarray(data.parameters["takeoff_m"], float)
-    elif scene is not None:
-        from ...plan.checks.feasibility import corner_stations
-
-        takeoff = corner_stations(scene, data)[0]
-        takeoff[2] = scene.bounds()[0][2]
-    else:
-        raise PlanError("the plan records no take-off point: give model_id to take the south-west corner of its region")
-    if mission is not None and mission > len(data.missions):
-        raise PlanError(f"mission {mission}: the plan has {len(data.missions)} mission(s), numbered from 1")
+    takeoff = takeoff_point(data, scene, hint="give model_id to take the south-west corner of its region")
     folder = state.storage.temp_path()
     folder.mkdir()
     background.add_task(state.storage.remove, folder)
     stem = f"{_slug(plan_row.name)}_v{number}"
     try:
-        paths = export_plan(data, format, folder / (stem + EXTENSIONS[format]), geo, takeoff, speed_m_s=speed,
-                            mission=None if mission is None else mission - 1)
+        paths = export_files(data, format, folder / (stem + EXTENSIONS[format]), geo, takeoff, speed_m_s=speed,
+                             mission=mission)
     except BaseException:
         state.storage.remove(folder)
         raise
