@@ -24,7 +24,7 @@ from sqlalchemy import create_engine, text  # noqa: E402
 
 from sightplan.model.load import sample_model_path  # noqa: E402
 from sightplan.web.app import create_app  # noqa: E402
-from sightplan.web.config import ServerConfig, ServerConfigError, check_host  # noqa: E402
+from sightplan.web.config import ServerConfig, is_loopback  # noqa: E402
 
 SCALE = 0.05
 CUBE_OBJ = """o box
@@ -467,21 +467,12 @@ def test_delete_project_removes_its_files(tmp_path):
 
 
 # --------------------------------------------------------------------------- serving
-def test_only_loopback_addresses_are_served(tmp_path):
-    from typer.testing import CliRunner
-
-    from sightplan.cli.main import app
-
-    check_host("127.0.0.1")
-    check_host("::1")
-    check_host("localhost")
+def test_other_addresses_than_loopback_mean_team_mode(tmp_path):
+    for host in ("127.0.0.1", "::1", "localhost"):
+        assert is_loopback(host) and not ServerConfig(data_dir=tmp_path, host=host).team
     for host in ("0.0.0.0", "192.168.1.20", "::"):
-        with pytest.raises(ServerConfigError, match="accounts"):
-            check_host(host)
-    result = CliRunner().invoke(app, ["serve", "--host", "0.0.0.0", "--data", str(tmp_path / "d")])
-    assert result.exit_code == 2
-    assert "accounts" in result.output and "Traceback" not in result.output
-    assert not (tmp_path / "d").exists()
+        assert not is_loopback(host) and ServerConfig(data_dir=tmp_path, host=host).team
+    assert ServerConfig(data_dir=tmp_path, team=True).team
 
 
 def _free_port() -> int:

@@ -1,7 +1,8 @@
-"""``sightplan serve``: the web server and its REST API."""
+"""``sightplan serve``: the web server and its REST API; ``sightplan users``: the accounts of a team server."""
 
 from __future__ import annotations
 
+import sys
 from pathlib import Path
 from typing import Annotated
 
@@ -10,32 +11,179 @@ import typer
 from .errors import friendly_errors
 from .main import app, console
 
+DataOpt = Annotated[Path, typer.Option(help="Data folder: uploaded models, plan versions, results and the embedded "
+                                            "SQLite database; created on first start")]
+DatabaseOpt = Annotated[str | None, typer.Option(
+    help="SQLAlchemy database URL (e.g. postgresql://user@host/db); default: SQLite in the data folder")]
+
 
 @app.command("serve")
 @friendly_errors
 def serve_command(
-    data: Annotated[Path, typer.Option(help="Data folder: uploaded models, plan versions, results and the embedded "
-                                            "SQLite database; created on first start")] = Path("sightplan-data"),
-    host: Annotated[str, typer.Option(help="Address to listen on: the loopback address only, until accounts exist")]
+    data: DataOpt = Path("sightplan-data"),
+    host: Annotated[str, typer.Option(help="Address to listen on; any but the loopback address means team mode")]
     = "127.0.0.1",
     port: Annotated[int, typer.Option(help="Port to listen on")] = 8000,
-    database: Annotated[str | None, typer.Option(
-        help="SQLAlchemy database URL (e.g. postgresql://user@host/db); default: SQLite in the data folder")] = None,
+    database: DatabaseOpt = None,
     max_upload_mb: Annotated[float, typer.Option(help="Largest upload accepted (MB)")] = 200.0,
     workers: Annotated[int, typer.Option(help="Background jobs (model loads, evaluations) run at the same time")] = 2,
+    team: Annotated[bool, typer.Option("--team", help="Require accounts (made with 'sightplan users add') even on "
+                                                      "the loopback address")] = False,
 ) -> None:
-    """Serve the REST API (OpenAPI docs at /docs) for one user on this machine, with no login."""
+    """Serve the web application and its REST API (OpenAPI docs at /docs).
+
+    On the loopback address it runs for you alone, with no login. With --team, or on any other address, every request
+    needs an account, and each project is visible to its members only."""
     import uvicorn
 
     from ..web.app import create_app
-    from ..web.config import ServerConfig, check_host
+    from ..web.config import ServerConfig
 
-    check_host(host)
     config = ServerConfig(data_dir=data, database_url=database, host=host, port=port,
-                          max_upload_bytes=int(max_upload_mb * 1024 * 1024), workers=workers)
+                          max_upload_bytes=int(max_upload_mb * 1024 * 1024), workers=workers, team=team)
     web_app = create_app(config)
     where = "embedded SQLite in the data folder" if config.embedded else f"database {database}"
-    console.print(f"sightplan serve: single-user mode, no login — for you on this machine only (loopback {host}). "
-                  f"Data in {config.data_dir} ({where}).", highlight=False)
-    console.print(f"API at http://{host}:{port}/api, docs at http://{host}:{port}/docs", highlight=False)
+    if config.team:
+        users = _user_count(web_app.state.sightplan.db)
+        console.print(f"sightplan serve: team mode — every request needs an account; {users} account(s). "
+                      f"Data in {config.data_dir} ({where}).", highlight=False)
+        if users == 0:
+            console.print(f"[yellow]no accounts yet:[/] create one with 'sightplan users add NAME --data {data}'",
+                          highlight=False)
+    else:
+        console.print(f"sightplan serve: single-user mode, no login — for you on this machine only (loopback {host}). "
+                      f"Data in {config.data_dir} ({where}).", highlight=False)
+    console.print(f"Open http://{host}:{port}/ in a browser (API docs at http://{host}:{port}/docs)", highlight=False)
     uvicorn.run(web_app, host=host, port=port, log_level="info")
+
+
+def _user_count(db) -> int:
+    from sqlalchemy import func, select
+
+    from ..web.models import User
+
+    with db.session() as s:
+        return int(s.scalar(select(func.count()).select_from(User)) or 0)
+
+
+users_app = typer.Typer(no_args_is_help=True, help="Accounts of a team server (sightplan serve --team).")
+app.add_typer(users_app, name="users")
+
+
+def _database(data: Path, database: str | None):
+    from ..web.config import ServerConfig
+    from ..web.db import Database, upgrade_database
+
+    config = ServerConfig(data_dir=data, database_url=database)
+    config.data_dir.mkdir(parents=True, exist_ok=True)
+    db = Database(config.url)
+    upgrade_database(db.engine)
+    return db
+
+
+def _password(password_stdin: bool) -> str:
+    if password_stdin:
+        return sys.stdin.readline().rstrip("\r\n")
+    return typer.prompt("Password", hide_input=True, confirmation_prompt=True)
+
+
+@users_app.command("add")
+@friendly_errors
+def users_add(
+    username: Annotated[str, typer.Argument(help="The new account's user name")],
+    data: DataOpt = Path("sightplan-data"),
+    database: DatabaseOpt = None,
+    password_stdin: Annotated[bool, typer.Option("--password-stdin", help="Read the password from the first line "
+                                                                          "of standard input")] = False,
+) -> None:
+    """Create an account (the password is asked twice, or read from stdin)."""
+    from ..web.auth import create_user
+
+    password = _password(password_stdin)
+    db = _database(data, database)
+    try:
+        with db.session() as s:
+            create_user(s, username, password)
+    finally:
+        db.dispose()
+    console.print(f"account {username} created", highlight=False)
+
+
+@users_app.command("passwd")
+@friendly_errors
+def users_passwd(
+    username: Annotated[str, typer.Argument(help="The account")],
+    data: DataOpt = Path("sightplan-data"),
+    database: DatabaseOpt = None,
+    password_stdin: Annotated[bool, typer.Option("--password-stdin", help="Read the password from stdin")] = False,
+) -> None:
+    """Set an account's password; its login sessions end."""
+    from ..web.auth import AccountError, find_user, set_password
+
+    password = _password(password_stdin)
+    db = _database(data, database)
+    try:
+        with db.session() as s:
+            user = find_user(s, username)
+            if user is None:
+                raise AccountError(f"no user {username!r}")
+            set_password(s, user, password)
+    finally:
+        db.dispose()
+    console.print(f"password of {username} changed", highlight=False)
+
+
+@users_app.command("list")
+@friendly_errors
+def users_list(data: DataOpt = Path("sightplan-data"), database: DatabaseOpt = None) -> None:
+    """The accounts and their projects."""
+    from sqlalchemy import select
+
+    from ..web.models import Membership, User
+
+    db = _database(data, database)
+    try:
+        with db.session() as s:
+            for user in s.scalars(select(User).order_by(User.username)):
+                roles = s.execute(select(Membership.project_id, Membership.role)
+                                  .where(Membership.user_id == user.id).order_by(Membership.project_id))
+                text = ", ".join(f"project {pid} {role}" for pid, role in roles) or "no projects"
+                console.print(f"{user.username}: {text}", highlight=False)
+    finally:
+        db.dispose()
+
+
+def _sole_owner_of(s, user_id: int) -> list[int]:
+    from sqlalchemy import func, select
+
+    from ..web.models import Membership
+
+    owned = s.scalars(select(Membership.project_id).where(Membership.user_id == user_id, Membership.role == "owner"))
+    return [pid for pid in owned
+            if s.scalar(select(func.count()).select_from(Membership).where(Membership.project_id == pid,
+                                                                           Membership.role == "owner")) == 1]
+
+
+@users_app.command("remove")
+@friendly_errors
+def users_remove(username: Annotated[str, typer.Argument(help="The account")],
+                 data: DataOpt = Path("sightplan-data"), database: DatabaseOpt = None) -> None:
+    """Delete an account with its sessions, tokens and memberships (its projects stay with their other members)."""
+    from ..web.auth import AccountError, find_user
+
+    db = _database(data, database)
+    try:
+        with db.session() as s:
+            user = find_user(s, username)
+            if user is None:
+                raise AccountError(f"no user {username!r}")
+            sole = _sole_owner_of(s, user.id)
+            if sole:
+                raise AccountError(f"{username} is the only owner of project(s) {', '.join(map(str, sole))}: make "
+                                   "another member owner first")
+            s.delete(user)
+    finally:
+        db.dispose()
+    console.print(f"account {username} removed", highlight=False)
+
+

@@ -30,19 +30,11 @@ def is_loopback(host: str) -> bool:
     return bool(addresses) and all(ipaddress.ip_address(a.split("%")[0]).is_loopback for a in addresses)
 
 
-def check_host(host: str) -> None:
-    """Refuse any address but the loopback one: without accounts, the server is for the one user on this machine."""
-    if not is_loopback(host):
-        raise ServerConfigError(
-            f"cannot serve on {host}: the server has no accounts yet, so it runs for one user on this machine only. "
-            "Use --host 127.0.0.1 (the default); serving to a team needs accounts, which are not built yet")
-
-
 @dataclass(frozen=True)
 class ServerConfig:
     """data_dir: the server's folder (uploaded files, plan versions, results, the SQLite database);
     database_url: any SQLAlchemy URL, default SQLite in ``data_dir``; max_upload_bytes: the largest upload accepted;
-    workers: background jobs run at the same time."""
+    workers: background jobs run at the same time; team: accounts required (always, on a non-loopback address)."""
 
     data_dir: Path = DEFAULT_DATA_DIR
     database_url: str | None = None
@@ -50,11 +42,15 @@ class ServerConfig:
     port: int = 8000
     max_upload_bytes: int = int(DEFAULT_MAX_UPLOAD_MB * 1024 * 1024)
     workers: int = 2
+    team: bool = False
+
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "data_dir", Path(self.data_dir).expanduser().resolve())
         if self.max_upload_bytes <= 0:
             raise ServerConfigError(f"the upload limit must be positive, got {self.max_upload_bytes} bytes")
+        if not self.team and not is_loopback(self.host):
+            object.__setattr__(self, "team", True)  # reachable from other machines: accounts are required
         if self.workers < 1:
             raise ServerConfigError(f"at least one worker is needed, got {self.workers}")
 

@@ -29,6 +29,8 @@ class Project(Base):
                                                passive_deletes=True, order_by="Model.id")
     plans: Mapped[list[Plan]] = relationship(back_populates="project", cascade="all, delete-orphan",
                                              passive_deletes=True, order_by="Plan.id")
+    members: Mapped[list[Membership]] = relationship(back_populates="project", cascade="all, delete-orphan",
+                                                     passive_deletes=True, order_by="Membership.id")
 
 
 class Model(Base):
@@ -134,3 +136,64 @@ class Job(Base):
 
 
 FINAL_STATES = ("done", "failed")
+ROLES = ("viewer", "editor", "owner")  # each role can do what the ones before it can
+
+
+class User(Base):
+    """An account of a team server. Only an Argon2 hash of the password is stored."""
+
+    __tablename__ = "users"
+
+    id: Mapped[int] = mapped_column(primary_key=True)
+    username: Mapped[str] = mapped_column(String(64), unique=True)
+    password_hash: Mapped[str] = mapped_column(String(255))
+    created_at: Mapped[dt.datetime] = mapped_column(default=utcnow)
+
+
+class Token(Base):
+    """A login session (cookie, expires) or an API token (until revoked). Only a SHA-256 digest of the secret is
+    stored; the secret is shown once."""
+
+    __tablename__ = "tokens"
+
+    id: Mapped[int] = mapped_column(primary_key=True)
+    user_id: Mapped[int] = mapped_column(ForeignKey("users.id", ondelete="CASCADE"), index=True)
+    kind: Mapped[str] = mapped_column(String(16))  # session, api
+    name: Mapped[str] = mapped_column(String(200), default="")
+    digest: Mapped[str] = mapped_column(String(64), unique=True)
+    created_at: Mapped[dt.datetime] = mapped_column(default=utcnow)
+    expires_at: Mapped[dt.datetime | None] = mapped_column(default=None)
+    last_used_at: Mapped[dt.datetime | None] = mapped_column(default=None)
+
+    user: Mapped[User] = relationship()
+
+
+class Membership(Base):
+    """A user's role in a project: viewer (reads), editor (also uploads, plans, edits, evaluates, shares) or owner
+    (also manages members, renames and deletes the project)."""
+
+    __tablename__ = "memberships"
+    __table_args__ = (UniqueConstraint("project_id", "user_id"),)
+
+    id: Mapped[int] = mapped_column(primary_key=True)
+    project_id: Mapped[int] = mapped_column(ForeignKey("projects.id", ondelete="CASCADE"), index=True)
+    user_id: Mapped[int] = mapped_column(ForeignKey("users.id", ondelete="CASCADE"), index=True)
+    role: Mapped[str] = mapped_column(String(16))
+    created_at: Mapped[dt.datetime] = mapped_column(default=utcnow)
+
+    project: Mapped[Project] = relationship(back_populates="members")
+    user: Mapped[User] = relationship()
+
+
+class ShareLink(Base):
+    """A read-only link to one plan (its versions, exports and evaluations), valid until revoked."""
+
+    __tablename__ = "share_links"
+
+    id: Mapped[int] = mapped_column(primary_key=True)
+    project_id: Mapped[int] = mapped_column(ForeignKey("projects.id", ondelete="CASCADE"), index=True)
+    plan_id: Mapped[int] = mapped_column(ForeignKey("plans.id", ondelete="CASCADE"), index=True)
+    digest: Mapped[str] = mapped_column(String(64), unique=True)
+    created_by: Mapped[int | None] = mapped_column(ForeignKey("users.id", ondelete="SET NULL"), default=None)
+    created_at: Mapped[dt.datetime] = mapped_column(default=utcnow)
+    revoked_at: Mapped[dt.datetime | None] = mapped_column(default=None)

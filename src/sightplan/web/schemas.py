@@ -29,8 +29,9 @@ class ErrorOut(BaseModel):
 class InfoOut(BaseModel):
     name: str = "sightplan"
     version: str
-    mode: Literal["single-user"] = "single-user"
-    login: bool = Field(False, description="Whether requests need a login (never, in single-user mode)")
+    mode: Literal["single-user", "team"] = "single-user"
+    login: bool = Field(False, description="Whether requests need a login (never in single-user mode, always in team "
+                                           "mode)")
     message: str
     database: str = Field(description="'embedded SQLite' or the database's dialect")
     data_dir: str
@@ -47,6 +48,7 @@ class ProjectOut(Orm):
     id: int
     name: str
     created_at: Time
+    role: Literal["viewer", "editor", "owner"] | None = Field(None, description="Your role (team mode)")
 
 
 class ModelOut(Orm):
@@ -189,3 +191,69 @@ class CameraOut(BaseModel):
     model: Literal["pinhole", "equirectangular"]
     width: int
     height: int
+
+
+# --------------------------------------------------------------------------- accounts (team mode)
+Role = Literal["viewer", "editor", "owner"]
+
+
+class LoginIn(BaseModel):
+    username: str = Field(max_length=64)
+    password: str = Field(max_length=1024)
+
+
+class UserOut(BaseModel):
+    username: str
+    projects: dict[int, Role] = Field(default_factory=dict, description="Your role in each project you belong to")
+
+
+class PasswordIn(BaseModel):
+    old_password: str = Field(max_length=1024)
+    new_password: str = Field(max_length=1024)
+
+
+class TokenIn(BaseModel):
+    name: str = Field("", max_length=200, description="What the token is for")
+
+
+class TokenOut(Orm):
+    id: int
+    name: str
+    created_at: Time
+    last_used_at: Time | None
+
+
+class NewTokenOut(TokenOut):
+    token: str = Field(description="The secret: shown once, send it as 'Authorization: Bearer <token>'")
+
+
+class MemberIn(BaseModel):
+    username: str = Field(max_length=64)
+    role: Role
+
+
+class RoleIn(BaseModel):
+    role: Role
+
+
+class MemberOut(BaseModel):
+    user_id: int
+    username: str
+    role: Role
+
+
+class ShareLinkOut(Orm):
+    id: int
+    plan_id: int
+    created_at: Time
+    revoked_at: Time | None
+
+
+class NewShareLinkOut(ShareLinkOut):
+    token: str = Field(description="The link's secret, shown once")
+    url: str = Field(description="Read-only address of the shared plan (no login needed)")
+
+
+class SharedPlanOut(BaseModel):
+    plan: PlanOut
+    evaluations: list[EvaluationOut]

@@ -1,5 +1,6 @@
 """The REST API's routers, one module per resource."""
 
-from . import evaluations, info, jobs, models, plans, projects
+from . import auth, evaluations, info, jobs, members, models, plans, projects, shared
 
-ROUTERS = [info.router, projects.router, models.router, plans.router, evaluations.router, jobs.router]
+ROUTERS = [info.router, projects.router, models.router, plans.router, evaluations.router, jobs.router,
+           auth.router, members.router, shared.router]

@@ -12,12 +12,12 @@ from sqlalchemy import select
 from sqlalchemy.orm import Session
 
 from ...errors import ReportError
-from ..deps import SessionDep, StateDep, get_project, in_project
+from ..deps import PROJECT_ACCESS, SessionDep, StateDep, get_project, in_project
 from ..models import Evaluation, Job, Model, Plan
 from ..schemas import ElementsOut, ErrorOut, EvaluationIn, EvaluationOut, EvaluationStartOut, JobOut
 from ..services import evaluation_settings, load_scene, rebuilt_evaluation
 
-router = APIRouter(prefix="/api/projects/{project_id}/evaluations", tags=["evaluations"])
+router = APIRouter(prefix="/api/projects/{project_id}/evaluations", tags=["evaluations"], dependencies=PROJECT_ACCESS)
 NOT_FOUND = {404: {"model": ErrorOut, "description": "No such project, evaluation, plan, version or model"}}
 NOT_DONE = {409: {"model": ErrorOut, "description": "The evaluation is not done (yet)"}}
 

@@ -11,13 +11,16 @@ from ..schemas import CameraOut, InfoOut
 
 router = APIRouter(prefix="/api", tags=["server"])
 SINGLE_USER = "single-user mode on the loopback address: no login; anyone on this machine can use it"
+TEAM = "team mode: log in with your account; you see the projects you are a member of"
 
 
 @router.get("/info", response_model=InfoOut, summary="Server version, mode and limits")
 def info(state: StateDep) -> InfoOut:
     cfg = state.config
     database = "embedded SQLite" if cfg.embedded else state.db.engine.dialect.name
-    return InfoOut(version=__version__, message=SINGLE_USER, database=database, data_dir=str(cfg.data_dir),
+    return InfoOut(version=__version__, mode="team" if cfg.team else "single-user", login=cfg.team,
+                   message=TEAM if cfg.team else SINGLE_USER, database=database,
+                   data_dir="" if cfg.team else str(cfg.data_dir),
                    max_upload_bytes=cfg.max_upload_bytes, templates=["facade", "orbit", "lawnmower"],
                    export_formats=list(EXPORT_FORMATS))
 

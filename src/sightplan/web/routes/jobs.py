@@ -7,13 +7,13 @@ import json
 from collections.abc import AsyncIterator
 from typing import Annotated
 
-from fastapi import APIRouter, Query, Request
+from fastapi import APIRouter, HTTPException, Query, Request
 from fastapi.responses import StreamingResponse
 from sqlalchemy import select
 from starlette.concurrency import run_in_threadpool
 
-from ..deps import ServerState, SessionDep, StateDep, found
-from ..models import FINAL_STATES, Job
+from ..deps import ServerState, SessionDep, StateDep, UserDep, found, project_for
+from ..models import FINAL_STATES, Job, Membership
 from ..schemas import ErrorOut, JobOut
 
 router = APIRouter(prefix="/api/jobs", tags=["jobs"])
@@ -22,19 +22,32 @@ POLL_S = 0.2
 HEARTBEAT_S = 15.0
 
 
-@router.get("", response_model=list[JobOut], summary="List jobs, newest first")
-def list_jobs(session: SessionDep,
+@router.get("", response_model=list[JobOut], summary="List jobs, newest first (in team mode: of your projects)")
+def list_jobs(session: SessionDep, user: UserDep,
               project_id: Annotated[int | None, Query(description="Only this project's")] = None,
               limit: Annotated[int, Query(ge=1, le=1000)] = 100) -> list[Job]:
     query = select(Job).order_by(Job.id.desc()).limit(limit)
     if project_id is not None:
         query = query.where(Job.project_id == project_id)
+    if user is not None:
+        query = query.where(Job.project_id.in_(select(Membership.project_id).where(Membership.user_id == user.id)))
     return list(session.scalars(query))
 
 
+def visible_job(session, job_id: int, user) -> Job:
+    """The job, if it belongs to a project the caller may read; else 404."""
+    job = found(session.get(Job, job_id), "job", job_id)
+    if user is not None:
+        try:
+            project_for(session, job.project_id, user, "viewer")
+        except HTTPException:
+            raise HTTPException(404, f"job {job_id} not found") from None
+    return job
+
+
 @router.get("/{job_id}", response_model=JobOut, summary="Get a job's status and progress", responses=NOT_FOUND)
-def read_job(job_id: int, session: SessionDep) -> Job:
-    return found(session.get(Job, job_id), "job", job_id)
+def read_job(job_id: int, session: SessionDep, user: UserDep) -> Job:
+    return visible_job(session, job_id, user)
 
 
 def _snapshot(state: ServerState, job_id: int) -> JobOut | None:
@@ -74,7 +87,7 @@ async def job_events(request: Request, state: ServerState, job_id: int) -> Async
             responses={200: {"description": "`event: progress` with the job as JSON on each change, then "
                                             "`event: done` or `event: failed`", "content": {"text/event-stream": {}}},
                        **NOT_FOUND})
-def stream_job(job_id: int, request: Request, session: SessionDep, state: StateDep) -> StreamingResponse:
-    found(session.get(Job, job_id), "job", job_id)
+def stream_job(job_id: int, request: Request, session: SessionDep, state: StateDep, user: UserDep) -> StreamingResponse:
+    visible_job(session, job_id, user)
     return StreamingResponse(job_events(request, state, job_id), media_type="text/event-stream",
                              headers={"Cache-Control": "no-cache", "X-Accel-Buffering": "no"})

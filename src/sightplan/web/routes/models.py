@@ -7,13 +7,13 @@ from typing import Annotated
 from fastapi import APIRouter, File, HTTPException, Response, UploadFile
 from sqlalchemy import select
 
-from ..deps import SessionDep, StateDep, get_project, in_project
+from ..deps import PROJECT_ACCESS, SessionDep, StateDep, get_project, in_project
 from ..models import Evaluation, Job, Model
 from ..schemas import ErrorOut, JobOut, ModelDetailOut, ModelOut, ModelUploadOut
 from ..storage import MODEL_SUFFIXES, display_name
 from ..uploads import receive_upload
 
-router = APIRouter(prefix="/api/projects/{project_id}/models", tags=["models"])
+router = APIRouter(prefix="/api/projects/{project_id}/models", tags=["models"], dependencies=PROJECT_ACCESS)
 NOT_FOUND = {404: {"model": ErrorOut, "description": "No such project or model"}}
 
 

@@ -17,14 +17,14 @@ from ...errors import PlanError, SightplanError
 from ...export import ExportFormat
 from ...model.scene import Scene
 from ...plan.types import Plan as PlanData
-from ..deps import ServerState, SessionDep, StateDep, get_project, in_project
+from ..deps import PROJECT_ACCESS, ServerState, SessionDep, StateDep, get_project, in_project
 from ..models import Job, Model, Plan, PlanVersion
 from ..schemas import ErrorOut, PlanOut, PlanVersionOut, TemplatePlanIn
 from ..services import checked_plan_json, load_scene, read_uploaded_plan, template_plan
 from ..storage import PLAN_SUFFIXES, display_name
 from ..uploads import receive_upload
 
-router = APIRouter(prefix="/api/projects/{project_id}/plans", tags=["plans"])
+router = APIRouter(prefix="/api/projects/{project_id}/plans", tags=["plans"], dependencies=PROJECT_ACCESS)
 NOT_FOUND = {404: {"model": ErrorOut, "description": "No such project, plan, version or model"}}
 BAD_PLAN = {422: {"model": ErrorOut, "description": "The plan or a parameter is invalid (the library's message)"}}
 NOT_READY = {409: {"model": ErrorOut, "description": "The model is not loaded (yet)"}}

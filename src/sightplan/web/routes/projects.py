@@ -5,45 +5,60 @@ from __future__ import annotations
 from fastapi import APIRouter, HTTPException, Response
 from sqlalchemy import select
 
-from ..deps import SessionDep, StateDep, get_project
-from ..models import Evaluation, Job, Project
+from ..auth import role_of
+from ..deps import ProjectOwn, ProjectRead, SessionDep, StateDep, UserDep
+from ..models import Evaluation, Job, Membership, Project
 from ..schemas import ErrorOut, ProjectIn, ProjectOut
 
 router = APIRouter(prefix="/api/projects", tags=["projects"])
 NOT_FOUND = {404: {"model": ErrorOut, "description": "No such project"}}
 
 
-@router.get("", response_model=list[ProjectOut], summary="List the projects")
-def list_projects(session: SessionDep) -> list[Project]:
-    return list(session.scalars(select(Project).order_by(Project.id)))
+FORBIDDEN = {403: {"model": ErrorOut, "description": "Only an owner may (team mode)"}}
 
 
-@router.post("", response_model=ProjectOut, status_code=201, summary="Create a project")
-def create_project(body: ProjectIn, session: SessionDep) -> Project:
+def project_out(session, project: Project, user) -> ProjectOut:
+    role = role_of(session, project.id, user.id) if user is not None else None
+    return ProjectOut(id=project.id, name=project.name, created_at=project.created_at, role=role)
+
+
+@router.get("", response_model=list[ProjectOut], summary="List the projects (in team mode: yours)")
+def list_projects(session: SessionDep, user: UserDep) -> list[ProjectOut]:
+    query = select(Project).order_by(Project.id)
+    if user is not None:
+        query = query.join(Membership).where(Membership.user_id == user.id)
+    return [project_out(session, p, user) for p in session.scalars(query)]
+
+
+@router.post("", response_model=ProjectOut, status_code=201, summary="Create a project (you are its owner)")
+def create_project(body: ProjectIn, session: SessionDep, user: UserDep) -> ProjectOut:
     project = Project(name=body.name.strip() or body.name)
     session.add(project)
+    session.flush()
+    if user is not None:
+        session.add(Membership(project_id=project.id, user_id=user.id, role="owner"))
     session.commit()
-    return project
+    return project_out(session, project, user)
 
 
 @router.get("/{project_id}", response_model=ProjectOut, summary="Get a project", responses=NOT_FOUND)
-def read_project(project_id: int, session: SessionDep) -> Project:
-    return get_project(session, project_id)
+def read_project(project: ProjectRead, session: SessionDep, user: UserDep) -> ProjectOut:
+    return project_out(session, project, user)
 
 
-@router.patch("/{project_id}", response_model=ProjectOut, summary="Rename a project", responses=NOT_FOUND)
-def rename_project(project_id: int, body: ProjectIn, session: SessionDep) -> Project:
-    project = get_project(session, project_id)
+@router.patch("/{project_id}", response_model=ProjectOut, summary="Rename a project (owner only)",
+              responses={**NOT_FOUND, **FORBIDDEN})
+def rename_project(project: ProjectOwn, body: ProjectIn, session: SessionDep, user: UserDep) -> ProjectOut:
     project.name = body.name.strip() or body.name
     session.commit()
-    return project
+    return project_out(session, project, user)
 
 
 @router.delete("/{project_id}", status_code=204, response_class=Response,
-               summary="Delete a project with its models, plans, evaluations and files",
-               responses={**NOT_FOUND, 409: {"model": ErrorOut, "description": "A job is still running"}})
-def delete_project(project_id: int, session: SessionDep, state: StateDep) -> Response:
-    project = get_project(session, project_id)
+               summary="Delete a project with its models, plans, evaluations and files (owner only)",
+               responses={**NOT_FOUND, **FORBIDDEN, 409: {"model": ErrorOut, "description": "A job is still running"}})
+def delete_project(project: ProjectOwn, session: SessionDep, state: StateDep) -> Response:
+    project_id = project.id
     busy = session.scalars(select(Job).where(Job.project_id == project_id, Job.status.in_(("queued", "running")))).first()
     if busy is not None:
         raise HTTPException(409, f"job {busy.id} is still running in project {project_id}; delete it when it is done")

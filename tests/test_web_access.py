@@ -1,0 +1,297 @@
+"""Team mode of ``sightplan serve``: accounts, roles, share links and tokens.
+
+Every route under ``/api/projects/{project_id}`` is enumerated from the server's OpenAPI document, so a route added later is
+checked too: a non-member gets 404 on all of them, a viewer 403 on every one that changes something.
+"""
+
+from __future__ import annotations
+
+import re
+import time
+from pathlib import Path
+
+import pytest
+
+pytest.importorskip("fastapi")
+pytest.importorskip("argon2")
+
+from fastapi.testclient import TestClient  # noqa: E402
+from sqlalchemy import create_engine, text  # noqa: E402
+from typer.testing import CliRunner  # noqa: E402
+
+from sightplan.cli.main import app as cli  # noqa: E402
+from sightplan.model.load import sample_model_path  # noqa: E402
+from sightplan.web.app import create_app  # noqa: E402
+from sightplan.web.config import ServerConfig  # noqa: E402
+
+PASSWORDS = {"alice": "alice-secret-1", "bob": "bob-secret-22", "carol": "carol-secret-333"}
+
+
+def add_user(data: Path, name: str) -> None:
+    result = CliRunner().invoke(cli, ["users", "add", name, "--data", str(data), "--password-stdin"],
+                                input=PASSWORDS[name] + "\n")
+    assert result.exit_code == 0, result.output
+
+
+def login(client: TestClient, name: str) -> TestClient:
+    client.cookies.clear()
+    r = client.post("/api/auth/login", json={"username": name, "password": PASSWORDS[name]})
+    assert r.status_code == 200, r.text
+    return client
+
+
+def wait_job(client: TestClient, job_id: int, timeout_s: float = 90.0) -> dict:
+    deadline = time.monotonic() + timeout_s
+    while True:
+        job = client.get(f"/api/jobs/{job_id}").json()
+        if job["status"] in ("done", "failed"):
+            return job
+        assert time.monotonic() < deadline
+        time.sleep(0.1)
+
+
+@pytest.fixture(scope="module")
+def data(tmp_path_factory) -> Path:
+    d = tmp_path_factory.mktemp("team") / "data"
+    for name in PASSWORDS:
+        add_user(d, name)
+    return d
+
+
+@pytest.fixture(scope="module")
+def server(data):
+    """A team server; the client logs in as whoever a test needs."""
+    with TestClient(create_app(ServerConfig(data_dir=data, team=True))) as c:
+        yield c
+
+
+@pytest.fixture(scope="module")
+def alices(server) -> dict[str, int]:
+    """Alice's project with the Duplex, an orbit plan, its evaluation and a share link: real ids for every route."""
+    c = login(server, "alice")
+    pid = c.post("/api/projects", json={"name": "Alice's site"}).json()["id"]
+    with open(sample_model_path(), "rb") as fh:
+        r = c.post(f"/api/projects/{pid}/models", files={"file": ("duplex.ifc", fh)})
+    assert r.status_code == 202, r.text
+    assert wait_job(c, r.json()["job"]["id"])["status"] == "done"
+    mid = r.json()["model"]["id"]
+    r = c.post(f"/api/projects/{pid}/plans", json={"model_id": mid, "template": "orbit", "radius": [25],
+                                                   "height": [8.0], "step": 60})
+    assert r.status_code == 201, r.text
+    plan = r.json()["id"]
+    r = c.post(f"/api/projects/{pid}/evaluations", json={"plan_id": plan, "settings": {"scale": 0.04}})
+    assert r.status_code == 202, r.text
+    job = r.json()["job"]["id"]
+    assert wait_job(c, job)["status"] == "done"
+    return {"project_id": pid, "model_id": mid, "plan_id": plan, "evaluation_id": r.json()["evaluation"]["id"],
+            "job_id": job}
+
+
+def project_routes(client: TestClient) -> list[tuple[str, str]]:
+    """Every (method, path) under a project, from the server's own OpenAPI document."""
+    paths = client.get("/openapi.json").json()["paths"]
+    return [(method.upper(), path) for path, ops in sorted(paths.items()) if path.startswith("/api/projects/{project_id}")
+            for method in sorted(ops)]
+
+
+def fill(path: str, ids: dict[str, int]) -> str:
+    values = {**ids, "number": 1, "user_id": 1, "link_id": 1, "frame": 0, "element": 0}
+    return re.sub(r"\{(\w+)\}", lambda m: str(values.get(m.group(1), 1)), path)
+
+
+def call(client: TestClient, method: str, url: str):
+    kwargs = {"json": {}} if method in ("POST", "PUT", "PATCH") else {}
+    return client.request(method, url, **kwargs)
+
+
+# --------------------------------------------------------------------------- logging in
+def test_info_says_team_mode_and_nothing_answers_without_login(server, data):
+    server.cookies.clear()
+    info = server.get("/api/info").json()
+    assert info["mode"] == "team" and info["login"] is True and info["data_dir"] == ""
+    for url in ("/api/projects", "/api/jobs", "/api/auth/me", "/api/projects/1", "/api/projects/1/plans"):
+        r = server.get(url)
+        assert r.status_code == 401 and "log in" in r.json()["detail"], url
+    assert server.post("/api/projects", json={"name": "x"}).status_code == 401
+
+
+def test_passwords_are_stored_as_argon2_hashes(server, data):
+    engine = create_engine(f"sqlite:///{data / 'sightplan.db'}")
+    with engine.connect() as conn:
+        rows = dict(conn.execute(text("SELECT username, password_hash FROM users")).all())
+    engine.dispose()
+    assert set(rows) == set(PASSWORDS)
+    for name, hashed in rows.items():
+        assert hashed.startswith("$argon2id$") and PASSWORDS[name] not in hashed
+
+
+def test_wrong_password_and_unknown_user_are_refused_alike(server):
+    server.cookies.clear()
+    for body in ({"username": "alice", "password": "wrong-password"}, {"username": "nobody", "password": "x" * 12}):
+        r = server.post("/api/auth/login", json=body)
+        assert r.status_code == 401 and r.json()["detail"] == "wrong user name or password"
+    assert server.get("/api/projects").status_code == 401
+
+
+def test_login_cookie_me_and_logout(server, alices):
+    c = login(server, "alice")
+    cookie = c.cookies.get("sightplan_session")
+    assert cookie and cookie.startswith("sps_")
+    me = c.get("/api/auth/me").json()
+    assert me["username"] == "alice" and me["projects"] == {str(alices["project_id"]): "owner"}
+    assert c.post("/api/auth/logout").status_code == 204
+    c.cookies.set("sightplan_session", cookie)  # the old cookie, replayed after logout
+    assert c.get("/api/projects").status_code == 401
+
+
+# --------------------------------------------------------------------------- projects are their members' only
+def test_non_member_gets_404_on_every_project_route(server, alices):
+    c = login(server, "carol")
+    routes = project_routes(c)
+    assert len(routes) >= 25  # every project route of the API, whatever is added later
+    for method, path in routes:
+        r = call(c, method, fill(path, alices))
+        assert r.status_code == 404, (method, path, r.status_code, r.text)
+    assert c.get("/api/projects").json() == []
+    assert all(j["project_id"] != alices["project_id"] for j in c.get("/api/jobs").json())
+    assert c.get(f"/api/jobs/{alices['job_id']}").status_code == 404
+    assert c.get(f"/api/jobs/{alices['job_id']}/events").status_code == 404
+
+
+def test_viewer_reads_but_cannot_change_anything(server, alices):
+    pid = alices["project_id"]
+    owner = login(server, "alice")
+    r = owner.post(f"/api/projects/{pid}/members", json={"username": "bob", "role": "viewer"})
+    assert r.status_code == 201 and r.json()["role"] == "viewer"
+    try:
+        c = login(server, "bob")
+        assert [p["id"] for p in c.get("/api/projects").json()] == [pid]
+        assert c.get(f"/api/projects/{pid}").json()["role"] == "viewer"
+        m = c.get(f"/api/projects/{pid}/evaluations/{alices['evaluation_id']}").json()["metrics"]
+        assert m["frames"] == 6
+        assert c.get(f"/api/jobs/{alices['job_id']}").status_code == 200
+        changing = [(m, p) for m, p in project_routes(c) if m in ("POST", "PUT", "PATCH", "DELETE")]
+        assert len(changing) >= 10
+        for method, path in changing:
+            if method == "DELETE" and path.endswith("/members/{user_id}"):
+                continue  # leaving the project is a viewer's own right (tested below)
+            r = call(c, method, fill(path, alices))
+            assert r.status_code == 403, (method, path, r.status_code, r.text)
+            assert "viewer" in r.json()["detail"]
+        # everything is still there
+        login(server, "alice")
+        assert len(server.get(f"/api/projects/{pid}/plans/{alices['plan_id']}").json()["versions"]) == 1
+        assert server.get(f"/api/projects/{pid}/models/{alices['model_id']}").status_code == 200
+    finally:
+        login(server, "alice")
+        bob_id = next(u["user_id"] for u in server.get(f"/api/projects/{pid}/members").json() if u["username"] == "bob")
+        assert server.delete(f"/api/projects/{pid}/members/{bob_id}").status_code == 204
+
+
+def test_editor_edits_but_only_an_owner_manages_the_project(server, alices):
+    pid, plan = alices["project_id"], alices["plan_id"]
+    owner = login(server, "alice")
+    assert owner.post(f"/api/projects/{pid}/members", json={"username": "bob", "role": "editor"}).status_code == 201
+    members = {u["username"]: u["user_id"] for u in owner.get(f"/api/projects/{pid}/members").json()}
+    c = login(server, "bob")
+    version = c.get(f"/api/projects/{pid}/plans/{plan}/versions/1").json()
+    version["frames"] = version["frames"][:-1]
+    version.pop("missions", None)
+    r = c.put(f"/api/projects/{pid}/plans/{plan}?note=one+frame+less", json=version)
+    assert r.status_code == 201 and len(r.json()["versions"]) == 2
+    for method, url, body in (("PATCH", f"/api/projects/{pid}", {"name": "mine now"}),
+                              ("DELETE", f"/api/projects/{pid}", None),
+                              ("POST", f"/api/projects/{pid}/members", {"username": "carol", "role": "owner"}),
+                              ("PATCH", f"/api/projects/{pid}/members/{members['bob']}", {"role": "owner"})):
+        r = c.request(method, url, json=body)
+        assert r.status_code == 403 and "owner" in r.json()["detail"], (method, url)
+    # the last owner cannot step down
+    owner = login(server, "alice")
+    r = owner.patch(f"/api/projects/{pid}/members/{members['alice']}", json={"role": "editor"})
+    assert r.status_code == 409 and "only owner" in r.json()["detail"]
+    assert owner.delete(f"/api/projects/{pid}/members/{members['bob']}").status_code == 204
+    assert login(server, "bob").get(f"/api/projects/{pid}").status_code == 404
+
+
+# --------------------------------------------------------------------------- share links and API tokens
+def test_share_link_reads_the_plan_until_revoked(server, alices):
+    pid, plan = alices["project_id"], alices["plan_id"]
+    c = login(server, "alice")
+    r = c.post(f"/api/projects/{pid}/plans/{plan}/links")
+    assert r.status_code == 201
+    link = r.json()
+    assert link["url"].endswith(f"/api/shared/{link['token']}")
+    c.cookies.clear()  # the link needs no account
+    shared = c.get(f"/api/shared/{link['token']}")
+    assert shared.status_code == 200 and shared.json()["plan"]["id"] == plan
+    assert [e["id"] for e in shared.json()["evaluations"]] == [alices["evaluation_id"]]
+    frames = c.get(f"/api/shared/{link['token']}/versions/1").json()["frames"]
+    assert len(frames) == 6
+    ev = c.get(f"/api/shared/{link['token']}/evaluations/{alices['evaluation_id']}")
+    assert ev.status_code == 200 and ev.json()["metrics"]["frames"] == 6
+    assert c.get(f"/api/shared/{link['token']}/versions/1/export?format=geojson").status_code == 200
+    # the link opens nothing else
+    assert c.get(f"/api/projects/{pid}").status_code == 401
+    assert c.get(f"/api/shared/{link['token']}x").status_code == 404
+    # revoked: it stops working at once
+    c = login(server, "alice")
+    assert c.delete(f"/api/projects/{pid}/links/{link['id']}").status_code == 204
+    assert c.get(f"/api/projects/{pid}/links").json()[0]["revoked_at"] is not None
+    c.cookies.clear()
+    for url in ("", "/versions/1", f"/evaluations/{alices['evaluation_id']}", "/versions/1/export?format=qgc"):
+        r = c.get(f"/api/shared/{link['token']}{url}")
+        assert r.status_code == 404 and "revoked" in r.json()["detail"], url
+
+
+def test_api_token_works_as_bearer_until_revoked(server, alices):
+    c = login(server, "alice")
+    r = c.post("/api/auth/tokens", json={"name": "nightly script"})
+    assert r.status_code == 201
+    token = r.json()
+    assert token["token"].startswith("spt_") and "token" not in c.get("/api/auth/tokens").json()[0]
+    c.cookies.clear()
+    bearer = {"Authorization": f"Bearer {token['token']}"}
+    assert [p["id"] for p in c.get("/api/projects", headers=bearer).json()] == [alices["project_id"]]
+    assert login(server, "bob").delete(f"/api/auth/tokens/{token['id']}").status_code == 404  # not bob's
+    c = login(server, "alice")
+    assert c.delete(f"/api/auth/tokens/{token['id']}").status_code == 204
+    c.cookies.clear()
+    assert c.get("/api/projects", headers=bearer).status_code == 401
+
+
+def test_upload_name_with_a_path_changes_nothing_outside_the_data_folder(server, alices, data):
+    outside = data.parent
+    before = {p for p in outside.rglob("*") if data not in p.parents and p != data}
+    c = login(server, "alice")
+    r = c.post(f"/api/projects/{alices['project_id']}/models", files={"file": ("../../x.ifc", b"ISO-10303-21;\n")})
+    assert r.status_code == 202
+    wait_job(c, r.json()["job"]["id"])
+    after = {p for p in outside.rglob("*") if data not in p.parents and p != data}
+    assert after == before and not (outside / "x.ifc").exists() and not (outside.parent / "x.ifc").exists()
+    model = c.get(f"/api/projects/{alices['project_id']}/models/{r.json()['model']['id']}").json()
+    assert model["original_name"] == "x.ifc" and model["status"] == "failed"
+
+
+# --------------------------------------------------------------------------- the command line
+def test_users_command_line(tmp_path):
+    data = tmp_path / "d"
+    runner = CliRunner()
+    add = ["users", "add", "dana", "--data", str(data), "--password-stdin"]
+    assert runner.invoke(cli, add, input="short\n").exit_code == 2  # under 8 characters
+    assert runner.invoke(cli, add, input="long-enough-pw\n").exit_code == 0
+    again = runner.invoke(cli, add, input="long-enough-pw\n")
+    assert again.exit_code == 2 and "exists already" in again.output and "Traceback" not in again.output
+    bad = runner.invoke(cli, ["users", "add", "../x", "--data", str(data), "--password-stdin"], input="x" * 10 + "\n")
+    assert bad.exit_code == 2 and "user name" in bad.output
+    with TestClient(create_app(ServerConfig(data_dir=data, team=True))) as c:
+        assert c.post("/api/auth/login", json={"username": "dana", "password": "long-enough-pw"}).status_code == 200
+        pid = c.post("/api/projects", json={"name": "p"}).json()["id"]
+    listed = runner.invoke(cli, ["users", "list", "--data", str(data)])
+    assert f"dana: project {pid} owner" in listed.output
+    sole = runner.invoke(cli, ["users", "remove", "dana", "--data", str(data)])
+    assert sole.exit_code == 2 and "only owner" in sole.output
+    assert runner.invoke(cli, ["users", "passwd", "dana", "--data", str(data), "--password-stdin"],
+                         input="another-password\n").exit_code == 0
+    with TestClient(create_app(ServerConfig(data_dir=data, team=True))) as c:
+        assert c.post("/api/auth/login", json={"username": "dana", "password": "long-enough-pw"}).status_code == 401
+        assert c.post("/api/auth/login", json={"username": "dana", "password": "another-password"}).status_code == 200
