@@ -122,8 +122,9 @@ class Job(Base):
 
     id: Mapped[int] = mapped_column(primary_key=True)
     project_id: Mapped[int] = mapped_column(ForeignKey("projects.id", ondelete="CASCADE"), index=True)
-    kind: Mapped[str] = mapped_column(String(16))  # load_model, evaluate
+    kind: Mapped[str] = mapped_column(String(16))  # load_model, evaluate, link_schedule
     model_id: Mapped[int | None] = mapped_column(ForeignKey("models.id", ondelete="CASCADE"), default=None)
+    schedule_id: Mapped[int | None] = mapped_column(ForeignKey("schedules.id", ondelete="CASCADE"), default=None)
     evaluation_id: Mapped[int | None] = mapped_column(ForeignKey("evaluations.id", ondelete="CASCADE"), default=None)
     status: Mapped[str] = mapped_column(String(16), default="queued")  # queued, running, done, failed
     progress_done: Mapped[float] = mapped_column(Float, default=0.0)
@@ -183,6 +184,28 @@ class Membership(Base):
 
     project: Mapped[Project] = relationship(back_populates="members")
     user: Mapped[User] = relationship()
+
+
+class Schedule(Base):
+    """A construction schedule linked to one of the project's models (in the worker): the element dates are kept in
+    the data folder's ``schedules/<dates_name>`` (start and finish per element), the link report here."""
+
+    __tablename__ = "schedules"
+
+    id: Mapped[int] = mapped_column(primary_key=True)
+    project_id: Mapped[int] = mapped_column(ForeignKey("projects.id", ondelete="CASCADE"), index=True)
+    model_id: Mapped[int] = mapped_column(ForeignKey("models.id", ondelete="CASCADE"), index=True)
+    original_name: Mapped[str] = mapped_column(String(255))
+    stored_name: Mapped[str | None] = mapped_column(String(64), default=None)  # None: the model's own IfcWorkSchedule
+    rules_name: Mapped[str | None] = mapped_column(String(64), default=None)
+    prefer_actual: Mapped[bool] = mapped_column(default=False)
+    dates_name: Mapped[str] = mapped_column(String(64), unique=True)
+    status: Mapped[str] = mapped_column(String(16), default="queued")  # queued, linking, ready, failed
+    error: Mapped[str | None] = mapped_column(Text, default=None)
+    report: Mapped[dict[str, Any] | None] = mapped_column(default=None)
+    first_date: Mapped[str | None] = mapped_column(String(10), default=None)
+    last_date: Mapped[str | None] = mapped_column(String(10), default=None)
+    created_at: Mapped[dt.datetime] = mapped_column(default=utcnow)
 
 
 class ShareLink(Base):

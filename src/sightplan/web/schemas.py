@@ -73,9 +73,10 @@ class ModelDetailOut(ModelOut):
 class JobOut(Orm):
     id: int
     project_id: int
-    kind: Literal["load_model", "evaluate"]
+    kind: Literal["load_model", "evaluate", "link_schedule"]
     model_id: int | None
     evaluation_id: int | None
+    schedule_id: int | None = None
     status: JobStatus
     progress_done: float
     progress_total: float
@@ -156,6 +157,11 @@ class EvaluationIn(BaseModel):
     version: int | None = Field(None, description="Default: the plan's latest version")
     model_id: int | None = Field(None, description="Default: the plan's model")
     settings: SettingsIn = Field(default_factory=SettingsIn)
+    date: str | None = Field(None, description="Capture date YYYY-MM-DD: only the elements built by the end of it exist "
+                                               "(needs a linked schedule)")
+    schedule_id: int | None = Field(None, description="Schedule dating the elements (default: the model's latest)")
+    date_basis: Literal["finish", "start"] = Field("finish", description="Which schedule date builds an element")
+    unscheduled: Literal["present", "absent"] = Field("present", description="Elements no schedule dates")
 
 
 class EvaluationOut(Orm):

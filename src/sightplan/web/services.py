@@ -37,11 +37,56 @@ def report_summary(report: LoadReport) -> dict[str, Any]:
     return d
 
 
+FOURD_KEY = "fourd"  # the capture date of an evaluation, kept beside its settings
+
+
 def evaluation_settings(s: dict[str, Any]) -> EvaluationSettings:
-    v = SettingsIn(**s)
+    v = SettingsIn(**{k: x for k, x in s.items() if k != FOURD_KEY})
     return EvaluationSettings(engine=v.engine, scale=v.scale, d_max=v.d_max, feature_density=v.feature_density,
                               feature_seed=v.seed, metric=MetricParams(omega=v.omega, k=v.k, min_track=v.min_track,
                                                                        min_features=v.min_features))
+
+
+def save_element_dates(path: Path, start, finish) -> None:
+    import numpy as np
+
+    with open(path, "wb") as fh:
+        np.savez(fh, start=np.asarray(start, "datetime64[s]").astype(np.int64),
+                 finish=np.asarray(finish, "datetime64[s]").astype(np.int64))
+
+
+def load_element_dates(path: Path):
+    """Start and finish per element (``datetime64[s]``, NaT where the schedule gives none)."""
+    import numpy as np
+
+    with np.load(path) as z:
+        return z["start"].astype("datetime64[s]"), z["finish"].astype("datetime64[s]")
+
+
+def element_states(start, finish, date: str, basis: str, unscheduled: str) -> list[str]:
+    """Each element at the end of ``date``: built, in_progress (started, not finished) or not_yet; an element the
+    schedule does not date is built or not_yet as ``unscheduled`` says (as :meth:`Scene.at` counts them)."""
+    import numpy as np
+
+    from ..model.dates import parse_day
+
+    end = (parse_day(date) + np.timedelta64(1, "D")).astype("datetime64[s]")
+    first, second = (finish, start) if basis == "finish" else (start, finish)
+    when = np.where(np.isnat(first), second, first)
+    dated = ~np.isnat(when)
+    built = np.where(dated, when < end, unscheduled == "present")
+    started = ~np.isnat(start) & (start < end)
+    states = np.where(built, "built", np.where(dated & started, "in_progress", "not_yet"))
+    return states.tolist()
+
+
+def dated_scene(scene: Scene, dates_path: Path, fourd: dict[str, Any]) -> Scene:
+    """The scene with its schedule's element dates, as it stands at ``fourd["date"]``."""
+    start, finish = load_element_dates(dates_path)
+    if len(start) != scene.n_elements:
+        raise PlanError(f"the schedule's dates are for {len(start)} elements, the model has {scene.n_elements}")
+    undated = replace(scene, elements=scene.elements.with_dates(start, finish))
+    return undated.at(fourd["date"], basis=fourd.get("basis", "finish"), unscheduled=fourd.get("unscheduled", "present"))
 
 
 def with_site(plan: Plan, scene: Scene) -> Plan:

@@ -37,7 +37,7 @@ def display_name(original_name: str) -> str:
 
 
 class Storage:
-    """``models/``, ``plans/``, ``evaluations/``, ``tmp/`` and the scene cache under one root."""
+    """``models/``, ``plans/``, ``schedules/``, ``evaluations/``, ``tmp/`` and the caches under one root."""
 
     def __init__(self, root: Path) -> None:
         self.root = root
@@ -46,7 +46,8 @@ class Storage:
         self.evaluations = root / "evaluations"
         self.tmp = root / "tmp"
         self.cache = root / "cache"
-        for folder in (self.models, self.plans, self.evaluations, self.tmp, self.cache):
+        self.schedules = root / "schedules"
+        for folder in (self.models, self.plans, self.evaluations, self.tmp, self.cache, self.schedules):
             folder.mkdir(parents=True, exist_ok=True)
 
     @staticmethod
@@ -58,6 +59,14 @@ class Storage:
 
     def plan_path(self, stored_name: str) -> Path:
         return self.plans / stored_name
+
+    def schedule_path(self, stored_name: str) -> Path:
+        return self.schedules / stored_name
+
+    @property
+    def frame_cache(self) -> Path:
+        """Per-frame observations by content digest: re-evaluating an edited plan casts only the frames that changed."""
+        return self.cache / "frames"
 
     def evaluation_dir(self, result_dir: str) -> Path:
         return self.evaluations / result_dir

@@ -13,8 +13,8 @@ from sqlalchemy import select
 
 from ..errors import SightplanError
 from .db import Database
-from .models import Evaluation, Job, Model, PlanVersion, utcnow
-from .services import evaluation_settings, load_scene, report_summary
+from .models import Evaluation, Job, Model, PlanVersion, Schedule, utcnow
+from .services import FOURD_KEY, dated_scene, evaluation_settings, load_scene, report_summary, save_element_dates
 from .storage import Storage
 
 log = logging.getLogger("sightplan.web")
@@ -39,6 +39,10 @@ def recover_interrupted(db: Database) -> int:
                 model = s.get(Model, job.model_id)
                 if model is not None and model.status in ("queued", "loading"):
                     model.status, model.error = "failed", INTERRUPTED
+            if job.schedule_id is not None:
+                schedule = s.get(Schedule, job.schedule_id)
+                if schedule is not None and schedule.status in ("queued", "linking"):
+                    schedule.status, schedule.error = "failed", INTERRUPTED
             if job.evaluation_id is not None:
                 ev = s.get(Evaluation, job.evaluation_id)
                 if ev is not None and ev.status in ("queued", "running"):
@@ -91,6 +95,8 @@ class Worker:
         try:
             if kind == "load_model":
                 self._load_model(job_id)
+            elif kind == "link_schedule":
+                self._link_schedule(job_id)
             else:
                 self._evaluate(job_id)
         except Exception as exc:  # every failure is recorded on the job; a bug is logged with its traceback too
@@ -118,6 +124,15 @@ class Worker:
                     job.error = message
                     model.status, model.error = "failed", message
                     self.storage.remove(path)
+            if job.schedule_id is not None:
+                schedule = s.get(Schedule, job.schedule_id)
+                if schedule is not None:
+                    if schedule.stored_name:
+                        message = message.replace(str(self.storage.schedule_path(schedule.stored_name)),
+                                                  schedule.original_name).replace(schedule.stored_name,
+                                                                                  schedule.original_name)
+                    job.error = message
+                    schedule.status, schedule.error = "failed", message
             if job.evaluation_id is not None:
                 ev = s.get(Evaluation, job.evaluation_id)
                 if ev is not None:
@@ -176,11 +191,20 @@ class Worker:
             evaluation_id, stored_model, stored_plan = ev_row.id, model.stored_name, version.stored_name
             settings_json, result_name = dict(ev_row.settings), ev_row.result_dir
             model_label, plan_label = model.original_name, f"{version.plan.name} v{version.number}"
+            fourd = settings_json.get(FOURD_KEY)
+            dates_name = None
+            if fourd is not None:
+                schedule = s.get(Schedule, fourd["schedule_id"])
+                if schedule is None or schedule.status != "ready":
+                    raise SightplanError(f"schedule {fourd['schedule_id']} was deleted or is not ready")
+                dates_name = schedule.dates_name
         settings = evaluation_settings(settings_json)
         scene, _ = load_scene(self.storage, stored_model)
+        if fourd is not None and dates_name is not None:
+            scene = dated_scene(scene, self.storage.schedule_path(dates_name), fourd)
         plan = read_plan(self.storage.plan_path(stored_plan))
         progress = self._progress(job_id, len(plan), evaluation_id)
-        result = evaluate(scene, plan, settings, cache_dir=False, progress=lambda i, n: progress(i))
+        result = evaluate(scene, plan, settings, cache_dir=self.storage.frame_cache, progress=lambda i, n: progress(i))
         out = self.storage.evaluation_dir(result_name)
         out.mkdir(parents=True, exist_ok=True)
         report = report_dict(result, scene, plan, model_path=model_label, plan_path=plan_label)
@@ -196,7 +220,44 @@ class Worker:
             ev_row.status, ev_row.finished_at, ev_row.metrics = "done", utcnow(), report["metrics"]
             ev_row.progress_done = ev_row.progress_total = len(plan)
             vc = report["metrics"]["VC_pct"]
-            job.message = f"VC {vc:.1f} %" if vc is not None else "done"
+            job.message = (f"VC {vc:.1f} %" if vc is not None else "done") + \
+                (f"; {result.cache_hits} of {len(plan)} frames unchanged, taken from the cache" if result.cache_hits else "")
+
+    def _link_schedule(self, job_id: int) -> None:
+        from ..schedule import link_schedule, read_schedule
+
+        with self.db.session() as s:
+            job = s.get(Job, job_id)
+            assert job is not None and job.schedule_id is not None
+            schedule = s.get(Schedule, job.schedule_id)
+            model = s.get(Model, schedule.model_id) if schedule is not None else None
+            if schedule is None or model is None:
+                raise SightplanError("the schedule or its model was deleted")
+            if model.status != "ready":
+                raise SightplanError(f"model {model.id} is not ready ({model.status})")
+            schedule.status = "linking"
+            job.message, job.progress_total = f"linking {schedule.original_name} to {model.original_name}", 1.0
+            model_path = self.storage.model_path(model.stored_name)
+            source = self.storage.schedule_path(schedule.stored_name) if schedule.stored_name else "model"
+            rules = self.storage.schedule_path(schedule.rules_name) if schedule.rules_name else None
+            prefer_actual, dates_name, schedule_id = schedule.prefer_actual, schedule.dates_name, schedule.id
+        scene, _ = load_scene(self.storage, model.stored_name)
+        ifc = model_path if model_path.suffix.lower() in (".ifc", ".ifczip") else None
+        tasks = read_schedule(source, model_path=ifc)
+        dated, report = link_schedule(scene, tasks, rules, model_path=ifc, prefer_actual=prefer_actual)
+        save_element_dates(self.storage.schedule_path(dates_name), dated.elements.start, dated.elements.finish)
+        with self.db.session() as s:
+            schedule, job = s.get(Schedule, schedule_id), s.get(Job, job_id)
+            if schedule is None or job is None:
+                return
+            schedule.status = "ready"
+            schedule.first_date = str(report.first_date)[:10] if report.first_date is not None else None
+            schedule.last_date = str(report.last_date)[:10] if report.last_date is not None else None
+            schedule.report = {"lines": [line.replace(str(model_path), model.original_name) for line in report.describe()],
+                               "tasks": report.n_tasks, "linked": report.linked, "unlinked": report.unlinked,
+                               "targets": report.n_targets, "dated": report.dated, "warnings": list(report.warnings)}
+            job.progress_done = 1.0
+            job.message = f"linked {report.linked} of {report.n_targets} elements to {report.n_tasks} tasks"
 
 
 def _jsonable(rows: list[dict]) -> list[dict]:

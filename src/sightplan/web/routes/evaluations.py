@@ -13,13 +13,33 @@ from sqlalchemy.orm import Session
 
 from ...errors import ReportError
 from ..deps import PROJECT_ACCESS, SessionDep, StateDep, get_project, in_project
-from ..models import Evaluation, Job, Model, Plan
+from ..models import Evaluation, Job, Model, Plan, Schedule
 from ..schemas import ElementsOut, ErrorOut, EvaluationIn, EvaluationOut, EvaluationStartOut, JobOut
-from ..services import evaluation_settings, load_scene, rebuilt_evaluation
+from ..services import FOURD_KEY, dated_scene, evaluation_settings, load_scene, rebuilt_evaluation
 
 router = APIRouter(prefix="/api/projects/{project_id}/evaluations", tags=["evaluations"], dependencies=PROJECT_ACCESS)
 NOT_FOUND = {404: {"model": ErrorOut, "description": "No such project, evaluation, plan, version or model"}}
 NOT_DONE = {409: {"model": ErrorOut, "description": "The evaluation is not done (yet)"}}
+
+
+def capture_date(session: Session, project_id: int, model_id: int, body: EvaluationIn) -> dict:
+    """The 4D settings of an evaluation at ``body.date``, checked now rather than in the worker."""
+    from ...model.dates import parse_day
+
+    day = str(parse_day(body.date))
+    if body.schedule_id is None:
+        row = session.scalars(select(Schedule).where(Schedule.model_id == model_id, Schedule.status == "ready")
+                              .order_by(Schedule.id.desc())).first()
+        if row is None:
+            raise HTTPException(422, f"a capture date needs a schedule: model {model_id} has none linked (POST "
+                                     f"/api/projects/{project_id}/schedules)")
+    else:
+        row = in_project(session, Schedule, body.schedule_id, project_id, "schedule")
+        if row.model_id != model_id:
+            raise HTTPException(422, f"schedule {row.id} is for model {row.model_id}, not model {model_id}")
+        if row.status != "ready":
+            raise HTTPException(409, f"schedule {row.id} is {row.status}, not ready")
+    return {"date": day, "schedule_id": row.id, "basis": body.date_basis, "unscheduled": body.unscheduled}
 
 
 def evaluation_out(ev: Evaluation) -> EvaluationOut:
@@ -50,6 +70,10 @@ def start_evaluation(project_id: int, body: EvaluationIn, session: SessionDep, s
         raise HTTPException(409, f"model {model_id} is {model.status}, not ready" + (f": {model.error}" if model.error else ""))
     settings = body.settings.model_dump()
     evaluation_settings(settings)  # the library's own checks, before anything is queued
+    if body.date is not None:
+        settings[FOURD_KEY] = capture_date(session, project_id, model_id, body)
+    elif body.schedule_id is not None:
+        raise HTTPException(422, "schedule_id needs a date: the capture date to evaluate the site at")
     ev = Evaluation(project_id=project_id, plan_version_id=version.id, model_id=model_id, settings=settings,
                     result_dir=state.storage.new_name(), progress_total=version.frames)
     session.add(ev)
@@ -111,6 +135,12 @@ def read_html_report(project_id: int, evaluation_id: int, session: SessionDep, s
         try:
             result = rebuilt_evaluation(folder, ev.settings, ev.metrics or {})
             scene = load_scene(state.storage, model.stored_name)[0]
+            fourd = ev.settings.get(FOURD_KEY)
+            if fourd is not None:
+                schedule = session.get(Schedule, fourd["schedule_id"])
+                if schedule is None:
+                    raise HTTPException(409, f"the schedule of evaluation {ev.id}'s capture date was deleted")
+                scene = dated_scene(scene, state.storage.schedule_path(schedule.dates_name), fourd)
             plan = read_plan(state.storage.plan_path(version.stored_name))
             tmp = state.storage.temp_path(".html")
             write_html(result, scene, plan, tmp, model_label=model.original_name,
