@@ -3,6 +3,7 @@ PY ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
+PORT ?= 8000
 
 .PHONY: setup demo test lint bench clean
 
@@ -31,11 +32,13 @@ $(STAMP): pyproject.toml web/package.json
 
 setup: $(STAMP)
 
-## Quick start 1: set up, plan a facade grid around the bundled Duplex model, check it can be flown, evaluate it.
+## Quick start 1: set up, plan a facade grid around the bundled Duplex model, check it can be flown, evaluate it,
+## then serve the web application with that sample project ready (Ctrl-C stops it).
 demo: $(STAMP)
 	mkdir -p sightplan-demo
 	$(BIN)/sightplan plan facade sample --safety-distance 8 --overlap 0.8 -o sightplan-demo/plan.json
 	$(BIN)/sightplan evaluate sample sightplan-demo/plan.json --scale 0.25 --out sightplan-demo
+	$(BIN)/sightplan serve --data sightplan-demo/server --sample --port $(PORT)
 
 ## Quick start 2: set up, lint, and run the whole test suite.
 test: $(STAMP)

@@ -156,6 +156,7 @@ def test_non_member_gets_404_on_every_project_route(server, alices):
     assert all(j["project_id"] != alices["project_id"] for j in c.get("/api/jobs").json())
     assert c.get(f"/api/jobs/{alices['job_id']}").status_code == 404
     assert c.get(f"/api/jobs/{alices['job_id']}/events").status_code == 404
+    assert c.post(f"/api/jobs/{alices['job_id']}/cancel").status_code == 404
 
 
 def test_viewer_reads_but_cannot_change_anything(server, alices):
@@ -170,6 +171,7 @@ def test_viewer_reads_but_cannot_change_anything(server, alices):
         m = c.get(f"/api/projects/{pid}/evaluations/{alices['evaluation_id']}").json()["metrics"]
         assert m["frames"] == 6
         assert c.get(f"/api/jobs/{alices['job_id']}").status_code == 200
+        assert c.post(f"/api/jobs/{alices['job_id']}/cancel").status_code == 403
         changing = [(m, p) for m, p in project_routes(c) if m in ("POST", "PUT", "PATCH", "DELETE")]
         assert len(changing) >= 10
         for method, path in changing:

@@ -29,6 +29,9 @@ def serve_command(
     workers: Annotated[int, typer.Option(help="Background jobs (model loads, evaluations) run at the same time")] = 2,
     team: Annotated[bool, typer.Option("--team", help="Require accounts (made with 'sightplan users add') even on "
                                                       "the loopback address")] = False,
+    sample: Annotated[bool, typer.Option("--sample", help="Start with the sample project: the bundled Duplex, a facade "
+                                                          "grid around it and its evaluation (once per data folder)")]
+    = False,
 ) -> None:
     """Serve the web application and its REST API (OpenAPI docs at /docs).
 
@@ -42,6 +45,8 @@ def serve_command(
     config = ServerConfig(data_dir=data, database_url=database, host=host, port=port,
                           max_upload_bytes=int(max_upload_mb * 1024 * 1024), workers=workers, team=team)
     web_app = create_app(config)
+    if sample:
+        _sample_project(web_app.state.sightplan, config.team)
     where = "embedded SQLite in the data folder" if config.embedded else f"database {database}"
     if config.team:
         users = _user_count(web_app.state.sightplan.db)
@@ -55,6 +60,22 @@ def serve_command(
                       f"Data in {config.data_dir} ({where}).", highlight=False)
     console.print(f"Open http://{host}:{port}/ in a browser (API docs at http://{host}:{port}/docs)", highlight=False)
     uvicorn.run(web_app, host=host, port=port, log_level="info")
+
+
+def _sample_project(state, team: bool) -> None:
+    from ..web.sample import SAMPLE_PROJECT, ensure_sample_project
+
+    if team:
+        console.print("[yellow]--sample is for single-user mode:[/] in team mode every project needs an owner",
+                      highlight=False)
+        return
+    with console.status("preparing the sample project (the bundled Duplex and a facade grid)…"):
+        job = ensure_sample_project(state)
+    if job is None:
+        console.print(f"sample project '{SAMPLE_PROJECT}': already in the data folder", highlight=False)
+    else:
+        console.print(f"sample project '{SAMPLE_PROJECT}': model and plan ready, its evaluation running (job {job})",
+                      highlight=False)
 
 
 def _user_count(db) -> int:

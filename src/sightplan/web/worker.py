@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import logging
+import threading
 import time
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
@@ -19,6 +20,11 @@ from .storage import Storage
 
 log = logging.getLogger("sightplan.web")
 INTERRUPTED = "interrupted: the server stopped before this job finished; start it again"
+CANCELLED = "cancelled"
+
+
+class JobStopped(SightplanError):
+    """Raised inside a job's progress callback when the job is cancelled or the server stops."""
 PROGRESS_INTERVAL_S = 0.2
 
 
@@ -57,11 +63,36 @@ class Worker:
         self.db = db
         self.storage = storage
         self._pool = ThreadPoolExecutor(max_workers=workers, thread_name_prefix="sightplan-job")
+        self._stopping = threading.Event()
+        self._cancelled: set[int] = set()
+        self._lock = threading.Lock()
+
+    def cancel(self, job_id: int) -> None:
+        """Stop a running job at its next progress step; a queued one never starts (the caller marks it failed)."""
+        with self._lock:
+            self._cancelled.add(job_id)
+
+    def fail(self, job_id: int, message: str) -> None:
+        """Mark a job failed with its model, schedule or evaluation (as a failure inside it would)."""
+        self._fail(job_id, message)
+
+    def _check(self, job_id: int) -> None:
+        if self._stopping.is_set():
+            raise JobStopped(INTERRUPTED)
+        if job_id in self._cancelled:
+            raise JobStopped(CANCELLED)
 
     def submit(self, job_id: int) -> None:
         self._pool.submit(self._run, job_id)
 
+    def run(self, job_id: int) -> None:
+        """Run a queued job in the calling thread (failures are recorded on the job, as on the pool)."""
+        self._run(job_id)
+
     def shutdown(self, wait: bool = True) -> None:
+        """Stop: queued jobs never start, running ones stop at their next progress step (and are failed as
+        interrupted)."""
+        self._stopping.set()
         self._pool.shutdown(wait=wait, cancel_futures=True)
 
     # ------------------------------------------------------------------ running
@@ -70,6 +101,7 @@ class Worker:
         last = [0.0]
 
         def update(done: float) -> None:
+            self._check(job_id)
             now = time.monotonic()
             if done < total and now - last[0] < PROGRESS_INTERVAL_S:
                 return
@@ -93,6 +125,7 @@ class Worker:
             job.status, job.started_at = "running", utcnow()
             kind = job.kind
         try:
+            self._check(job_id)
             if kind == "load_model":
                 self._load_model(job_id)
             elif kind == "link_schedule":
@@ -104,6 +137,9 @@ class Worker:
                 log.exception("job %s failed", job_id)
             self._fail(job_id, failure_message(exc))
             return
+        finally:
+            with self._lock:
+                self._cancelled.discard(job_id)
         with self.db.session() as s:
             job = s.get(Job, job_id)
             if job is not None:

@@ -50,6 +50,27 @@ def read_job(job_id: int, session: SessionDep, user: UserDep) -> Job:
     return visible_job(session, job_id, user)
 
 
+@router.post("/{job_id}/cancel", response_model=JobOut, summary="Cancel a queued or running job (editor or owner)",
+             description="A queued job is failed at once; a running one stops at its next progress step (a frame of "
+                         "an evaluation) and is failed as 'cancelled', leaving no partial result.",
+             responses={**NOT_FOUND, 403: {"model": ErrorOut, "description": "A viewer cannot cancel"},
+                        409: {"model": ErrorOut, "description": "The job is finished already"}})
+def cancel_job(job_id: int, session: SessionDep, state: StateDep, user: UserDep) -> Job:
+    from ..worker import CANCELLED
+
+    job = visible_job(session, job_id, user)
+    if user is not None:
+        project_for(session, job.project_id, user, "editor")
+    if job.status in FINAL_STATES:
+        raise HTTPException(409, f"job {job_id} is {job.status} already")
+    state.worker.cancel(job_id)
+    if job.status == "queued":
+        session.commit()
+        state.worker.fail(job_id, CANCELLED)
+    session.expire_all()
+    return found(session.get(Job, job_id), "job", job_id)
+
+
 def _snapshot(state: ServerState, job_id: int) -> JobOut | None:
     with state.db.session() as s:
         job = s.get(Job, job_id)
