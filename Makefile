@@ -10,13 +10,15 @@ PORT ?= 8000
 # System packages, from Debian's archive when missing (as root; otherwise a note says what to install):
 # - EGL: the OpenGL engine renders headless, on a GPU's driver or on Mesa's llvmpipe;
 # - chromium: the browser the tests open the HTML report in;
-# - npm: three.js for the report's 3D view.
+# - npm: three.js for the report's 3D view;
+# - postgresql: the tests run the web server on a throw-away PostgreSQL cluster too.
 
 $(STAMP): pyproject.toml web/package.json
 	@missing=""; \
 	ldconfig -p | grep -q 'libEGL_mesa.so.0\|libEGL_nvidia.so.0' || missing="libegl1 libegl-mesa0 libgl1-mesa-dri"; \
 	command -v chromium >/dev/null || missing="$$missing chromium"; \
 	command -v npm >/dev/null || missing="$$missing npm"; \
+	ls /usr/lib/postgresql/*/bin/initdb >/dev/null 2>&1 || missing="$$missing postgresql"; \
 	if [ -n "$$missing" ]; then \
 	  if [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null; then \
 	    apt-get update -q && DEBIAN_FRONTEND=noninteractive apt-get install -y -q --no-install-recommends $$missing; \

@@ -15,9 +15,19 @@ from .config import ServerConfigError
 MIGRATIONS = Path(__file__).with_name("migrations")
 
 
+def driver_url(url: str) -> str:
+    """``postgresql://…`` (and ``postgres://…``) through psycopg 3, the driver sightplan installs, unless the URL
+    names a driver itself."""
+    for scheme in ("postgresql://", "postgres://"):
+        if url.startswith(scheme):
+            return "postgresql+psycopg://" + url[len(scheme):]
+    return url
+
+
 def make_engine(url: str) -> Engine:
     """An engine for ``url``. SQLite gets foreign keys on, a busy timeout and WAL, so the worker threads and the
     requests can share it."""
+    url = driver_url(url)
     try:
         if url.startswith("sqlite"):
             engine = create_engine(url, connect_args={"check_same_thread": False, "timeout": 30})
