@@ -92,26 +92,47 @@ class ModelUploadOut(BaseModel):
     job: JobOut
 
 
+Point2 = Annotated[list[float], Field(min_length=2, max_length=2)]
+Point3 = Annotated[list[float], Field(min_length=3, max_length=3)]
+
+
 class TemplatePlanIn(BaseModel):
-    """A plan from a template around one of the project's models (as ``sightplan plan``)."""
+    """A plan from a template around one of the project's models (as ``sightplan plan``), split into missions and
+    checked with the flight settings given (defaults: a drone's, or a walker's for a route)."""
 
     model_config = ConfigDict(extra="forbid")
 
     name: str = Field("", max_length=200, description="Default: the template's name")
     model_id: int
-    template: Literal["facade", "orbit", "lawnmower"]
+    template: Literal["facade", "orbit", "lawnmower", "bridge", "route"]
     camera: str = Field("p4p", description="A camera of the catalogue (GET /api/cameras)")
-    safety_distance: float = Field(10.0, description="facade: least distance g to the model (m); also the flight check's")
+    safety_distance: float | None = Field(None, description="facade and bridge: distance to the model (m); also the "
+                                                            "flight check's least distance. Default 10, 0.3 for a route")
     overlap: float = Field(0.8, description="Image overlap, 0 ≤ l < 1")
     footprint: Literal["box", "outline"] = "box"
     radius: list[float] = Field(default_factory=list, description="orbit: ring radii (m), one per ring")
-    height: list[float] = Field(default_factory=list, description="orbit: ring heights (m), one per ring")
-    step: float | None = Field(None, description="orbit: degrees between frames (default: by overlap)")
+    height: list[float] = Field(default_factory=list, description="orbit: ring heights (m), one per ring; bridge: "
+                                                                  "heights of the side passes (default: by overlap)")
+    step: float | None = Field(None, description="orbit: degrees between frames (default: by overlap); route: metres "
+                                                 "between frames")
     aim: Literal["centre", "surface"] = "centre"
     altitude: float | None = Field(None, description="lawnmower: camera height above the model's base (m)")
     gsd: float | None = Field(None, description="lawnmower: ground sampling distance on the model's top (m/px)")
     side_overlap: float = Field(0.7, description="lawnmower: overlap between lines")
     oblique_pitch: float | None = Field(None, description="lawnmower: add crossed lines at this gimbal pitch (°)")
+    axis: list[Point2] = Field(default_factory=list, description="bridge: points [x, y] of the axis, in order")
+    under_deck: bool = Field(True, description="bridge: add a pass under the deck, looking up")
+    deck_z: float | None = Field(None, description="bridge: height of the deck's underside (default: found)")
+    points: list[Point3] = Field(default_factory=list, description="route: points [x, y, z] of the walked polyline")
+    aircraft: str | None = Field(None, description="Aircraft preset (p4p, m3e, m300), rover preset for a route "
+                                                   "(walker-360, spot, tracked), or 'none' for no battery check. "
+                                                   "Default p4p, walker-360 for a route")
+    vlos_radius: float | None = Field(None, description="Visual line-of-sight radius around the pilot (m); 0: no check. "
+                                                        "Default 500, none for a route")
+    ground_station: list[Point3] = Field(default_factory=list, description="Pilot positions [x, y, z] to choose from "
+                                                                           "(default: the corners of the plan's region)")
+    altitude_limit: float | None = Field(None, description="Altitude limit (m); 0: no check. Default 120, none for a "
+                                                           "route")
     split: bool = Field(True, description="Split into missions that keep line of sight and fit a battery")
 
 

@@ -104,23 +104,54 @@ def with_site(plan: Plan, scene: Scene) -> Plan:
     return replace(plan, parameters=params)
 
 
+def flight_settings(body: TemplatePlanIn):
+    """The flight checks' settings of a template request: a drone's defaults, or a walker's for a route."""
+    import numpy as np
+
+    from ..plan.checks import battery
+    from ..plan.checks.feasibility import FlightSettings
+
+    walked = body.template == "route"
+    safety, vlos, preset, limit = (0.3, 0.0, "walker-360", 0.0) if walked else (10.0, 500.0, "p4p", 120.0)
+    name = body.aircraft if body.aircraft is not None else preset
+    presets = {**battery.AIRCRAFT, **getattr(battery, "ROVERS", {})}
+    if name.lower() != "none" and name not in presets:
+        raise PlanError(f"unknown aircraft {name!r}: use one of {', '.join(presets)} or 'none'")
+    vlos = body.vlos_radius if body.vlos_radius is not None else vlos
+    limit = body.altitude_limit if body.altitude_limit is not None else limit
+    stations = np.array(body.ground_station, float) if body.ground_station else None
+    return FlightSettings(safety_distance_m=body.safety_distance if body.safety_distance is not None else safety,
+                          vlos_radius_m=vlos or None, ground_stations=stations, altitude_limit_m=limit or None,
+                          aircraft=None if name.lower() == "none" else presets[name])
+
+
 def template_plan(scene: Scene, body: TemplatePlanIn) -> Plan:
     """A plan from a template around ``scene``, split into missions and checked as ``sightplan plan`` does."""
     from ..camera.catalogue import get_camera
-    from ..plan.checks.feasibility import FlightSettings, check_plan, plan_flights
-    from ..plan.templates import facade_grid, lawnmower, orbit
+    from ..plan.checks.feasibility import check_plan, plan_flights
+    from ..plan.templates import bridge, facade_grid, indoor_route, lawnmower, orbit
 
     cam = get_camera(body.camera)
+    settings = flight_settings(body)
+    distance = settings.safety_distance_m
     if body.template == "facade":
-        plan = facade_grid(scene, cam, body.safety_distance, body.overlap, footprint=body.footprint)
+        plan = facade_grid(scene, cam, distance, body.overlap, footprint=body.footprint)
     elif body.template == "orbit":
         if not body.radius or not body.height:
             raise PlanError("an orbit needs 'radius' and 'height', one value per ring")
         plan = orbit(scene, cam, body.radius, body.height, step_deg=body.step, overlap=body.overlap, aim=body.aim)
-    else:
+    elif body.template == "lawnmower":
         plan = lawnmower(scene, cam, altitude_m=body.altitude, gsd_m=body.gsd, front_overlap=body.overlap,
                          side_overlap=body.side_overlap, oblique_pitch_deg=body.oblique_pitch)
-    settings = FlightSettings(safety_distance_m=body.safety_distance)
+    elif body.template == "bridge":
+        if len(body.axis) < 2:
+            raise PlanError("a bridge needs its axis: 'axis' with at least two points [x, y], in order")
+        plan = bridge(scene, cam, body.axis, distance, heights_m=body.height or None, under_deck=body.under_deck,
+                      overlap=body.overlap, deck_z=body.deck_z)
+    else:
+        if len(body.points) < 2 or body.step is None:
+            raise PlanError("a route needs 'points' (at least two [x, y, z]) and 'step' in metres")
+        plan = indoor_route(cam, body.points, body.step)
     report = (plan_flights if body.split else check_plan)(scene, plan, settings)
     return with_site(report.plan, scene)
 

@@ -21,7 +21,7 @@ def info(state: StateDep) -> InfoOut:
     return InfoOut(version=__version__, mode="team" if cfg.team else "single-user", login=cfg.team,
                    message=TEAM if cfg.team else SINGLE_USER, database=database,
                    data_dir="" if cfg.team else str(cfg.data_dir),
-                   max_upload_bytes=cfg.max_upload_bytes, templates=["facade", "orbit", "lawnmower"],
+                   max_upload_bytes=cfg.max_upload_bytes, templates=["facade", "orbit", "lawnmower", "bridge", "route"],
                    export_formats=list(EXPORT_FORMATS))
 
 

@@ -70,7 +70,7 @@ def commit_version(state: ServerState, session: Session, plan_row: Plan, data: P
 
 
 @router.post("", response_model=PlanOut, status_code=201, summary="Create a plan from a template",
-             description="facade, orbit or lawnmower around one of the project's models, split into missions and "
+             description="facade, orbit, lawnmower, bridge or route around one of the project's models, split into missions and "
                          "checked as `sightplan plan` does; the model's georeference is recorded for exports.",
              responses={**NOT_FOUND, **BAD_PLAN, **NOT_READY})
 def create_from_template(project_id: int, body: TemplatePlanIn, session: SessionDep, state: StateDep) -> PlanOut:

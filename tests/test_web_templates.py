@@ -1,0 +1,98 @@
+"""Every template through the web API, with the flight settings of the plan form (aircraft, VLOS radius, ground
+station, altitude limit): the same plans as the library's templates and checks."""
+
+from __future__ import annotations
+
+import io
+import time
+
+import numpy as np
+import pytest
+import trimesh
+
+pytest.importorskip("fastapi")
+
+from fastapi.testclient import TestClient  # noqa: E402
+
+from sightplan.camera.catalogue import get_camera  # noqa: E402
+from sightplan.model.load import load_model, sample_model_path  # noqa: E402
+from sightplan.plan.checks.feasibility import FlightSettings, plan_flights  # noqa: E402
+from sightplan.plan.templates import indoor_route  # noqa: E402
+from sightplan.web.app import create_app  # noqa: E402
+from sightplan.web.config import ServerConfig  # noqa: E402
+
+
+def box(size, corner):
+    return trimesh.creation.box(size, trimesh.transformations.translation_matrix(np.add(corner, np.divide(size, 2))))
+
+
+def wait_job(client, job_id: int) -> dict:
+    deadline = time.monotonic() + 60
+    while (job := client.get(f"/api/jobs/{job_id}").json())["status"] not in ("done", "failed"):
+        assert time.monotonic() < deadline
+        time.sleep(0.1)
+    return job
+
+
+@pytest.fixture(scope="module")
+def client(tmp_path_factory):
+    with TestClient(create_app(ServerConfig(data_dir=tmp_path_factory.mktemp("tpl") / "d"))) as c:
+        yield c
+
+
+def upload(client, pid: int, name: str, data: bytes) -> int:
+    r = client.post(f"/api/projects/{pid}/models", files={"file": (name, data)})
+    assert r.status_code == 202, r.text
+    assert wait_job(client, r.json()["job"]["id"])["status"] == "done"
+    return r.json()["model"]["id"]
+
+
+def test_bridge_template_gives_the_hand_counted_frames(client):
+    """A 60 × 10 m deck with its underside at 8 m on two piers; passes 15 m off the axis. Side passes: frames
+    2·15·0.75·0.2 = 4.5 m apart → 15 per pass, 5 layers per side → 150 frames. Under the deck, 3 m below it (the
+    default clearance): 2·3·0.5·0.2 = 0.6 m apart → 60 / 0.6 + 1 = 101 frames. 251 in all."""
+    pid = client.post("/api/projects", json={"name": "bridge"}).json()["id"]
+    mesh = trimesh.util.concatenate([box((60, 10, 2), (0, -5, 8)), box((4, 2, 8), (28, 3, 0)),
+                                     box((4, 2, 8), (28, -5, 0))])
+    buf = io.BytesIO()
+    mesh.export(buf, file_type="obj")
+    mid = upload(client, pid, "bridge.obj", buf.getvalue())
+    r = client.post(f"/api/projects/{pid}/plans", json={
+        "model_id": mid, "template": "bridge", "axis": [[0, 0], [60, 0]], "safety_distance": 15, "height": [],
+        "aircraft": "m300", "vlos_radius": 0, "altitude_limit": 0})
+    assert r.status_code == 201, r.text
+    plan = client.get(f"/api/projects/{pid}/plans/{r.json()['id']}/versions/1").json()
+    assert len(plan["frames"]) == 251 and plan["parameters"]["template"] == "bridge"
+    assert plan["parameters"]["deck_z"] == pytest.approx(8.0) and plan["parameters"]["under_deck_z"] == pytest.approx(5.0)
+    bad = client.post(f"/api/projects/{pid}/plans", json={"model_id": mid, "template": "bridge", "axis": [[0, 0]]})
+    assert bad.status_code == 422 and "axis" in bad.json()["detail"]
+
+
+def test_route_and_flight_settings_match_the_library(client):
+    pid = client.post("/api/projects", json={"name": "duplex"}).json()["id"]
+    mid = upload(client, pid, "duplex.ifc", sample_model_path().read_bytes())
+    scene, _ = load_model("sample")
+    points = [[2.0, 2.0, 1.6], [12.0, 2.0, 1.6], [12.0, 6.0, 1.6]]
+    r = client.post(f"/api/projects/{pid}/plans", json={"model_id": mid, "template": "route", "points": points,
+                                                        "step": 1.0, "camera": "insta360-x3"})
+    assert r.status_code == 201, r.text
+    route = client.get(f"/api/projects/{pid}/plans/{r.json()['id']}/versions/1").json()
+    assert len(route["frames"]) == len(indoor_route(get_camera("insta360-x3"), points, 1.0)) == 15  # 14 m at 1 m
+    # a drone orbit flown from a given pilot position with a short sight line: the library's split
+    station = [[-30.0, -30.0, 0.0]]
+    body = {"model_id": mid, "template": "orbit", "radius": [25], "height": [8.0], "step": 10, "vlos_radius": 60,
+            "ground_station": station, "aircraft": "m3e"}
+    r = client.post(f"/api/projects/{pid}/plans", json=body)
+    assert r.status_code == 201, r.text
+    served = client.get(f"/api/projects/{pid}/plans/{r.json()['id']}/versions/1").json()
+    from sightplan.plan.checks.battery import AIRCRAFT
+    from sightplan.plan.templates import orbit
+
+    ref = plan_flights(scene, orbit(scene, get_camera("p4p"), [25], [8.0], step_deg=10),
+                       FlightSettings(safety_distance_m=10, vlos_radius_m=60, ground_stations=np.array(station),
+                                      aircraft=AIRCRAFT["m3e"])).plan
+    assert [m["frames"] for m in served["missions"]] == [[m.start, m.stop] for m in ref.missions]
+    assert served["missions"][0]["ground_station"] == pytest.approx(station[0])
+    for bad, word in (({"aircraft": "jumbo"}, "aircraft"), ({"vlos_radius": 5, "safety_distance": 10}, "VLOS")):
+        r = client.post(f"/api/projects/{pid}/plans", json=body | bad)
+        assert r.status_code == 422 and word in r.json()["detail"], r.text
