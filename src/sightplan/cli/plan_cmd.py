@@ -8,6 +8,7 @@ from typing import Annotated, Literal
 
 import typer
 
+from ..plan.site import with_site
 from .errors import friendly_errors
 from .flight import AltitudeOpt, StationOpt, VlosOpt, default_flight_settings, parse_point, print_feasibility
 from .fourd import (
@@ -116,30 +117,13 @@ def plan_command(
         else:
             plan = indoor_route(cam, [parse_point(p, "route point") for p in point], step)
     report = (plan_flights if split else check_plan)(obstacles, plan, settings)
-    plan = with_site(report.plan, scene)
+    plan = with_site(report.plan, scene, replace_takeoff=True)
     write_plan(plan, output)
     print_feasibility(console, report, f"{template} plan around {Path(str(model)).name} — {cam.name or camera}")
     params = {k: v for k, v in plan.parameters.items() if k.endswith("_m") and isinstance(v, float)}
     if params:
         console.print(", ".join(f"{k.removesuffix('_m').replace('_', ' ')} {v:.3g} m" for k, v in params.items()))
     console.print(f"wrote {output} — evaluate it with `sightplan evaluate {model} {output}`")
-
-
-def with_site(plan, scene):
-    """The plan with the model's georeference (if any) and its take-off point (the first mission's ground station,
-    on the model's base) recorded for exports."""
-    from dataclasses import replace
-
-    from ..geo import Georeference
-
-    params = dict(plan.parameters)
-    geo = Georeference.from_scene_metadata(scene.metadata)
-    if geo is not None and "georeference" not in params:
-        params["georeference"] = geo.to_dict()
-    station = plan.missions[0].ground_station if plan.missions and plan.missions[0].ground_station else None
-    if station is not None:
-        params["takeoff_m"] = [float(station[0]), float(station[1]), float(scene.bounds()[0][2])]
-    return replace(plan, parameters=params)
 
 
 @app.command("check")
@@ -188,7 +172,7 @@ def check_command(
     report = (plan_flights if split else check_plan)(scene, plan, settings)
     print_feasibility(console, report, f"{Path(plan_file).name} against {Path(str(model)).name}")
     if output is not None:
-        write_plan(with_site(report.plan, scene), output)
+        write_plan(with_site(report.plan, scene, replace_takeoff=True), output)
         console.print(f"wrote {output}")
     if json_out is not None:
         json_out.write_text(json.dumps(report.to_dict(), indent=1), encoding="utf-8")

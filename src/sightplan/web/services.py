@@ -14,6 +14,7 @@ from ..metrics import MetricParams
 from ..model.load import IFC_EXTENSIONS
 from ..model.scene import Scene
 from ..model.summary import LoadReport
+from ..plan.site import with_site
 from ..plan.types import Plan
 from .schemas import SettingsIn, TemplatePlanIn
 from .storage import Storage
@@ -87,21 +88,6 @@ def dated_scene(scene: Scene, dates_path: Path, fourd: dict[str, Any]) -> Scene:
         raise PlanError(f"the schedule's dates are for {len(start)} elements, the model has {scene.n_elements}")
     undated = replace(scene, elements=scene.elements.with_dates(start, finish))
     return undated.at(fourd["date"], basis=fourd.get("basis", "finish"), unscheduled=fourd.get("unscheduled", "present"))
-
-
-def with_site(plan: Plan, scene: Scene) -> Plan:
-    """The plan with the model's georeference (if any) and the take-off point on the model's base, for exports
-    (as ``sightplan plan`` records them)."""
-    from ..geo import Georeference
-
-    params = dict(plan.parameters)
-    geo = Georeference.from_scene_metadata(scene.metadata)
-    if geo is not None and "georeference" not in params:
-        params["georeference"] = geo.to_dict()
-    station = plan.missions[0].ground_station if plan.missions and plan.missions[0].ground_station else None
-    if station is not None and "takeoff_m" not in params:
-        params["takeoff_m"] = [float(station[0]), float(station[1]), float(scene.bounds()[0][2])]
-    return replace(plan, parameters=params)
 
 
 def flight_settings(body: TemplatePlanIn):
