@@ -95,10 +95,17 @@ def check_altitude(scene: Scene, plan: Plan, limit_m: float = FAA_LIMIT_M, groun
     used = scene.vertices[np.unique(scene.faces)] if len(scene.faces) else np.zeros((0, 3))
     limit = np.full(len(plan), ground + limit_m)
     if len(used):
-        tree = cKDTree(used[:, :2])
-        for i, near in enumerate(tree.query_ball_point(plan.C_world[:, :2], r=limit_m)):
-            if near:
-                limit[i] = max(limit[i], used[near, 2].max() + limit_m)
+        xy, C = used[:, :2], plan.C_world[:, :2]
+        # a waypoint within limit_m of the far corner of the vertices' box has every vertex in reach
+        far = np.maximum(np.abs(C - xy.min(axis=0)), np.abs(C - xy.max(axis=0)))
+        everything = np.hypot(far[:, 0], far[:, 1]) <= limit_m
+        limit[everything] = np.maximum(limit[everything], used[:, 2].max() + limit_m)
+        rest = np.flatnonzero(~everything)
+        if len(rest):
+            tree = cKDTree(xy)
+            for i, near in zip(rest, tree.query_ball_point(C[rest], r=limit_m)):
+                if near:
+                    limit[i] = max(limit[i], used[near, 2].max() + limit_m)
     over = plan.C_world[:, 2] - limit
     violations = tuple(f"waypoint {i} is {over[i]:.1f} m above the altitude limit" for i in np.flatnonzero(over > 0))
     return AltitudeReport(limit, over, violations)

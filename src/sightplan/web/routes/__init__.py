@@ -1,6 +1,6 @@
 """The REST API's routers, one module per resource."""
 
-from . import auth, evaluations, info, jobs, members, models, plans, projects, schedules, shared
+from . import auth, evaluations, info, jobs, members, models, plans, projects, schedules, shared, viewer
 
 ROUTERS = [info.router, projects.router, models.router, plans.router, evaluations.router, jobs.router,
-           auth.router, members.router, schedules.router, shared.router]
+           auth.router, members.router, schedules.router, shared.router, viewer.router]

@@ -1,0 +1,322 @@
+"""The endpoints behind the web page's viewer, checked against the library: the binary model geometry against the
+Scene, plan geometry against the plan JSON, flight checks against the safety distances, feedback and element values
+against an evaluation run here, and the simulated view's pixels against the engine's element image."""
+
+from __future__ import annotations
+
+import gzip
+import io
+import json
+import struct
+import time
+
+import numpy as np
+import pytest
+
+pytest.importorskip("fastapi")
+pytest.importorskip("httpx")
+
+from fastapi.testclient import TestClient  # noqa: E402
+
+from sightplan.model.load import load_model, sample_model_path  # noqa: E402
+from sightplan.web.app import create_app  # noqa: E402
+from sightplan.web.config import ServerConfig  # noqa: E402
+
+SCALE = 0.05
+DTYPES = {"float32": np.float32, "uint32": np.uint32}
+
+
+def wait_job(client: TestClient, job_id: int, timeout_s: float = 90.0) -> dict:
+    deadline = time.monotonic() + timeout_s
+    while True:
+        job = client.get(f"/api/jobs/{job_id}").json()
+        if job["status"] in ("done", "failed"):
+            return job
+        assert time.monotonic() < deadline, f"job {job_id} still {job['status']}"
+        time.sleep(0.1)
+
+
+def read_geometry(data: bytes) -> tuple[dict, dict[str, np.ndarray]]:
+    """An independent reader of the SPG1 layout: magic, uint32 header length, JSON, aligned arrays."""
+    assert data[:4] == b"SPG1"
+    (n,) = struct.unpack_from("<I", data, 4)
+    assert n % 4 == 0
+    header = json.loads(data[8:8 + n])
+    base = 8 + n
+    arrays = {}
+    for name, spec in header["arrays"].items():
+        assert spec["offset"] % 4 == 0
+        start = base + spec["offset"]
+        arr = np.frombuffer(data[start:start + spec["bytes"]], DTYPES[spec["dtype"]])
+        arrays[name] = arr.reshape(spec["shape"])
+    return header, arrays
+
+
+@pytest.fixture(scope="module")
+def scene():
+    return load_model("sample")[0]
+
+
+@pytest.fixture(scope="module")
+def client(tmp_path_factory):
+    with TestClient(create_app(ServerConfig(data_dir=tmp_path_factory.mktemp("viewer") / "data"))) as c:
+        yield c
+
+
+@pytest.fixture(scope="module")
+def project(client) -> int:
+    return client.post("/api/projects", json={"name": "viewer"}).json()["id"]
+
+
+@pytest.fixture(scope="module")
+def model(client, project) -> int:
+    with open(sample_model_path(), "rb") as fh:
+        r = client.post(f"/api/projects/{project}/models", files={"file": ("Duplex.ifc", fh)})
+    assert wait_job(client, r.json()["job"]["id"])["status"] == "done"
+    return r.json()["model"]["id"]
+
+
+@pytest.fixture(scope="module")
+def plan(client, project, model) -> int:
+    r = client.post(f"/api/projects/{project}/plans", json={"model_id": model, "template": "orbit", "radius": [22],
+                                                             "height": [4.0], "step": 30, "name": "ring"})
+    assert r.status_code == 201, r.text
+    return r.json()["id"]
+
+
+@pytest.fixture(scope="module")
+def evaluation(client, project, model, plan) -> int:
+    r = client.post(f"/api/projects/{project}/evaluations",
+                    json={"plan_id": plan, "version": 1, "settings": {"scale": SCALE, "engine": "embree"}})
+    assert wait_job(client, r.json()["job"]["id"])["status"] == "done"
+    return r.json()["evaluation"]["id"]
+
+
+@pytest.fixture(scope="module")
+def reference(client, project, plan, scene):
+    """The same evaluation run by the library in this process."""
+    from sightplan.evaluate import EvaluationSettings, evaluate
+    from sightplan.plan.format import plan_from_dict
+
+    data = plan_from_dict(client.get(f"/api/projects/{project}/plans/{plan}/versions/1").json())
+    return data, evaluate(scene, data, EvaluationSettings(scale=SCALE, engine="embree"), cache_dir=False)
+
+
+# --------------------------------------------------------------------------- the model
+def test_geometry_is_the_scene_in_the_viewer_frame(client, project, model, scene):
+    r = client.get(f"/api/projects/{project}/models/{model}/geometry", headers={"Accept-Encoding": "identity"})
+    assert r.status_code == 200 and r.headers["content-type"] == "application/vnd.sightplan.geometry"
+    assert "content-encoding" not in r.headers
+    header, a = read_geometry(r.content)
+    n_faces = len(scene.faces)
+    assert header["triangles"] == n_faces == len(a["index"]) == len(a["triangle_element"]) == 26348
+    assert header["elements"] == scene.n_elements == 215
+    assert header["vertices"] == len(a["position"]) == len(a["vertex_element"])
+    # every element keeps its triangles, and each triangle's three corners belong to its element
+    assert np.array_equal(np.bincount(a["triangle_element"], minlength=215), np.bincount(scene.face_element, minlength=215))
+    assert np.array_equal(a["vertex_element"][a["index"]], np.repeat(a["triangle_element"][:, None], 3, axis=1))
+    # back in the model frame (x, y, z) = (X + ox, −Z + oy, Y + oz): the same box and the same area per element
+    o = np.array(header["origin_m"])
+    p = a["position"].astype(np.float64)
+    model_xyz = np.column_stack([p[:, 0] + o[0], -p[:, 2] + o[1], p[:, 1] + o[2]])
+    assert np.allclose([model_xyz.min(0), model_xyz.max(0)], scene.bounds(), atol=1e-3)
+    tri = model_xyz[a["index"]]
+    area = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
+    assert np.allclose(np.bincount(a["triangle_element"], weights=area, minlength=215),
+                       np.bincount(scene.face_element, weights=scene.face_areas(), minlength=215), rtol=1e-4, atol=1e-5)
+    # gzipped for a browser, the same bytes inside
+    z = client.get(f"/api/projects/{project}/models/{model}/geometry", headers={"Accept-Encoding": "gzip"})
+    assert z.headers["content-encoding"] == "gzip" and z.content == r.content
+    assert int(z.headers["content-length"]) < len(r.content)
+    assert gzip.decompress(gzip.compress(r.content)) == r.content
+
+
+def test_element_table(client, project, model, scene):
+    t = client.get(f"/api/projects/{project}/models/{model}/elements").json()
+    assert t["count"] == 215 and len(t["global_id"]) == 215 and sum(t["target"]) == 154
+    assert sum(t["triangles"]) == len(scene.faces)
+    assert t["global_id"] == scene.elements.global_id.tolist() and t["ifc_class"][0] == scene.elements.ifc_class[0]
+    assert client.get(f"/api/projects/{project}/models/999/elements").status_code == 404
+    assert client.get(f"/api/projects/999/models/{model}/geometry").status_code == 404
+
+
+# --------------------------------------------------------------------------- a plan version
+def test_plan_geometry_is_the_plan_json(client, project, plan):
+    js = client.get(f"/api/projects/{project}/plans/{plan}/versions/1").json()
+    g = client.get(f"/api/projects/{project}/plans/{plan}/versions/1/geometry").json()
+    assert g["frames"] == len(js["frames"]) == 12 == len(g["position"]) == len(g["rotation"])
+    assert g["position"] == [f["position"] for f in js["frames"]]
+    assert g["rotation"] == [sum(f["rotation"], []) for f in js["frames"]]
+    assert g["name"] == [f["name"] for f in js["frames"]]
+    assert [[m["start"], m["stop"]] for m in g["missions"]] == [m["frames"] for m in js["missions"]]
+    assert [m["ground_station"] for m in g["missions"]] == [m.get("ground_station") for m in js["missions"]]
+    cam = next(iter(g["cameras"].values()))
+    assert cam["hfov_deg"] == pytest.approx(np.degrees(2 * np.arctan(cam["width"] / (2 * cam["fx"]))))
+    assert client.get(f"/api/projects/{project}/plans/{plan}/versions/7/geometry").status_code == 404
+
+
+def test_checks_find_the_frame_moved_too_close(client, project, plan, scene):
+    from sightplan.plan.checks.safety import point_distances
+
+    js = client.get(f"/api/projects/{project}/plans/{plan}/versions/1").json()
+    c1 = client.get(f"/api/projects/{project}/plans/{plan}/versions/1/checks", params={"safety_distance": 3}).json()
+    C = np.array([f["position"] for f in js["frames"]])
+    assert c1["clearance_m"] == pytest.approx(np.round(point_distances(scene, C), 3).tolist(), abs=1e-3)
+    assert c1["ok"] is True and c1["unsafe_frames"] == [] and c1["safety_distance_m"] == 3
+    # frame 4 moved to 1 m in front of the nearest wall: too close, and said so
+    lo, hi = scene.bounds()
+    edited = json.loads(json.dumps(js))
+    edited["frames"][4]["position"] = [float(lo[0]) - 1.0, float((lo[1] + hi[1]) / 2), 3.0]
+    r = client.put(f"/api/projects/{project}/plans/{plan}", json=edited, params={"note": "too close"})
+    assert r.status_code == 201
+    c2 = client.get(f"/api/projects/{project}/plans/{plan}/versions/2/checks", params={"safety_distance": 3}).json()
+    clearance = point_distances(scene, np.array(edited["frames"][4]["position"])[None])[0]
+    assert clearance < 3 and c2["clearance_m"][4] == pytest.approx(clearance, abs=1e-3)
+    assert 4 in c2["unsafe_frames"] and c2["ok"] is False
+    assert any("waypoint 4" in v for v in c2["violations"])
+    assert set(c2["unsafe_segments"]) >= {3} or set(c2["unsafe_segments"]) >= {4}
+    r = client.get(f"/api/projects/{project}/plans/{plan}/versions/2/checks", params={"safety_distance": -1})
+    assert r.status_code == 422 and "safety_distance" in r.json()["detail"]
+
+
+# --------------------------------------------------------------------------- an evaluation
+def test_feedback_matches_the_library(client, project, evaluation, reference):
+    from sightplan.report.gltf import default_bounds, visibility_class
+
+    _, ref = reference
+    em, fm = ref.metrics.elements, ref.metrics.frames
+    fb = client.get(f"/api/projects/{project}/evaluations/{evaluation}/feedback").json()
+    assert fb["metrics"]["visibility"] == visibility_class(em).tolist()
+    ssd = [None if not np.isfinite(v) else v for v in em.R]
+    assert fb["metrics"]["ssd"] == pytest.approx(ssd)
+    assert fb["metrics"]["vr"] == [int(v) if vis else None for v, vis in zip(em.VR, em.visible)]
+    assert fb["frames"]["nu"] == fm.nu.tolist() and fb["frames"]["stable"] == fm.stable.tolist()
+    assert fb["labels"]["ssd"]["bounds"] == pytest.approx(list(default_bounds(em, "ssd")))
+    assert fb["labels"]["vr"]["higher_better"] is True and fb["labels"]["ssd"]["higher_better"] is False
+    assert fb["params"]["min_features"] == 50 and fb["plan_version"] == 1
+    assert sum(fb["elements"]["target"]) == 154 and len(fb["metrics"]["visibility"]) == 215
+
+
+def test_element_values_and_best_frames(client, project, evaluation, reference):
+    _, ref = reference
+    em, obs = ref.metrics.elements, ref.observations
+    rows = client.get(f"/api/projects/{project}/evaluations/{evaluation}/elements").json()["elements"]
+    i = int(np.flatnonzero(em.visible & (em.VR >= 3))[0])
+    d = client.get(f"/api/projects/{project}/evaluations/{evaluation}/elements/{i}", params={"limit": 50}).json()
+    assert d["element"] == next(r for r in rows if r["index"] == i)
+    assert d["element"]["VR_i"] == int(em.VR[i]) and d["element"]["R_i_m_per_px"] == pytest.approx(em.R[i])
+    best = d["best_frames"]
+    sel = obs.element == i
+    assert len(best) == min(50, int(sel.sum()))
+    counted = [f for f in best if f["counts"]]
+    assert len(counted) == em.VR[i]
+    # R_i is the mean of the k finest sampling distances among the frames that count: the first k listed
+    k = ref.metrics.params.k
+    assert np.mean([f["ssd_m_per_px"] for f in counted[:k]]) == pytest.approx(em.R[i])
+    assert [f["ssd_m_per_px"] for f in counted] == sorted(f["ssd_m_per_px"] for f in counted)
+    assert all(f["pixels"] >= 625 for f in counted) and all(f["pixels"] < 625 for f in best if not f["counts"])
+    occluder = int(np.flatnonzero(~em.is_target)[0])
+    d = client.get(f"/api/projects/{project}/evaluations/{evaluation}/elements/{occluder}").json()
+    assert d["target"] is False and d["element"]["visibility"] == "occluder" and d["element"]["VR_i"] is None
+    assert client.get(f"/api/projects/{project}/evaluations/{evaluation}/elements/215").status_code == 404
+
+
+def _rgb(png: bytes) -> np.ndarray:
+    from PIL import Image
+
+    return np.asarray(Image.open(io.BytesIO(png)).convert("RGB"))
+
+
+def test_view_png_is_the_engines_element_image(client, project, evaluation, reference, scene):
+    from sightplan.engines.registry import make_engine
+    from sightplan.report.gltf import metric_colours
+
+    data, ref = reference
+    frame = 3
+    bounds = (0.002, 0.006)
+    r = client.get(f"/api/projects/{project}/evaluations/{evaluation}/frames/{frame}/view.png",
+                   params={"metric": "ssd", "lo": bounds[0], "hi": bounds[1], "width": 240, "shading": False})
+    assert r.status_code == 200 and r.headers["content-type"] == "image/png"
+    img = _rgb(r.content)
+    cam = data.camera_of(frame)
+    with make_engine("embree", scene) as engine:
+        ids, _, _ = engine.shaded_view(cam, data.R_world_camera[frame], data.C_world[frame], 240 / cam.width)
+    assert img.shape[:2] == ids.shape == (round(cam.height * 240 / cam.width), 240)
+    assert (ids >= 0).sum() > 1000, "the frame looks at the model"
+    expected = np.full((*ids.shape, 3), 255, np.uint8)
+    colours = np.round(metric_colours(ref.metrics.elements, "ssd", bounds)[:, :3] * 255).astype(np.uint8)
+    expected[ids >= 0] = colours[ids[ids >= 0]]
+    assert np.array_equal(img, expected)
+    assert int(r.headers["x-sightplan-elements-seen"]) == len(np.unique(ids[ids >= 0]))
+    # shaded: the same pixels hit, never brighter than the flat colour
+    s = _rgb(client.get(f"/api/projects/{project}/evaluations/{evaluation}/frames/{frame}/view.png",
+                        params={"metric": "ssd", "lo": bounds[0], "hi": bounds[1], "width": 240}).content)
+    assert np.array_equal((s != 255).any(axis=2) | (ids >= 0), ids >= 0)
+    assert (s[ids >= 0].astype(int) <= expected[ids >= 0].astype(int) + 1).all()
+
+
+def test_view_png_refusals(client, project, evaluation, plan):
+    base = f"/api/projects/{project}/evaluations/{evaluation}/frames"
+    r = client.get(f"{base}/0/view.png", params={"metric": "height"})
+    assert r.status_code == 422 and "visibility, vr, ssd, orientation" in r.json()["detail"]
+    r = client.get(f"{base}/0/view.png", params={"metric": "ssd", "lo": 0.01})
+    assert r.status_code == 422 and "both" in r.json()["detail"]
+    r = client.get(f"{base}/0/view.png", params={"metric": "ssd", "lo": 0.01, "hi": 0.002})
+    assert r.status_code == 422 and "LO < HI" in r.json()["detail"]
+    r = client.get(f"{base}/12/view.png")
+    assert r.status_code == 404 and "frames 0 to 11" in r.json()["detail"]
+    assert client.get(f"/api/projects/{project}/evaluations/999/feedback").status_code == 404
+
+
+def test_plan_view_without_evaluation(client, project, plan, model, scene, reference):
+    from sightplan.engines.registry import make_engine
+
+    data, _ = reference
+    r = client.get(f"/api/projects/{project}/plans/{plan}/versions/1/frames/0/view.png", params={"width": 160})
+    assert r.status_code == 200
+    img = _rgb(r.content)
+    cam = data.camera_of(0)
+    with make_engine("embree", scene) as engine:
+        ids, _, _ = engine.shaded_view(cam, data.R_world_camera[0], data.C_world[0], 160 / cam.width)
+    assert np.array_equal((img != 255).any(axis=2), ids >= 0)
+
+
+# --------------------------------------------------------------------------- the page and its packages
+def test_page_and_vendor_files(client):
+    from sightplan.report.html import THREE_DIR
+
+    page = client.get("/")
+    assert page.status_code == 200 and page.headers["content-type"].startswith("text/html")
+    importmap = json.loads(page.text.split('<script type="importmap">', 1)[1].split("</script>", 1)[0])
+    assert importmap["imports"]["three"] == "/vendor/three/build/three.module.js"
+    js = client.get("/static/app.js")
+    assert js.status_code == 200 and js.headers["content-type"].startswith("text/javascript")
+    assert client.get("/static/app.css").headers["content-type"].startswith("text/css")
+    if THREE_DIR.is_dir():
+        three = client.get("/vendor/three/build/three.module.js")
+        assert three.status_code == 200 and three.headers["content-type"].startswith("text/javascript")
+        assert three.content == (THREE_DIR / "build" / "three.module.js").read_bytes()
+    for url in ("/vendor/three/..%2F..%2Fpackage.json", "/vendor/three/%2e%2e/%2e%2e/package.json",
+                "/vendor/three/../../package-lock.json", "/vendor/fflate/package.json", "/vendor/..%2Fthree/package.json",
+                "/static/..%2Froutes%2Fviewer.py", "/static/%2e%2e/app.py", "/vendor/three/%2Fetc%2Fpasswd",
+                "/static/", "/vendor/three/"):
+        r = client.get(url)
+        assert r.status_code == 404, url
+        assert "root:" not in r.text and "sightplan-web" not in r.text
+
+
+def test_openapi_documents_the_viewer_routes(client):
+    schema = client.get("/openapi.json").json()
+    viewer = {path for path, ops in schema["paths"].items() for op in ops.values() if "viewer" in op.get("tags", [])}
+    assert viewer == {
+        "/api/projects/{project_id}/models/{model_id}/geometry", "/api/projects/{project_id}/models/{model_id}/elements",
+        "/api/projects/{project_id}/plans/{plan_id}/versions/{number}/geometry",
+        "/api/projects/{project_id}/plans/{plan_id}/versions/{number}/checks",
+        "/api/projects/{project_id}/evaluations/{evaluation_id}/feedback",
+        "/api/projects/{project_id}/evaluations/{evaluation_id}/elements/{index}",
+        "/api/projects/{project_id}/evaluations/{evaluation_id}/frames/{frame}/view.png",
+        "/api/projects/{project_id}/plans/{plan_id}/versions/{number}/frames/{frame}/view.png",
+    }
+    for path in viewer:
+        op = schema["paths"][path]["get"]
+        assert op["summary"] and "404" in op["responses"], path
