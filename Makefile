@@ -52,6 +52,7 @@ bench: $(STAMP)
 	$(BIN)/python benchmarks/planning.py
 	$(BIN)/python benchmarks/validation.py
 	$(BIN)/python benchmarks/large.py
+	$(BIN)/python benchmarks/pointcloud.py
 
 clean:
 	rm -rf $(VENV) sightplan-demo sightplan-out sightplan-progress sightplan-study sightplan-validate .pytest_cache

@@ -17,6 +17,7 @@ from __future__ import annotations
 import hashlib
 import json
 import math
+import struct
 import time
 from dataclasses import replace
 from pathlib import Path
@@ -357,6 +358,7 @@ def _read_ply_points(path: Path) -> PointCloud:
 def _read_las_points(path: Path) -> tuple[PointCloud, str | None]:
     import laspy
 
+    _check_las_header(path)
     try:
         las = laspy.read(str(path))
         points = np.column_stack([np.asarray(las.x, np.float64), np.asarray(las.y, np.float64),
@@ -382,6 +384,122 @@ def read_point_cloud(path: str | Path) -> PointCloud:
     path = Path(path)
     cloud, _ = _read_cloud(path)
     return PointCloud(check_points(cloud.points, path.name), cloud.normals)
+
+
+_LAS_MIN_HEADER = 227  # bytes of a LAS 1.0–1.2 public header block
+_VLR_HEADER = 54
+
+
+def _check_las_header(path: Path) -> None:
+    """A ModelError when the fixed part of a LAS header cannot be right (a corrupt file would send the reader
+    through billions of records): signature, header size, offset to the points, number of VLRs."""
+    size = path.stat().st_size
+    with open(path, "rb") as fh:
+        head = fh.read(_LAS_MIN_HEADER)
+    if len(head) < _LAS_MIN_HEADER or head[:4] != b"LASF":
+        raise ModelError(f"{path.name} cannot be read as LAS/LAZ: no LAS header (the file starts {head[:4]!r})")
+    header_size, offset, n_vlrs = struct.unpack_from("<HII", head, 94)
+    if not (_LAS_MIN_HEADER <= header_size <= offset <= size and n_vlrs * _VLR_HEADER <= offset - header_size):
+        raise ModelError(f"{path.name} cannot be read as LAS/LAZ: a corrupt header (header size {header_size}, "
+                         f"points at byte {offset} of {size}, {n_vlrs} variable-length records)")
+
+
+class PointChunkReader:
+    """A PLY or LAS/LAZ point cloud read a chunk at a time, so files larger than memory can be streamed.
+
+    ``n``: the number of points the file declares; ``has_colours``: whether it stores red,
+    green and blue. :meth:`chunks` yields ``(points, colours)``: (k, 3) float64 coordinates as
+    :func:`read_point_cloud` gives them (LAS scale and offset applied) and (k, 3) unsigned
+    integer colours as stored (LAS: 16-bit channels, PLY: usually 8-bit; float PLY colours in
+    0–1 come as 8-bit), or None. A PLY file is memory-mapped when binary; LAZ is decompressed
+    chunk by chunk. Reader failures raise a ModelError; coordinates are not checked here.
+    """
+
+    _PLY_COLOURS = (("red", "green", "blue"), ("diffuse_red", "diffuse_green", "diffuse_blue"))
+
+    def __init__(self, path: str | Path, chunk_points: int = 2_000_000) -> None:
+        self.path = Path(path)
+        self.name = self.path.name
+        self.chunk_points = max(1, int(chunk_points))
+        _check_file(self.path)
+        ext = self.path.suffix.lower()
+        self._ply_vertex = None
+        self._ply_colours: tuple[str, ...] | None = None
+        if ext in POINT_CLOUD_EXTENSIONS:
+            import laspy
+
+            _check_las_header(self.path)
+            try:
+                with laspy.open(str(self.path)) as reader:
+                    self.n = int(reader.header.point_count)
+                    self.has_colours = {"red", "green", "blue"} <= set(reader.header.point_format.dimension_names)
+            except Exception as exc:  # laspy raises LaspyException, ValueError, OSError, ...
+                raise ModelError(f"{self.name} cannot be read as LAS/LAZ: {type(exc).__name__}: {exc}") from exc
+            self._kind = "las"
+        elif ext == ".ply":
+            from plyfile import PlyData
+
+            try:
+                ply = PlyData.read(str(self.path))  # binary files are memory-mapped, not loaded
+            except Exception as exc:  # plyfile raises PlyParseError, ValueError, EOFError, ...
+                raise ModelError(f"{self.name} cannot be read as PLY: {type(exc).__name__}: {exc}") from exc
+            if "vertex" not in [e.name for e in ply.elements]:
+                raise ModelError(f"{self.name} has no vertex element, so no points")
+            vertex = ply["vertex"].data
+            fields = set(vertex.dtype.names or ())
+            if not {"x", "y", "z"} <= fields:
+                found = ", ".join(sorted(fields)) or "none"
+                raise ModelError(f"{self.name}: the vertices have no x, y, z properties (found {found})")
+            self._ply_vertex = vertex
+            self._ply_colours = next((names for names in self._PLY_COLOURS if set(names) <= fields), None)
+            self.n = len(vertex)
+            self.has_colours = self._ply_colours is not None
+            self._kind = "ply"
+        else:
+            raise ModelError(f"{self.name}: unsupported point cloud format {ext or '(no extension)'!r}; "
+                             "supported: .ply, .las, .laz")
+
+    def chunks(self):
+        """Yield (points, colours or None) for consecutive runs of at most ``chunk_points`` points."""
+        if self._kind == "las":
+            yield from self._las_chunks()
+        else:
+            yield from self._ply_chunks()
+
+    def _las_chunks(self):
+        import laspy
+
+        try:
+            with laspy.open(str(self.path)) as reader:
+                for pts in reader.chunk_iterator(self.chunk_points):
+                    if len(pts) == 0:
+                        continue
+                    xyz = np.column_stack([np.asarray(pts.x, np.float64), np.asarray(pts.y, np.float64),
+                                           np.asarray(pts.z, np.float64)])
+                    rgb = (np.column_stack([np.asarray(pts.red), np.asarray(pts.green), np.asarray(pts.blue)])
+                           if self.has_colours else None)
+                    yield xyz, rgb
+        except ModelError:
+            raise
+        except Exception as exc:  # a truncated file or a corrupt LAZ chunk
+            raise ModelError(f"{self.name} cannot be read as LAS/LAZ: {type(exc).__name__}: {exc}") from exc
+
+    def _ply_chunks(self):
+        vertex = self._ply_vertex
+        for i in range(0, self.n, self.chunk_points):
+            try:
+                part = np.asarray(vertex[i:i + self.chunk_points])
+            except Exception as exc:  # a memory-mapped file shorter than its header says
+                raise ModelError(f"{self.name} cannot be read as PLY: {type(exc).__name__}: {exc}") from exc
+            xyz = np.column_stack([np.asarray(part[c], np.float64) for c in "xyz"])
+            rgb = None
+            if self._ply_colours is not None:
+                rgb = np.column_stack([np.asarray(part[c]) for c in self._ply_colours])
+                if rgb.dtype.kind == "f":
+                    rgb = np.rint(np.clip(np.nan_to_num(rgb), 0.0, 1.0) * 255.0).astype(np.uint8)
+                elif rgb.dtype.kind == "i":
+                    rgb = np.clip(rgb, 0, None).astype(np.uint64)
+            yield xyz, rgb
 
 
 def _read_cloud(path: Path) -> tuple[PointCloud, str | None]:

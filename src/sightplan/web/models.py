@@ -122,9 +122,10 @@ class Job(Base):
 
     id: Mapped[int] = mapped_column(primary_key=True)
     project_id: Mapped[int] = mapped_column(ForeignKey("projects.id", ondelete="CASCADE"), index=True)
-    kind: Mapped[str] = mapped_column(String(16))  # load_model, evaluate, link_schedule
+    kind: Mapped[str] = mapped_column(String(16))  # load_model, evaluate, link_schedule, prep_reality
     model_id: Mapped[int | None] = mapped_column(ForeignKey("models.id", ondelete="CASCADE"), default=None)
     schedule_id: Mapped[int | None] = mapped_column(ForeignKey("schedules.id", ondelete="CASCADE"), default=None)
+    reality_id: Mapped[int | None] = mapped_column(ForeignKey("reality.id", ondelete="CASCADE"), default=None)
     evaluation_id: Mapped[int | None] = mapped_column(ForeignKey("evaluations.id", ondelete="CASCADE"), default=None)
     status: Mapped[str] = mapped_column(String(16), default="queued")  # queued, running, done, failed
     progress_done: Mapped[float] = mapped_column(Float, default=0.0)
@@ -205,6 +206,28 @@ class Schedule(Base):
     report: Mapped[dict[str, Any] | None] = mapped_column(default=None)
     first_date: Mapped[str | None] = mapped_column(String(10), default=None)
     last_date: Mapped[str | None] = mapped_column(String(10), default=None)
+    created_at: Mapped[dt.datetime] = mapped_column(default=utcnow)
+
+
+class Reality(Base):
+    """A reality capture of the site (a point cloud or a reconstructed mesh) in the model's frame, prepared in the
+    worker for the viewer: a point cloud as a 3D Tiles octree in ``reality/<view_name>/``, a mesh as one GLB
+    ``reality/<view_name>.glb``. Evaluations may take it as occluders (the site as it stands)."""
+
+    __tablename__ = "reality"
+
+    id: Mapped[int] = mapped_column(primary_key=True)
+    project_id: Mapped[int] = mapped_column(ForeignKey("projects.id", ondelete="CASCADE"), index=True)
+    original_name: Mapped[str] = mapped_column(String(255))
+    stored_name: Mapped[str] = mapped_column(String(64), unique=True)
+    view_name: Mapped[str] = mapped_column(String(64), unique=True)
+    kind: Mapped[str] = mapped_column(String(16))  # points, mesh
+    size_bytes: Mapped[int] = mapped_column(Integer)
+    status: Mapped[str] = mapped_column(String(16), default="queued")  # queued, preparing, ready, failed
+    error: Mapped[str | None] = mapped_column(Text, default=None)
+    points: Mapped[int | None] = mapped_column(Integer, default=None)
+    triangles: Mapped[int | None] = mapped_column(Integer, default=None)
+    bounds: Mapped[dict[str, Any] | None] = mapped_column(default=None)  # {"lo": [x, y, z], "hi": [x, y, z]}
     created_at: Mapped[dt.datetime] = mapped_column(default=utcnow)
 
 

@@ -38,6 +38,8 @@ class InfoOut(BaseModel):
     max_upload_bytes: int
     templates: list[str]
     export_formats: list[str]
+    aircraft: dict[str, str] = Field(default_factory=dict, description="Aircraft and rover presets of the plan form: "
+                                                                       "id → name")
 
 
 class ProjectIn(BaseModel):
@@ -73,10 +75,11 @@ class ModelDetailOut(ModelOut):
 class JobOut(Orm):
     id: int
     project_id: int
-    kind: Literal["load_model", "evaluate", "link_schedule"]
+    kind: Literal["load_model", "evaluate", "link_schedule", "prep_reality"]
     model_id: int | None
     evaluation_id: int | None
     schedule_id: int | None = None
+    reality_id: int | None = None
     status: JobStatus
     progress_done: float
     progress_total: float
@@ -183,6 +186,8 @@ class EvaluationIn(BaseModel):
     schedule_id: int | None = Field(None, description="Schedule dating the elements (default: the model's latest)")
     date_basis: Literal["finish", "start"] = Field("finish", description="Which schedule date builds an element")
     unscheduled: Literal["present", "absent"] = Field("present", description="Elements no schedule dates")
+    reality_id: int | None = Field(None, description="A reality capture of the site (scaffolding, neighbours, what "
+                                                     "stands): it hides what is behind it, and is not scored")
 
 
 class EvaluationOut(Orm):

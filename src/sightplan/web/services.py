@@ -39,10 +39,11 @@ def report_summary(report: LoadReport) -> dict[str, Any]:
 
 
 FOURD_KEY = "fourd"  # the capture date of an evaluation, kept beside its settings
+REALITY_KEY = "reality_id"  # the reality capture an evaluation takes as occluders
 
 
 def evaluation_settings(s: dict[str, Any]) -> EvaluationSettings:
-    v = SettingsIn(**{k: x for k, x in s.items() if k != FOURD_KEY})
+    v = SettingsIn(**{k: x for k, x in s.items() if k not in (FOURD_KEY, REALITY_KEY)})
     return EvaluationSettings(engine=v.engine, scale=v.scale, d_max=v.d_max, feature_density=v.feature_density,
                               feature_seed=v.seed, metric=MetricParams(omega=v.omega, k=v.k, min_track=v.min_track,
                                                                        min_features=v.min_features))

@@ -47,7 +47,8 @@ class Storage:
         self.tmp = root / "tmp"
         self.cache = root / "cache"
         self.schedules = root / "schedules"
-        for folder in (self.models, self.plans, self.evaluations, self.tmp, self.cache, self.schedules):
+        self.reality = root / "reality"
+        for folder in (self.models, self.plans, self.evaluations, self.tmp, self.cache, self.schedules, self.reality):
             folder.mkdir(parents=True, exist_ok=True)
 
     @staticmethod
@@ -59,6 +60,10 @@ class Storage:
 
     def plan_path(self, stored_name: str) -> Path:
         return self.plans / stored_name
+
+    def reality_path(self, stored_name: str) -> Path:
+        """An uploaded capture, or its prepared view (a tileset folder or a .glb)."""
+        return self.reality / stored_name
 
     def schedule_path(self, stored_name: str) -> Path:
         return self.schedules / stored_name

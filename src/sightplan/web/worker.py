@@ -14,8 +14,9 @@ from sqlalchemy import select
 
 from ..errors import SightplanError
 from .db import Database
-from .models import Evaluation, Job, Model, PlanVersion, Schedule, utcnow
-from .services import FOURD_KEY, dated_scene, evaluation_settings, load_scene, report_summary, save_element_dates
+from .models import Evaluation, Job, Model, PlanVersion, Reality, Schedule, utcnow
+from .scenes import evaluation_scene
+from .services import evaluation_settings, load_scene, report_summary, save_element_dates
 from .storage import Storage
 
 log = logging.getLogger("sightplan.web")
@@ -49,6 +50,10 @@ def recover_interrupted(db: Database) -> int:
                 schedule = s.get(Schedule, job.schedule_id)
                 if schedule is not None and schedule.status in ("queued", "linking"):
                     schedule.status, schedule.error = "failed", INTERRUPTED
+            if job.reality_id is not None:
+                reality = s.get(Reality, job.reality_id)
+                if reality is not None and reality.status in ("queued", "preparing"):
+                    reality.status, reality.error = "failed", INTERRUPTED
             if job.evaluation_id is not None:
                 ev = s.get(Evaluation, job.evaluation_id)
                 if ev is not None and ev.status in ("queued", "running"):
@@ -130,6 +135,8 @@ class Worker:
                 self._load_model(job_id)
             elif kind == "link_schedule":
                 self._link_schedule(job_id)
+            elif kind == "prep_reality":
+                self._prepare_reality(job_id)
             else:
                 self._evaluate(job_id)
         except Exception as exc:  # every failure is recorded on the job; a bug is logged with its traceback too
@@ -169,6 +176,15 @@ class Worker:
                                                                                   schedule.original_name)
                     job.error = message
                     schedule.status, schedule.error = "failed", message
+            if job.reality_id is not None:
+                reality = s.get(Reality, job.reality_id)
+                if reality is not None:
+                    message = message.replace(str(self.storage.reality_path(reality.stored_name)),
+                                              reality.original_name).replace(reality.stored_name, reality.original_name)
+                    job.error = message
+                    reality.status, reality.error = "failed", message
+                    self.storage.remove(self.storage.reality_path(reality.view_name),
+                                        self.storage.reality_path(reality.view_name + ".glb"))
             if job.evaluation_id is not None:
                 ev = s.get(Evaluation, job.evaluation_id)
                 if ev is not None:
@@ -227,17 +243,9 @@ class Worker:
             evaluation_id, stored_model, stored_plan = ev_row.id, model.stored_name, version.stored_name
             settings_json, result_name = dict(ev_row.settings), ev_row.result_dir
             model_label, plan_label = model.original_name, f"{version.plan.name} v{version.number}"
-            fourd = settings_json.get(FOURD_KEY)
-            dates_name = None
-            if fourd is not None:
-                schedule = s.get(Schedule, fourd["schedule_id"])
-                if schedule is None or schedule.status != "ready":
-                    raise SightplanError(f"schedule {fourd['schedule_id']} was deleted or is not ready")
-                dates_name = schedule.dates_name
         settings = evaluation_settings(settings_json)
-        scene, _ = load_scene(self.storage, stored_model)
-        if fourd is not None and dates_name is not None:
-            scene = dated_scene(scene, self.storage.schedule_path(dates_name), fourd)
+        with self.db.session() as s:
+            scene = evaluation_scene(self.storage, s, stored_model, settings_json)
         plan = read_plan(self.storage.plan_path(stored_plan))
         progress = self._progress(job_id, len(plan), evaluation_id)
         result = evaluate(scene, plan, settings, cache_dir=self.storage.frame_cache, progress=lambda i, n: progress(i))
@@ -258,6 +266,42 @@ class Worker:
             vc = report["metrics"]["VC_pct"]
             job.message = (f"VC {vc:.1f} %" if vc is not None else "done") + \
                 (f"; {result.cache_hits} of {len(plan)} frames unchanged, taken from the cache" if result.cache_hits else "")
+
+    def _prepare_reality(self, job_id: int) -> None:
+        """A point cloud → a 3D Tiles octree for the viewer; a mesh → one GLB (glTF's Y up)."""
+        with self.db.session() as s:
+            job = s.get(Job, job_id)
+            assert job is not None and job.reality_id is not None
+            row = s.get(Reality, job.reality_id)
+            if row is None:
+                raise SightplanError("the reality capture was deleted")
+            row.status = "preparing"
+            job.message, job.progress_total = f"preparing {row.original_name} for the viewer", 1.0
+            source, view, kind, reality_id = (self.storage.reality_path(row.stored_name), row.view_name, row.kind,
+                                              row.id)
+        self._check(job_id)
+        points = triangles = None
+        if kind == "points":
+            from .pointtiles import write_point_tiles
+
+            summary = write_point_tiles(source, self.storage.reality_path(view))
+            points, (lo, hi) = summary.n_points, summary.bounds
+            message = f"{points:,} points in {summary.n_tiles} tiles, {summary.depth + 1} levels"
+        else:
+            from ..model.load import load_model
+
+            scene, _ = load_model(source, cache=False)
+            lo, hi = (b.tolist() for b in scene.bounds())
+            triangles = int(len(scene.faces))
+            write_mesh_glb(scene.vertices, scene.faces, self.storage.reality_path(view + ".glb"))
+            message = f"{triangles:,} triangles"
+        with self.db.session() as s:
+            row, job = s.get(Reality, reality_id), s.get(Job, job_id)
+            if row is None or job is None:
+                return
+            row.status, row.points, row.triangles = "ready", points, triangles
+            row.bounds = {"lo": [float(v) for v in lo], "hi": [float(v) for v in hi]}
+            job.progress_done, job.message = 1.0, message
 
     def _link_schedule(self, job_id: int) -> None:
         from ..schedule import link_schedule, read_schedule
@@ -294,6 +338,19 @@ class Worker:
                                "targets": report.n_targets, "dated": report.dated, "warnings": list(report.warnings)}
             job.progress_done = 1.0
             job.message = f"linked {report.linked} of {report.n_targets} elements to {report.n_tasks} tasks"
+
+
+def write_mesh_glb(vertices, faces, path) -> None:
+    """A triangle mesh as a binary glTF with glTF's Y up: model (x, y, z) is (x, z, −y) in the file, as in the point
+    tiles, so the viewer turns both the same way."""
+    import numpy as np
+    import trimesh
+
+    v = np.asarray(vertices, float)
+    mesh = trimesh.Trimesh(np.column_stack([v[:, 0], v[:, 2], -v[:, 1]]), np.asarray(faces), process=False)
+    tmp = path.with_suffix(".glb.part")
+    tmp.write_bytes(mesh.export(file_type="glb"))
+    tmp.replace(path)
 
 
 def _jsonable(rows: list[dict]) -> list[dict]:

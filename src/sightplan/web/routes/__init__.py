@@ -1,6 +1,6 @@
 """The REST API's routers, one module per resource."""
 
-from . import auth, evaluations, info, jobs, members, models, plans, projects, schedules, shared, viewer
+from . import auth, evaluations, info, jobs, members, models, plans, projects, reality, schedules, shared, viewer
 
 ROUTERS = [info.router, projects.router, models.router, plans.router, evaluations.router, jobs.router,
-           auth.router, members.router, schedules.router, shared.router, viewer.router]
+           auth.router, members.router, schedules.router, reality.router, shared.router, viewer.router]

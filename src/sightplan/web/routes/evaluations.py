@@ -13,9 +13,10 @@ from sqlalchemy.orm import Session
 
 from ...errors import ReportError
 from ..deps import PROJECT_ACCESS, SessionDep, StateDep, get_project, in_project
-from ..models import Evaluation, Job, Model, Plan, Schedule
+from ..models import Evaluation, Job, Model, Plan, Reality, Schedule
+from ..scenes import evaluation_scene
 from ..schemas import ElementsOut, ErrorOut, EvaluationIn, EvaluationOut, EvaluationStartOut, JobOut
-from ..services import FOURD_KEY, dated_scene, evaluation_settings, load_scene, rebuilt_evaluation
+from ..services import FOURD_KEY, REALITY_KEY, evaluation_settings, rebuilt_evaluation
 
 router = APIRouter(prefix="/api/projects/{project_id}/evaluations", tags=["evaluations"], dependencies=PROJECT_ACCESS)
 NOT_FOUND = {404: {"model": ErrorOut, "description": "No such project, evaluation, plan, version or model"}}
@@ -70,6 +71,11 @@ def start_evaluation(project_id: int, body: EvaluationIn, session: SessionDep, s
         raise HTTPException(409, f"model {model_id} is {model.status}, not ready" + (f": {model.error}" if model.error else ""))
     settings = body.settings.model_dump()
     evaluation_settings(settings)  # the library's own checks, before anything is queued
+    if body.reality_id is not None:
+        reality = in_project(session, Reality, body.reality_id, project_id, "reality capture")
+        if reality.status != "ready":
+            raise HTTPException(409, f"reality capture {reality.id} is {reality.status}, not ready")
+        settings[REALITY_KEY] = reality.id
     if body.date is not None:
         settings[FOURD_KEY] = capture_date(session, project_id, model_id, body)
     elif body.schedule_id is not None:
@@ -134,13 +140,7 @@ def read_html_report(project_id: int, evaluation_id: int, session: SessionDep, s
         assert model is not None
         try:
             result = rebuilt_evaluation(folder, ev.settings, ev.metrics or {})
-            scene = load_scene(state.storage, model.stored_name)[0]
-            fourd = ev.settings.get(FOURD_KEY)
-            if fourd is not None:
-                schedule = session.get(Schedule, fourd["schedule_id"])
-                if schedule is None:
-                    raise HTTPException(409, f"the schedule of evaluation {ev.id}'s capture date was deleted")
-                scene = dated_scene(scene, state.storage.schedule_path(schedule.dates_name), fourd)
+            scene = evaluation_scene(state.storage, session, model.stored_name, ev.settings)
             plan = read_plan(state.storage.plan_path(version.stored_name))
             tmp = state.storage.temp_path(".html")
             write_html(result, scene, plan, tmp, model_label=model.original_name,

@@ -6,6 +6,7 @@ from fastapi import APIRouter
 
 from ... import __version__
 from ...export import EXPORT_FORMATS
+from ...plan.checks import battery
 from ..deps import StateDep
 from ..schemas import CameraOut, InfoOut
 
@@ -22,7 +23,8 @@ def info(state: StateDep) -> InfoOut:
                    message=TEAM if cfg.team else SINGLE_USER, database=database,
                    data_dir="" if cfg.team else str(cfg.data_dir),
                    max_upload_bytes=cfg.max_upload_bytes, templates=["facade", "orbit", "lawnmower", "bridge", "route"],
-                   export_formats=list(EXPORT_FORMATS))
+                   export_formats=list(EXPORT_FORMATS),
+                   aircraft={k: v.name for k, v in {**battery.AIRCRAFT, **battery.ROVERS}.items()})
 
 
 @router.get("/cameras", response_model=list[CameraOut], summary="The built-in camera catalogue")

@@ -8,7 +8,7 @@ from fastapi import APIRouter, File, HTTPException, Response, UploadFile
 from sqlalchemy import select
 
 from ..deps import PROJECT_ACCESS, SessionDep, StateDep, get_project, in_project
-from ..models import Evaluation, Job, Model
+from ..models import Evaluation, Job, Model, Schedule
 from ..schemas import ErrorOut, JobOut, ModelDetailOut, ModelOut, ModelUploadOut
 from ..storage import MODEL_SUFFIXES, display_name
 from ..uploads import receive_upload
@@ -73,6 +73,8 @@ def delete_model(project_id: int, model_id: int, session: SessionDep, state: Sta
         raise HTTPException(409, f"job {busy.id} is still running on model {model_id}; delete it when it is done")
     files = [state.storage.model_path(model.stored_name)] + [state.storage.evaluation_dir(e.result_dir)
                                                               for e in evaluations]
+    for sched in session.scalars(select(Schedule).where(Schedule.model_id == model_id)):
+        files += [state.storage.schedule_path(n) for n in (sched.stored_name, sched.rules_name, sched.dates_name) if n]
     session.delete(model)
     session.commit()
     state.storage.remove(*files)

@@ -7,7 +7,7 @@ from sqlalchemy import select
 
 from ..auth import role_of
 from ..deps import ProjectOwn, ProjectRead, SessionDep, StateDep, UserDep
-from ..models import Evaluation, Job, Membership, Project
+from ..models import Evaluation, Job, Membership, Project, Reality, Schedule
 from ..schemas import ErrorOut, ProjectIn, ProjectOut
 
 router = APIRouter(prefix="/api/projects", tags=["projects"])
@@ -67,6 +67,10 @@ def delete_project(project: ProjectOwn, session: SessionDep, state: StateDep) ->
     files += [storage.plan_path(v.stored_name) for p in project.plans for v in p.versions]
     files += [storage.evaluation_dir(e.result_dir)
               for e in session.scalars(select(Evaluation).where(Evaluation.project_id == project_id))]
+    for sched in session.scalars(select(Schedule).where(Schedule.project_id == project_id)):
+        files += [storage.schedule_path(n) for n in (sched.stored_name, sched.rules_name, sched.dates_name) if n]
+    for real in session.scalars(select(Reality).where(Reality.project_id == project_id)):
+        files += [storage.reality_path(n) for n in (real.stored_name, real.view_name, real.view_name + ".glb")]
     session.delete(project)
     session.commit()
     storage.remove(*files)

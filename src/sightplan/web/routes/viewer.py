@@ -24,8 +24,9 @@ from sqlalchemy.orm import Session
 from ...errors import ReportError
 from ..deps import ProjectRead, ServerState, SessionDep, StateDep, in_project
 from ..models import Evaluation, Model, Plan, PlanVersion
+from ..scenes import evaluation_scene
 from ..schemas import ErrorOut
-from ..services import load_scene, rebuilt_evaluation
+from ..services import FOURD_KEY, REALITY_KEY, load_scene, rebuilt_evaluation
 
 router = APIRouter(tags=["viewer"])
 NOT_FOUND = {404: {"model": ErrorOut, "description": "No such project, model, plan, version, evaluation, frame or element"}}
@@ -34,8 +35,9 @@ BAD_VALUE = {422: {"model": ErrorOut, "description": "An unknown metric or bad b
 PNG = {200: {"description": "A PNG image", "content": {"image/png": {}}}}
 
 STATIC_DIR = Path(__file__).resolve().parents[1] / "static"
-# Only these packages of web/node_modules are served, read-only, under /vendor/<package>/.
-VENDOR_PACKAGES = ("three", "three-mesh-bvh")
+# Only these packages of web/node_modules are served, read-only, under /vendor/<package>/ (3d-tiles-renderer streams
+# reality point clouds; its build imports nothing but three.js and its own chunks).
+VENDOR_PACKAGES = ("three", "three-mesh-bvh", "3d-tiles-renderer")
 GEOMETRY_MAGIC = b"SPG1"
 GEOMETRY_MEDIA = "application/vnd.sightplan.geometry"
 NEUTRAL_TARGET = (0.78, 0.81, 0.86)  # elements of a view without an evaluation
@@ -108,15 +110,22 @@ def evaluation_result(state: ServerState, ev: Evaluation):
     return _evaluation_cache.get(ev.result_dir, lambda: rebuilt_evaluation(folder, ev.settings, ev.metrics or {}))
 
 
-def view_engine(state: ServerState, model: Model, d_max: float):
-    """A ray engine over the model for simulated views (Embree where it is installed), kept for the next view."""
+def view_engine(state: ServerState, model: Model, d_max: float, session: Session | None = None,
+                settings: dict[str, Any] | None = None):
+    """A ray engine for simulated views (Embree where it is installed), kept for the next view: over the model, or
+    over the scene an evaluation ran against (``settings``: at its capture date, with its reality capture)."""
     from ...engines.registry import make_engine, ray_engine_name
 
+    site = {k: v for k, v in (settings or {}).items() if k in (FOURD_KEY, REALITY_KEY)}
+
     def make():
-        scene = load_scene(state.storage, model.stored_name)[0]
+        if site and session is not None:
+            scene = evaluation_scene(state.storage, session, model.stored_name, site)
+        else:
+            scene = load_scene(state.storage, model.stored_name)[0]
         return make_engine(ray_engine_name("auto"), scene, d_max=d_max, threads=1)
 
-    return _engine_cache.get((model.stored_name, float(d_max)), make)
+    return _engine_cache.get((model.stored_name, float(d_max), json.dumps(site, sort_keys=True)), make)
 
 
 def check_frame(plan, frame: int) -> None:
@@ -297,13 +306,13 @@ def plan_checks(project: ProjectRead, plan_id: int, number: int, session: Sessio
 
 
 # --------------------------------------------------------------------------- an evaluation
-def feedback_dict(state: ServerState, ev_row: Evaluation, model: Model) -> dict[str, Any]:
+def feedback_dict(state: ServerState, session: Session, ev_row: Evaluation, model: Model) -> dict[str, Any]:
     from ...report.gltf import GRADIENT, OCCLUDER, UNSEEN
     from ...report.html import viewer_data
     from ...report.overview import OBSERVED_ONLY, VISIBLE
 
     ev = evaluation_result(state, ev_row)
-    scene = load_scene(state.storage, model.stored_name)[0]
+    scene = evaluation_scene(state.storage, session, model.stored_name, ev_row.settings)
     plan = read_stored_plan(state, ev_row.plan_version)
     data = viewer_data(ev, scene, plan, "visibility", None)
     em, fm, mp = ev.metrics.elements, ev.metrics.frames, ev.metrics.params
@@ -337,7 +346,7 @@ def evaluation_feedback(project: ProjectRead, evaluation_id: int, session: Sessi
     ev_row = done_evaluation(session, project.id, evaluation_id)
     model = in_project(session, Model, ev_row.model_id, project.id, "model")
     body = _feedback_cache.get(ev_row.result_dir, lambda: json.dumps(
-        feedback_dict(state, ev_row, model), allow_nan=False, separators=(",", ":")).encode())
+        feedback_dict(state, session, ev_row, model), allow_nan=False, separators=(",", ":")).encode())
     return Response(body, media_type="application/json")
 
 
@@ -352,7 +361,7 @@ def evaluation_element(project: ProjectRead, evaluation_id: int, index: int, ses
                        ) -> dict[str, Any]:
     ev_row = done_evaluation(session, project.id, evaluation_id)
     model = in_project(session, Model, ev_row.model_id, project.id, "model")
-    scene = load_scene(state.storage, model.stored_name)[0]
+    scene = evaluation_scene(state.storage, session, model.stored_name, ev_row.settings)
     if not 0 <= index < scene.n_elements:
         raise HTTPException(404, f"element {index} not found: the model has elements 0 to {scene.n_elements - 1}")
     rows = json.loads((state.storage.evaluation_dir(ev_row.result_dir) / "elements.json").read_text(encoding="utf-8"))
@@ -425,7 +434,8 @@ def evaluation_view(project: ProjectRead, evaluation_id: int, frame: int, sessio
     rgb = metric_colours(ev.metrics.elements, colour_by, None if lo is None else (lo, hi))[:, :3]  # type: ignore[arg-type]
     plan = read_stored_plan(state, ev_row.plan_version)
     check_frame(plan, frame)
-    data, ids = view_png(view_engine(state, model, ev.settings.d_max), plan, frame, rgb, width, shading)
+    data, ids = view_png(view_engine(state, model, ev.settings.d_max, session, ev_row.settings), plan, frame, rgb,
+                         width, shading)
     return _png(data, ids)
 
 
