@@ -7,7 +7,6 @@ checked too: a non-member gets 404 on all of them, a viewer 403 on every one tha
 from __future__ import annotations
 
 import re
-import time
 from pathlib import Path
 
 import pytest
@@ -23,6 +22,7 @@ from sightplan.cli.main import app as cli  # noqa: E402
 from sightplan.model.load import sample_model_path  # noqa: E402
 from sightplan.web.app import create_app  # noqa: E402
 from sightplan.web.config import ServerConfig  # noqa: E402
+from web_support import wait_job  # noqa: E402
 
 PASSWORDS = {"alice": "alice-secret-1", "bob": "bob-secret-22", "carol": "carol-secret-333"}
 
@@ -40,14 +40,6 @@ def login(client: TestClient, name: str) -> TestClient:
     return client
 
 
-def wait_job(client: TestClient, job_id: int, timeout_s: float = 90.0) -> dict:
-    deadline = time.monotonic() + timeout_s
-    while True:
-        job = client.get(f"/api/jobs/{job_id}").json()
-        if job["status"] in ("done", "failed"):
-            return job
-        assert time.monotonic() < deadline
-        time.sleep(0.1)
 
 
 @pytest.fixture(scope="module")

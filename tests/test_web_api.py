@@ -25,6 +25,7 @@ from sqlalchemy import create_engine, text  # noqa: E402
 from sightplan.model.load import sample_model_path  # noqa: E402
 from sightplan.web.app import create_app  # noqa: E402
 from sightplan.web.config import ServerConfig, is_loopback  # noqa: E402
+from web_support import wait_job  # noqa: E402
 
 SCALE = 0.05
 CUBE_OBJ = """o box
@@ -51,14 +52,6 @@ f 4 5 8
 """
 
 
-def wait_job(client: TestClient, job_id: int, timeout_s: float = 60.0) -> dict:
-    deadline = time.monotonic() + timeout_s
-    while True:
-        job = client.get(f"/api/jobs/{job_id}").json()
-        if job["status"] in ("done", "failed"):
-            return job
-        assert time.monotonic() < deadline, f"job {job_id} still {job['status']} after {timeout_s} s"
-        time.sleep(0.1)
 
 
 def files_under(folder: Path) -> set[Path]:

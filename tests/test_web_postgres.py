@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import json
 import os
-import time
 
 import pytest
 
@@ -23,6 +22,7 @@ from sightplan.model.load import load_model, sample_model_path  # noqa: E402
 from sightplan.plan.format import plan_from_dict  # noqa: E402
 from sightplan.web.app import create_app  # noqa: E402
 from sightplan.web.config import ServerConfig  # noqa: E402
+from web_support import wait_job  # noqa: E402
 
 SCALE = 0.05
 
@@ -47,14 +47,6 @@ def new_database(url: str, name: str) -> str:
     return f"{base.rsplit('/', 1)[0]}/{name}?{query}"
 
 
-def wait_job(client: TestClient, job_id: int, timeout_s: float = 120.0) -> dict:
-    deadline = time.monotonic() + timeout_s
-    while True:
-        job = client.get(f"/api/jobs/{job_id}").json()
-        if job["status"] in ("done", "failed"):
-            return job
-        assert time.monotonic() < deadline
-        time.sleep(0.1)
 
 
 def test_the_api_flow_on_postgresql_survives_a_restart(pg_url, tmp_path):

@@ -7,7 +7,6 @@ from __future__ import annotations
 import io
 import json
 import struct
-import time
 
 import numpy as np
 import pytest
@@ -25,16 +24,11 @@ from sightplan.model.reality import combine, load_reality  # noqa: E402
 from sightplan.plan.format import plan_from_dict  # noqa: E402
 from sightplan.web.app import create_app  # noqa: E402
 from sightplan.web.config import ServerConfig  # noqa: E402
+from web_support import wait_job  # noqa: E402
 
 SCALE = 0.05
 
 
-def wait_job(client, job_id: int) -> dict:
-    deadline = time.monotonic() + 120
-    while (job := client.get(f"/api/jobs/{job_id}").json())["status"] not in ("done", "failed"):
-        assert time.monotonic() < deadline
-        time.sleep(0.1)
-    return job
 
 
 def glb_parts(data: bytes) -> tuple[dict, bytes]:

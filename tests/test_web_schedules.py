@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import json
 import re
-import time
 
 import numpy as np
 import pytest
@@ -25,18 +24,11 @@ from sightplan.model.load import load_model, sample_model_path  # noqa: E402
 from sightplan.plan.format import plan_from_dict  # noqa: E402
 from sightplan.web.app import create_app  # noqa: E402
 from sightplan.web.config import ServerConfig  # noqa: E402
+from web_support import upload_model, wait_job  # noqa: E402
 
 SCALE = 0.05
 
 
-def wait_job(client: TestClient, job_id: int, timeout_s: float = 120.0) -> dict:
-    deadline = time.monotonic() + timeout_s
-    while True:
-        job = client.get(f"/api/jobs/{job_id}").json()
-        if job["status"] in ("done", "failed"):
-            return job
-        assert time.monotonic() < deadline
-        time.sleep(0.1)
 
 
 @pytest.fixture(scope="module")
@@ -45,12 +37,6 @@ def client(tmp_path_factory):
         yield c
 
 
-def upload_model(client, pid: int, path, name: str) -> int:
-    with open(path, "rb") as fh:
-        r = client.post(f"/api/projects/{pid}/models", files={"file": (name, fh)})
-    assert r.status_code == 202, r.text
-    assert wait_job(client, r.json()["job"]["id"])["status"] == "done"
-    return r.json()["model"]["id"]
 
 
 @pytest.fixture(scope="module")

@@ -4,7 +4,6 @@ station, altitude limit): the same plans as the library's templates and checks."
 from __future__ import annotations
 
 import io
-import time
 
 import numpy as np
 import pytest
@@ -20,18 +19,13 @@ from sightplan.plan.checks.feasibility import FlightSettings, plan_flights  # no
 from sightplan.plan.templates import indoor_route  # noqa: E402
 from sightplan.web.app import create_app  # noqa: E402
 from sightplan.web.config import ServerConfig  # noqa: E402
+from web_support import upload_model  # noqa: E402
 
 
 def box(size, corner):
     return trimesh.creation.box(size, trimesh.transformations.translation_matrix(np.add(corner, np.divide(size, 2))))
 
 
-def wait_job(client, job_id: int) -> dict:
-    deadline = time.monotonic() + 60
-    while (job := client.get(f"/api/jobs/{job_id}").json())["status"] not in ("done", "failed"):
-        assert time.monotonic() < deadline
-        time.sleep(0.1)
-    return job
 
 
 @pytest.fixture(scope="module")
@@ -40,11 +34,6 @@ def client(tmp_path_factory):
         yield c
 
 
-def upload(client, pid: int, name: str, data: bytes) -> int:
-    r = client.post(f"/api/projects/{pid}/models", files={"file": (name, data)})
-    assert r.status_code == 202, r.text
-    assert wait_job(client, r.json()["job"]["id"])["status"] == "done"
-    return r.json()["model"]["id"]
 
 
 def test_bridge_template_gives_the_hand_counted_frames(client):
@@ -56,7 +45,7 @@ def test_bridge_template_gives_the_hand_counted_frames(client):
                                      box((4, 2, 8), (28, -5, 0))])
     buf = io.BytesIO()
     mesh.export(buf, file_type="obj")
-    mid = upload(client, pid, "bridge.obj", buf.getvalue())
+    mid = upload_model(client, pid, "bridge.obj", data=buf.getvalue())
     r = client.post(f"/api/projects/{pid}/plans", json={
         "model_id": mid, "template": "bridge", "axis": [[0, 0], [60, 0]], "safety_distance": 15, "height": [],
         "aircraft": "m300", "vlos_radius": 0, "altitude_limit": 0})
@@ -70,7 +59,7 @@ def test_bridge_template_gives_the_hand_counted_frames(client):
 
 def test_route_and_flight_settings_match_the_library(client):
     pid = client.post("/api/projects", json={"name": "duplex"}).json()["id"]
-    mid = upload(client, pid, "duplex.ifc", sample_model_path().read_bytes())
+    mid = upload_model(client, pid, sample_model_path(), "duplex.ifc")
     scene, _ = load_model("sample")
     points = [[2.0, 2.0, 1.6], [12.0, 2.0, 1.6], [12.0, 6.0, 1.6]]
     r = client.post(f"/api/projects/{pid}/plans", json={"model_id": mid, "template": "route", "points": points,

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import sys
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Annotated
 
@@ -91,15 +92,30 @@ users_app = typer.Typer(no_args_is_help=True, help="Accounts of a team server (s
 app.add_typer(users_app, name="users")
 
 
-def _database(data: Path, database: str | None):
+@contextmanager
+def _accounts(data: Path, database: str | None):
+    """A session on the server's database (brought up to date first), committed at the end."""
     from ..web.config import ServerConfig
     from ..web.db import Database, upgrade_database
 
     config = ServerConfig(data_dir=data, database_url=database)
     config.data_dir.mkdir(parents=True, exist_ok=True)
     db = Database(config.url)
-    upgrade_database(db.engine)
-    return db
+    try:
+        upgrade_database(db.engine)
+        with db.session() as s:
+            yield s
+    finally:
+        db.dispose()
+
+
+def _user(s, username: str):
+    from ..web.auth import AccountError, find_user
+
+    user = find_user(s, username)
+    if user is None:
+        raise AccountError(f"no user {username!r}")
+    return user
 
 
 def _password(password_stdin: bool) -> str:
@@ -121,12 +137,8 @@ def users_add(
     from ..web.auth import create_user
 
     password = _password(password_stdin)
-    db = _database(data, database)
-    try:
-        with db.session() as s:
-            create_user(s, username, password)
-    finally:
-        db.dispose()
+    with _accounts(data, database) as s:
+        create_user(s, username, password)
     console.print(f"account {username} created", highlight=False)
 
 
@@ -139,18 +151,11 @@ def users_passwd(
     password_stdin: Annotated[bool, typer.Option("--password-stdin", help="Read the password from stdin")] = False,
 ) -> None:
     """Set an account's password; its login sessions end."""
-    from ..web.auth import AccountError, find_user, set_password
+    from ..web.auth import set_password
 
     password = _password(password_stdin)
-    db = _database(data, database)
-    try:
-        with db.session() as s:
-            user = find_user(s, username)
-            if user is None:
-                raise AccountError(f"no user {username!r}")
-            set_password(s, user, password)
-    finally:
-        db.dispose()
+    with _accounts(data, database) as s:
+        set_password(s, _user(s, username), password)
     console.print(f"password of {username} changed", highlight=False)
 
 
@@ -162,16 +167,12 @@ def users_list(data: DataOpt = Path("sightplan-data"), database: DatabaseOpt = N
 
     from ..web.models import Membership, User
 
-    db = _database(data, database)
-    try:
-        with db.session() as s:
-            for user in s.scalars(select(User).order_by(User.username)):
-                roles = s.execute(select(Membership.project_id, Membership.role)
-                                  .where(Membership.user_id == user.id).order_by(Membership.project_id))
-                text = ", ".join(f"project {pid} {role}" for pid, role in roles) or "no projects"
-                console.print(f"{user.username}: {text}", highlight=False)
-    finally:
-        db.dispose()
+    with _accounts(data, database) as s:
+        for user in s.scalars(select(User).order_by(User.username)):
+            roles = s.execute(select(Membership.project_id, Membership.role)
+                              .where(Membership.user_id == user.id).order_by(Membership.project_id))
+            text = ", ".join(f"project {pid} {role}" for pid, role in roles) or "no projects"
+            console.print(f"{user.username}: {text}", highlight=False)
 
 
 def _sole_owner_of(s, user_id: int) -> list[int]:
@@ -190,21 +191,15 @@ def _sole_owner_of(s, user_id: int) -> list[int]:
 def users_remove(username: Annotated[str, typer.Argument(help="The account")],
                  data: DataOpt = Path("sightplan-data"), database: DatabaseOpt = None) -> None:
     """Delete an account with its sessions, tokens and memberships (its projects stay with their other members)."""
-    from ..web.auth import AccountError, find_user
+    from ..web.auth import AccountError
 
-    db = _database(data, database)
-    try:
-        with db.session() as s:
-            user = find_user(s, username)
-            if user is None:
-                raise AccountError(f"no user {username!r}")
-            sole = _sole_owner_of(s, user.id)
-            if sole:
-                raise AccountError(f"{username} is the only owner of project(s) {', '.join(map(str, sole))}: make "
-                                   "another member owner first")
-            s.delete(user)
-    finally:
-        db.dispose()
+    with _accounts(data, database) as s:
+        user = _user(s, username)
+        sole = _sole_owner_of(s, user.id)
+        if sole:
+            raise AccountError(f"{username} is the only owner of project(s) {', '.join(map(str, sole))}: make "
+                               "another member owner first")
+        s.delete(user)
     console.print(f"account {username} removed", highlight=False)
 
 

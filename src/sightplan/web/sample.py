@@ -8,7 +8,7 @@ import shutil
 from sqlalchemy import select
 
 from .deps import ServerState
-from .models import Evaluation, Job, Model, Plan, Project
+from .models import Job, Model, Plan, Project
 from .schemas import SettingsIn, TemplatePlanIn
 
 SAMPLE_PROJECT = "Duplex sample"
@@ -18,6 +18,7 @@ def ensure_sample_project(state: ServerState, scale: float = 0.25) -> int | None
     """Create the sample project unless a project of that name exists; returns the evaluation's job id (None when
     nothing was made)."""
     from ..model.load import sample_model_path
+    from .routes.evaluations import queue_evaluation
     from .routes.plans import commit_version
     from .services import load_scene, template_plan
 
@@ -50,15 +51,5 @@ def ensure_sample_project(state: ServerState, scale: float = 0.25) -> int | None
                                              source="template facade (p4p)"), template_plan(scene, body),
                               "facade template")
         version = s.scalars(select(Plan).where(Plan.id == plan.id)).one().versions[0]
-        ev = Evaluation(project_id=project_id, plan_version_id=version.id, model_id=model_id,
-                        settings=SettingsIn(scale=scale).model_dump(), result_dir=storage.new_name(),
-                        progress_total=version.frames)
-        s.add(ev)
-        s.flush()
-        job = Job(project_id=project_id, kind="evaluate", evaluation_id=ev.id, model_id=model_id, message="queued",
-                  progress_total=float(version.frames))
-        s.add(job)
-        s.commit()
-        job_id = job.id
-    state.worker.submit(job_id)
+        job_id = queue_evaluation(state, s, version, model_id, SettingsIn(scale=scale).model_dump())[1].id
     return job_id

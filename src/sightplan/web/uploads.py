@@ -3,12 +3,14 @@ name."""
 
 from __future__ import annotations
 
-from collections.abc import AsyncIterator
+from collections.abc import AsyncIterator, Callable, Sequence
 from pathlib import Path
 
 from fastapi import HTTPException, UploadFile
+from sqlalchemy.orm import Session
 
 from .deps import ServerState
+from .models import Base, Job
 from .storage import safe_suffix
 
 CHUNK = 1 << 20
@@ -32,3 +34,22 @@ async def receive_upload(state: ServerState, file: UploadFile, allowed: tuple[st
         path.unlink(missing_ok=True)
         raise HTTPException(400, f"{original}: the file is empty (0 bytes)")
     return path, size
+
+
+def queue_upload(state: ServerState, session: Session, files: Sequence[tuple[Path, Path]],
+                 rows: Callable[[], tuple[Base, Job]]) -> tuple[Base, Job]:
+    """Record an upload and queue the job that prepares it: ``rows()`` adds the rows (flushed, so ids exist) and
+    returns the resource and its job; each received temporary file moves to its place; one commit. On any failure
+    nothing stays behind, neither rows nor files. Returns the rows, the job submitted to the worker."""
+    try:
+        row, job = rows()
+        session.flush()
+        for tmp, target in files:
+            state.storage.adopt(tmp, target)
+        session.commit()
+    except BaseException:
+        session.rollback()
+        state.storage.remove(*(p for pair in files for p in pair))
+        raise
+    state.worker.submit(job.id)
+    return row, job

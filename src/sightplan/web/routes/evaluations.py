@@ -12,8 +12,8 @@ from sqlalchemy import select
 from sqlalchemy.orm import Session
 
 from ...errors import ReportError
-from ..deps import PROJECT_ACCESS, SessionDep, StateDep, get_project, in_project
-from ..models import Evaluation, Job, Model, Plan, Reality, Schedule
+from ..deps import PROJECT_ACCESS, ServerState, SessionDep, StateDep, get_project, in_project
+from ..models import Evaluation, Job, Model, Plan, PlanVersion, Reality, Schedule
 from ..scenes import evaluation_scene
 from ..schemas import ElementsOut, ErrorOut, EvaluationIn, EvaluationOut, EvaluationStartOut, JobOut
 from ..services import FOURD_KEY, REALITY_KEY, evaluation_settings, rebuilt_evaluation
@@ -21,6 +21,22 @@ from ..services import FOURD_KEY, REALITY_KEY, evaluation_settings, rebuilt_eval
 router = APIRouter(prefix="/api/projects/{project_id}/evaluations", tags=["evaluations"], dependencies=PROJECT_ACCESS)
 NOT_FOUND = {404: {"model": ErrorOut, "description": "No such project, evaluation, plan, version or model"}}
 NOT_DONE = {409: {"model": ErrorOut, "description": "The evaluation is not done (yet)"}}
+
+
+def queue_evaluation(state: ServerState, session: Session, version: PlanVersion, model_id: int,
+                     settings: dict) -> tuple[Evaluation, Job]:
+    """Record an evaluation of ``version`` against model ``model_id`` and submit its job to the worker."""
+    project_id = version.plan.project_id
+    ev = Evaluation(project_id=project_id, plan_version_id=version.id, model_id=model_id, settings=settings,
+                    result_dir=state.storage.new_name(), progress_total=version.frames)
+    session.add(ev)
+    session.flush()
+    job = Job(project_id=project_id, kind="evaluate", evaluation_id=ev.id, model_id=model_id, message="queued",
+              progress_total=float(version.frames))
+    session.add(job)
+    session.commit()
+    state.worker.submit(job.id)
+    return ev, job
 
 
 def capture_date(session: Session, project_id: int, model_id: int, body: EvaluationIn) -> dict:
@@ -80,15 +96,7 @@ def start_evaluation(project_id: int, body: EvaluationIn, session: SessionDep, s
         settings[FOURD_KEY] = capture_date(session, project_id, model_id, body)
     elif body.schedule_id is not None:
         raise HTTPException(422, "schedule_id needs a date: the capture date to evaluate the site at")
-    ev = Evaluation(project_id=project_id, plan_version_id=version.id, model_id=model_id, settings=settings,
-                    result_dir=state.storage.new_name(), progress_total=version.frames)
-    session.add(ev)
-    session.flush()
-    job = Job(project_id=project_id, kind="evaluate", evaluation_id=ev.id, model_id=model_id, message="queued",
-              progress_total=float(version.frames))
-    session.add(job)
-    session.commit()
-    state.worker.submit(job.id)
+    ev, job = queue_evaluation(state, session, version, model_id, settings)
     return EvaluationStartOut(evaluation=evaluation_out(ev), job=JobOut.model_validate(job))
 
 

@@ -11,7 +11,7 @@ from ..deps import PROJECT_ACCESS, SessionDep, StateDep, get_project, in_project
 from ..models import Evaluation, Job, Model, Schedule
 from ..schemas import ErrorOut, JobOut, ModelDetailOut, ModelOut, ModelUploadOut
 from ..storage import MODEL_SUFFIXES, display_name
-from ..uploads import receive_upload
+from ..uploads import queue_upload, receive_upload
 
 router = APIRouter(prefix="/api/projects/{project_id}/models", tags=["models"], dependencies=PROJECT_ACCESS)
 NOT_FOUND = {404: {"model": ErrorOut, "description": "No such project or model"}}
@@ -29,22 +29,17 @@ async def upload_model(project_id: int, state: StateDep, session: SessionDep,
     get_project(session, project_id)
     tmp, size = await receive_upload(state, file, MODEL_SUFFIXES, "model")
     stored = state.storage.new_name(tmp.suffix)
-    target = state.storage.model_path(stored)
-    try:
+
+    def rows() -> tuple[Model, Job]:
         model = Model(project_id=project_id, original_name=display_name(file.filename or ""), stored_name=stored,
                       size_bytes=size)
         session.add(model)
         session.flush()
         job = Job(project_id=project_id, kind="load_model", model_id=model.id, message="queued")
         session.add(job)
-        session.flush()
-        state.storage.adopt(tmp, target)
-        session.commit()
-    except BaseException:
-        session.rollback()
-        state.storage.remove(tmp, target)
-        raise
-    state.worker.submit(job.id)
+        return model, job
+
+    model, job = queue_upload(state, session, [(tmp, state.storage.model_path(stored))], rows)
     return ModelUploadOut(model=ModelOut.model_validate(model), job=JobOut.model_validate(job))
 
 

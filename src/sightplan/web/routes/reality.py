@@ -16,7 +16,7 @@ from ..deps import PROJECT_ACCESS, ProjectEdit, SessionDep, StateDep, in_project
 from ..models import Job, Reality
 from ..schemas import ErrorOut, JobOut, Time
 from ..storage import display_name
-from ..uploads import receive_upload
+from ..uploads import queue_upload, receive_upload
 
 router = APIRouter(prefix="/api/projects/{project_id}/reality", tags=["reality"], dependencies=PROJECT_ACCESS)
 NOT_FOUND = {404: {"model": ErrorOut, "description": "No such project, capture or tile"}}
@@ -67,23 +67,18 @@ async def upload_reality(project: ProjectEdit, state: StateDep, session: Session
 
     tmp, size = await receive_upload(state, file, REALITY_SUFFIXES, "point cloud or mesh")
     stored = state.storage.new_name(tmp.suffix)
-    target = state.storage.reality_path(stored)
-    try:
-        kind = "points" if is_point_cloud(tmp) else "mesh"
+
+    def rows() -> tuple[Reality, Job]:
         row = Reality(project_id=project.id, original_name=display_name(file.filename or ""), stored_name=stored,
-                      view_name=state.storage.new_name(), kind=kind, size_bytes=size)
+                      view_name=state.storage.new_name(), kind="points" if is_point_cloud(tmp) else "mesh",
+                      size_bytes=size)
         session.add(row)
         session.flush()
         job = Job(project_id=project.id, kind="prep_reality", reality_id=row.id, message="queued")
         session.add(job)
-        session.flush()
-        state.storage.adopt(tmp, target)
-        session.commit()
-    except BaseException:
-        session.rollback()
-        state.storage.remove(tmp, target)
-        raise
-    state.worker.submit(job.id)
+        return row, job
+
+    row, job = queue_upload(state, session, [(tmp, state.storage.reality_path(stored))], rows)
     return RealityUploadOut(reality=reality_out(row), job=JobOut.model_validate(job))
 
 

@@ -14,7 +14,7 @@ from ..models import Job, Model, Schedule
 from ..schemas import ErrorOut, JobOut, Time
 from ..services import element_states, load_element_dates
 from ..storage import display_name
-from ..uploads import receive_upload
+from ..uploads import queue_upload, receive_upload
 
 router = APIRouter(prefix="/api/projects/{project_id}", tags=["schedules"], dependencies=PROJECT_ACCESS)
 NOT_FOUND = {404: {"model": ErrorOut, "description": "No such project, model or schedule"}}
@@ -75,32 +75,32 @@ async def add_schedule(project: ProjectEdit, state: StateDep, session: SessionDe
     model = in_project(session, Model, model_id, project.id, "model")
     if model.status != "ready":
         raise HTTPException(409, f"model {model_id} is {model.status}, not ready")
-    received = []
+    received: list[tuple] = []
     try:
         if file is not None:
-            received.append((await receive_upload(state, file, SCHEDULE_SUFFIXES, "schedule"))[0])
+            tmp = (await receive_upload(state, file, SCHEDULE_SUFFIXES, "schedule"))[0]
+            received.append((tmp, state.storage.schedule_path(state.storage.new_name(tmp.suffix))))
         if rules is not None:
-            received.append((await receive_upload(state, rules, RULES_SUFFIXES, "link rules"))[0])
-        names = iter(received)
-        stored = state.storage.new_name(received[0].suffix) if file is not None else None
-        rules_name = state.storage.new_name(".toml") if rules is not None else None
-        row = Schedule(project_id=project.id, model_id=model_id, stored_name=stored, rules_name=rules_name,
+            tmp = (await receive_upload(state, rules, RULES_SUFFIXES, "link rules"))[0]
+            received.append((tmp, state.storage.schedule_path(state.storage.new_name(".toml"))))
+    except BaseException:
+        state.storage.remove(*(t for t, _ in received))
+        raise
+    targets = iter(target.name for _, target in received)
+
+    def rows() -> tuple[Schedule, Job]:
+        row = Schedule(project_id=project.id, model_id=model_id,
+                       stored_name=next(targets) if file is not None else None,
+                       rules_name=next(targets) if rules is not None else None,
                        original_name=display_name(file.filename or "") if file is not None else "model",
                        prefer_actual=prefer_actual, dates_name=state.storage.new_name(".npz"))
         session.add(row)
         session.flush()
         job = Job(project_id=project.id, kind="link_schedule", model_id=model_id, schedule_id=row.id, message="queued")
         session.add(job)
-        session.flush()
-        for name in (stored, rules_name):
-            if name is not None:
-                state.storage.adopt(next(names), state.storage.schedule_path(name))
-        session.commit()
-    except BaseException:
-        session.rollback()
-        state.storage.remove(*received)
-        raise
-    state.worker.submit(job.id)
+        return row, job
+
+    row, job = queue_upload(state, session, received, rows)
     return ScheduleUploadOut(schedule=schedule_out(row), job=JobOut.model_validate(job))
 
 
