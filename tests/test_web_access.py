@@ -266,6 +266,29 @@ def test_upload_name_with_a_path_changes_nothing_outside_the_data_folder(server,
     assert model["original_name"] == "x.ifc" and model["status"] == "failed"
 
 
+def test_a_request_under_way_holds_no_write_lock(server, data):
+    """A logged-in request records its token's use at once, not when it ends: a job's event stream stays open while
+    the job runs, and must not keep the worker (or any other request) from writing to the database meanwhile."""
+    import sqlite3
+
+    from starlette.requests import Request
+
+    from sightplan.web.deps import SESSION_COOKIE, current_user
+
+    secret = login(server, "alice").cookies.get(SESSION_COOKIE)
+    state = server.app.state.sightplan
+    request = Request({"type": "http", "method": "GET", "path": "/api/jobs/1/events", "query_string": b"",
+                       "headers": [(b"cookie", f"{SESSION_COOKIE}={secret}".encode())]})
+    with state.db.session() as session:
+        assert current_user(request, state, session).username == "alice"
+        other = sqlite3.connect(data / "sightplan.db", timeout=0.5)
+        try:
+            other.execute("BEGIN IMMEDIATE")  # a writer: "database is locked" while the request's session holds it
+            other.rollback()
+        finally:
+            other.close()
+
+
 # --------------------------------------------------------------------------- the command line
 def test_users_command_line(tmp_path):
     data = tmp_path / "d"

@@ -10,119 +10,25 @@ times on the Schependomlaan steel structure with a 2,000-frame plan.
 
 from __future__ import annotations
 
-import io
 import json
-import os
-import socket
-import subprocess
-import sys
-import threading
 import time
-import urllib.request
 import zipfile
 from pathlib import Path
 
 import numpy as np
 import pytest
 
+from browser_support import ARTIFACTS, VIEWPORT, Server, launch_browser, open_page, shot, view_pixels
 from sightplan.model.load import sample_model_path
 
-CHROMIUM = Path("/usr/bin/chromium")
-REPO = Path(__file__).resolve().parents[1]
-ARTIFACTS = Path(os.environ.get("SIGHTPLAN_TEST_ARTIFACTS") or REPO / "test-artifacts" / "browser")
-# WebGL in headless Chromium without a GPU: ANGLE on SwiftShader (software Vulkan)
-GL_ARGS = ["--use-gl=angle", "--use-angle=swiftshader", "--enable-unsafe-swiftshader", "--ignore-gpu-blocklist"]
-VIEWPORT = {"width": 1600, "height": 1000}
 SCALE = 0.1
 SCALE_2 = 0.12
 
 
-def _missing(reason: str):
-    """In CI a missing browser is a failure, not a skip."""
-    if os.environ.get("CI"):
-        pytest.fail(f"{reason} (CI must run the browser tests)")
-    pytest.skip(reason)
-
-
 @pytest.fixture(scope="module")
 def browser():
-    try:
-        from playwright.sync_api import sync_playwright
-    except ImportError:
-        _missing("playwright is not installed (pip install -e '.[dev]')")
-    if not CHROMIUM.exists():
-        _missing("Debian's chromium is not installed (`make setup` installs it as root)")
-    args = GL_ARGS + (["--no-sandbox"] if hasattr(os, "geteuid") and os.geteuid() == 0 else [])
-    with sync_playwright() as p:
-        b = p.chromium.launch(executable_path=str(CHROMIUM), headless=True, args=args)
+    with launch_browser() as b:
         yield b
-        b.close()
-
-
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
-class Server:
-    """``sightplan serve`` in a subprocess, with a JSON client for the checks."""
-
-    def __init__(self, data: Path) -> None:
-        self.port = _free_port()
-        self.url = f"http://127.0.0.1:{self.port}"
-        self.output: list[str] = []
-        self.proc = subprocess.Popen([sys.executable, "-m", "sightplan", "serve", "--port", str(self.port), "--data",
-                                      str(data)], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
-                                     env={**os.environ, "PYTHONUNBUFFERED": "1"})
-        self.reader = threading.Thread(target=lambda: self.output.extend(self.proc.stdout), daemon=True)  # type: ignore[arg-type]
-        self.reader.start()
-        deadline = time.monotonic() + 30
-        while time.monotonic() < deadline and self.proc.poll() is None:
-            try:
-                self.get("/api/info")
-                return
-            except OSError:
-                time.sleep(0.2)
-        self.stop()
-        raise AssertionError("the server did not start:\n" + "".join(self.output))
-
-    def request(self, method: str, path: str, body: dict | None = None, raw: bytes | None = None,
-                headers: dict | None = None):
-        data = raw if raw is not None else (json.dumps(body).encode() if body is not None else None)
-        req = urllib.request.Request(self.url + path, data=data, method=method,
-                                     headers={"Content-Type": "application/json", **(headers or {})})
-        with urllib.request.urlopen(req, timeout=120) as r:
-            return json.loads(r.read())
-
-    def get(self, path: str):
-        return self.request("GET", path)
-
-    def wait_job(self, job_id: int, timeout_s: float = 120.0) -> dict:
-        deadline = time.monotonic() + timeout_s
-        while True:
-            job = self.get(f"/api/jobs/{job_id}")
-            if job["status"] in ("done", "failed"):
-                return job
-            assert time.monotonic() < deadline, f"job {job_id} is still {job['status']}"
-            time.sleep(0.2)
-
-    def upload(self, path: str, name: str, content: bytes, fields: dict | None = None):
-        boundary = "sightplanboundary"
-        parts = [f"--{boundary}\r\nContent-Disposition: form-data; name=\"{k}\"\r\n\r\n{v}\r\n".encode()
-                 for k, v in (fields or {}).items()]
-        parts.append(f"--{boundary}\r\nContent-Disposition: form-data; name=\"file\"; filename=\"{name}\"\r\n"
-                     "Content-Type: application/octet-stream\r\n\r\n".encode() + content + b"\r\n")
-        body = b"".join(parts) + f"--{boundary}--\r\n".encode()
-        return self.request("POST", path, raw=body, headers={"Content-Type": f"multipart/form-data; boundary={boundary}"})
-
-    def stop(self) -> None:
-        self.proc.terminate()
-        try:
-            self.proc.wait(timeout=20)
-        except subprocess.TimeoutExpired:
-            self.proc.kill()
-        self.reader.join(timeout=5)
 
 
 @pytest.fixture(scope="module")
@@ -138,49 +44,12 @@ def artifacts() -> Path:
     return ARTIFACTS
 
 
-# the page's progress bar, watched from outside the page's code: every value it shows
-WATCH_PROGRESS = """
-window.__progress = [];
-document.addEventListener('DOMContentLoaded', () => {
-  const bar = document.getElementById('eval-progress');
-  new MutationObserver(() => {
-    if (!bar.hidden) window.__progress.push(Number(bar.getAttribute('aria-valuenow')));
-  }).observe(bar, { attributes: true, attributeFilter: ['aria-valuenow', 'hidden'] });
-});
-"""
-
-
-def _open(browser, server, artifacts_dir: Path | None = None):
-    ctx = browser.new_context(viewport=VIEWPORT, accept_downloads=True)
-    ctx.add_init_script(WATCH_PROGRESS)
-    page = ctx.new_page()
-    problems: list[str] = []
-    page.on("pageerror", lambda e: problems.append(f"page error: {e}"))
-    page.on("console", lambda m: problems.append(f"console {m.type}: {m.text}") if m.type == "error"
-            and "404" not in m.text else None)
-    page.goto(server.url + "/")
-    page.wait_for_function("document.body.dataset.state === 'ready'", timeout=30_000)
-    return ctx, page, problems
-
-
-def _shot(page, artifacts: Path, name: str) -> np.ndarray:
-    from PIL import Image
-
-    png = page.screenshot(path=str(artifacts / f"{name}.png"))
-    return np.asarray(Image.open(io.BytesIO(png)).convert("RGB")).astype(int)
-
-
-def _view_pixels(page, rgb: np.ndarray) -> np.ndarray:
-    box = page.locator("#canvas-box").bounding_box()
-    return rgb[int(box["y"]) + 60:int(box["y"] + box["height"]) - 40, int(box["x"]):int(box["x"] + box["width"]) - 200]
-
-
 def test_pilot_walks_from_upload_to_export(browser, server, artifacts):
     from sightplan.report.gltf import traffic_light
     from sightplan.report.overview import OCCLUDER, UNSEEN
 
     started = time.monotonic()
-    ctx, page, problems = _open(browser, server)
+    ctx, page, problems = open_page(browser, server)
     try:
         assert "no login" in page.inner_text("#mode-badge")
 
@@ -198,7 +67,7 @@ def test_pilot_walks_from_upload_to_export(browser, server, artifacts):
         assert page.inner_text("#load-report dd[data-field=triangles]") == f"{model['triangles']:,}"
         assert page.inner_text("#load-report dd[data-field=skipped]").startswith(str(model["skipped"]))
         assert page.evaluate("window.sightplan.viewer.model.geo.header.triangles") == model["triangles"] == 26348
-        _shot(page, artifacts, "01-model-loaded")
+        shot(page, artifacts, "01-model-loaded")
 
         # 2. a facade grid from the template form
         page.click("#plan-new summary")
@@ -214,13 +83,13 @@ def test_pilot_walks_from_upload_to_export(browser, server, artifacts):
         assert page.inner_text("#plan-summary").startswith("288 frames · 4 mission(s)")
         page.wait_for_function("document.querySelector('#checks-summary').textContent.startsWith('The plan can be flown')",
                                timeout=30_000)
-        _shot(page, artifacts, "02-facade-plan")
+        shot(page, artifacts, "02-facade-plan")
 
         # 3. evaluate, watching the progress bar
         page.fill("#eval-scale", str(SCALE))
         page.click("#eval-start")
         page.wait_for_function("window.__progress.some((v) => v > 0 && v < 100)", timeout=60_000)
-        _shot(page, artifacts, "03-evaluating")
+        shot(page, artifacts, "03-evaluating")
         page.wait_for_function("window.sightplan.state.feedback && window.sightplan.state.feedback.plan_version === 1",
                                timeout=90_000)
         seen = page.evaluate("window.__progress")
@@ -246,7 +115,7 @@ def test_pilot_walks_from_upload_to_export(browser, server, artifacts):
             else:
                 expected, mode = traffic_light([(rows[e]["R_i_m_per_px"] - lo) / (hi - lo)])[0], "solid"
             assert look["mode"] == mode and np.allclose(look["rgb"], expected, atol=1e-6), (e, look, expected)
-        rgb = _view_pixels(page, _shot(page, artifacts, "04-coloured-by-ssd"))
+        rgb = view_pixels(page, shot(page, artifacts, "04-coloured-by-ssd"))
         r, g, b = rgb[..., 0], rgb[..., 1], rgb[..., 2]
         greenish = ((g > r + 40) & (g > b + 40)).sum()
         reddish = ((r > g + 80) & (r > b + 80)).sum()
@@ -273,7 +142,7 @@ def test_pilot_walks_from_upload_to_export(browser, server, artifacts):
         shown_ssd = float(page.inner_text("#element-info dd[data-field=R_i_m_per_px]").split()[0])
         assert shown_ssd == pytest.approx(api_row["R_i_m_per_px"], rel=5e-4)
         assert page.locator("#element-frames tbody tr").count() >= 1
-        _shot(page, artifacts, "05-element-values")
+        shot(page, artifacts, "05-element-values")
 
         # 6. select a frame by clicking its camera, with the simulated view from it
         frame = 20
@@ -285,7 +154,7 @@ def test_pilot_walks_from_upload_to_export(browser, server, artifacts):
         assert page.evaluate("document.querySelector('#frame-view').naturalWidth") == 480
         assert json.loads(page.get_attribute("#frame-info dd[data-field='position (m)']", "data-value")) == \
             v1["frames"][frame]["position"]
-        _shot(page, artifacts, "06-frame-selected")
+        shot(page, artifacts, "06-frame-selected")
 
         # 7. move it 2 m east and 1 m up, save as version 2
         page.fill("#move-step", "1")
@@ -293,7 +162,7 @@ def test_pilot_walks_from_upload_to_export(browser, server, artifacts):
         page.click("button[data-move='x+']")
         page.click("button[data-move='z+']")
         assert page.evaluate("window.sightplan.state.dirty") is True
-        _shot(page, artifacts, "07-frame-moved")
+        shot(page, artifacts, "07-frame-moved")
         page.click("#plan-save")
         page.wait_for_function("window.sightplan.state.version === 2 && !window.sightplan.state.dirty", timeout=30_000)
         v2 = server.get(f"/api/projects/{project}/plans/{plan['id']}/versions/2")
@@ -323,7 +192,7 @@ def test_pilot_walks_from_upload_to_export(browser, server, artifacts):
         vc = page.locator("#compare-table tr[data-metric=VC_pct] td")
         assert vc.nth(1).inner_text() == f"{ev1['metrics']['VC_pct']:.2f}"
         assert vc.nth(2).inner_text() == f"{ev2['metrics']['VC_pct']:.2f}"
-        _shot(page, artifacts, "08-compared")
+        shot(page, artifacts, "08-compared")
 
         # 9. downloads for the flight apps
         with page.expect_download() as info:
@@ -340,7 +209,7 @@ def test_pilot_walks_from_upload_to_export(browser, server, artifacts):
         qgc = json.loads(Path(info.value.path()).read_text())
         items = qgc["mission"]["items"]
         assert qgc["fileType"] == "Plan" and len(items) >= v2["missions"][0]["frames"][1]
-        _shot(page, artifacts, "09-exported")
+        shot(page, artifacts, "09-exported")
         assert not [p for p in problems if "page error" in p], problems
     finally:
         ctx.close()
@@ -348,7 +217,7 @@ def test_pilot_walks_from_upload_to_export(browser, server, artifacts):
 
 
 def test_errors_are_shown_as_one_message(browser, server, artifacts):
-    ctx, page, _ = _open(browser, server)
+    ctx, page, _ = open_page(browser, server)
     try:
         page.fill("#project-name", "empty site")
         page.click("#project-create")
@@ -361,7 +230,7 @@ def test_errors_are_shown_as_one_message(browser, server, artifacts):
         page.click("#eval-start")
         page.wait_for_function("document.querySelectorAll('.msg.error').length >= 2")
         assert "create or choose a plan first" in page.locator(".msg.error").last.inner_text()
-        _shot(page, artifacts, "10-error-message")
+        shot(page, artifacts, "10-error-message")
     finally:
         ctx.close()
 
@@ -418,7 +287,7 @@ def test_date_slider_shows_the_site_at_a_date(browser, server, artifacts):
         assert look[1]["mode"] == "ghost" and look[2]["mode"] == "ghost"  # not yet built
         assert look[3]["mode"] == "solid" and look[3]["rgb"] != pytest.approx(list(OCCLUDER))  # built
         assert "0 built, 1 in progress, 2 not yet" in page.inner_text("#date-label")
-        _shot(page, artifacts, "12-site-at-a-date")
+        shot(page, artifacts, "12-site-at-a-date")
         page.fill("#date-slider", "60")  # 2024-04-30: element 1 is built
         page.dispatch_event("#date-slider", "input")
         page.wait_for_function("document.getElementById('date-label').textContent.startsWith('2024-04-30:')")
@@ -479,7 +348,7 @@ def test_viewer_frame_time_on_a_steel_structure_with_2000_frames(browser, server
     # the flight checks of 2,000 frames take a while on the server: done before the page measures
     server.get(f"/api/projects/{project}/plans/{up['id']}/versions/1/checks?model_id={model}")
 
-    ctx, page, problems = _open(browser, server)
+    ctx, page, problems = open_page(browser, server)
     try:
         assert page.input_value("#project-select") == str(project)  # the newest project opens
         page.wait_for_function("window.sightplan.viewer.plan && window.sightplan.viewer.plan.n === 2000 "
@@ -493,7 +362,7 @@ def test_viewer_frame_time_on_a_steel_structure_with_2000_frames(browser, server
         assert info["triangles"] == len(scene.faces) == 85390
         assert info["lines"] >= 2000 * 8  # every frustum drawn
         times = page.evaluate(ORBIT_JS, 4)
-        _shot(page, artifacts, "11-steel-2000-frames")
+        shot(page, artifacts, "11-steel-2000-frames")
     finally:
         ctx.close()
     times = np.array(times[2:])  # the first frames compile shaders

@@ -305,6 +305,41 @@ def test_page_and_vendor_files(client):
         assert "root:" not in r.text and "sightplan-web" not in r.text
 
 
+def test_the_point_cloud_streamer_and_its_imports_are_served(client):
+    """pointcloud.js imports 3d-tiles-renderer by the importmap's entry; every module that build reaches by a relative
+    path is served, and its bare imports are three.js paths the importmap maps (nothing of its own dependencies)."""
+    import re
+
+    from sightplan.report.html import THREE_DIR
+
+    page = client.get("/")
+    imports = json.loads(page.text.split('<script type="importmap">', 1)[1].split("</script>", 1)[0])["imports"]
+    entry = imports["3d-tiles-renderer"]
+    assert entry == "/vendor/3d-tiles-renderer/build/index.three.js"
+    root = THREE_DIR.parent / "3d-tiles-renderer" / "build"
+    if not root.is_dir():
+        pytest.skip("web/node_modules/3d-tiles-renderer is not installed (make setup)")
+    todo, seen, bare = [entry], set(), set()
+    while todo:
+        url = todo.pop()
+        if url in seen:
+            continue
+        seen.add(url)
+        r = client.get(url)
+        assert r.status_code == 200 and r.headers["content-type"].startswith("text/javascript"), url
+        assert r.content == (root / url.rsplit("/", 1)[1]).read_bytes()
+        for spec in re.findall(r"""(?:from|import)\s*\(?\s*["']([^"']+)["']""", r.text):
+            if spec.startswith("./"):
+                todo.append(url.rsplit("/", 1)[0] + "/" + spec[2:])
+            else:
+                bare.add(spec)
+    assert len(seen) >= 3  # the entry and its chunks
+    for spec in bare:
+        assert spec in imports or any(spec.startswith(k) for k in imports if k.endswith("/")), spec
+    assert client.get("/vendor/pbf/package.json").status_code == 404  # its own dependencies stay unserved
+    assert client.get("/vendor/3d-tiles-renderer/%2e%2e/%2e%2e/package-lock.json").status_code == 404
+
+
 def test_openapi_documents_the_viewer_routes(client):
     schema = client.get("/openapi.json").json()
     viewer = {path for path, ops in schema["paths"].items() for op in ops.values() if "viewer" in op.get("tags", [])}

@@ -66,6 +66,9 @@ def current_user(request: Request, state: StateDep, session: SessionDep) -> User
     if user is None:
         raise HTTPException(401, LOGIN_HINT if not secret else "the session or token is unknown, revoked or expired: "
                                                                 "log in again", headers={"WWW-Authenticate": "Bearer"})
+    # The token's last use is written now: left pending, it would hold SQLite's write lock for as long as the request
+    # runs, and a job's event stream runs until the job ends, which the worker could then never record.
+    session.commit()
     return user
 
 

@@ -333,9 +333,18 @@ class Worker:
             schedule.status = "ready"
             schedule.first_date = str(report.first_date)[:10] if report.first_date is not None else None
             schedule.last_date = str(report.last_date)[:10] if report.last_date is not None else None
-            schedule.report = {"lines": [line.replace(str(model_path), model.original_name) for line in report.describe()],
+            # the lines name the files as the user knows them, not by the names the server stored them under
+            names = [(str(model_path), model.original_name)]
+            if schedule.stored_name:
+                names += [(str(self.storage.schedule_path(schedule.stored_name)), schedule.original_name),
+                          (schedule.stored_name, schedule.original_name)]
+            lines, warnings = report.describe(), list(report.warnings)
+            for stored, shown in names:
+                lines = [line.replace(stored, shown) for line in lines]
+                warnings = [w.replace(stored, shown) for w in warnings]
+            schedule.report = {"lines": lines,
                                "tasks": report.n_tasks, "linked": report.linked, "unlinked": report.unlinked,
-                               "targets": report.n_targets, "dated": report.dated, "warnings": list(report.warnings)}
+                               "targets": report.n_targets, "dated": report.dated, "warnings": warnings}
             job.progress_done = 1.0
             job.message = f"linked {report.linked} of {report.n_targets} elements to {report.n_tasks} tasks"
 

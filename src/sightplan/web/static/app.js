@@ -1,5 +1,7 @@
-// sightplan's web page: projects, model upload, plans from templates, frame editing, evaluation with live progress,
-// feedback coloured by metric, simulated views, comparisons and flight-app exports, on top of the REST API.
+// sightplan's web page: projects, model upload, plans from templates (with points picked in the 3D view), frame
+// editing, evaluation with live progress (at a capture date, with a reality capture as occluders), feedback coloured
+// by metric, simulated views, comparisons and flight-app exports, 4D schedules with the date slider, reality captures,
+// and in team mode the login, members, roles and share links, on top of the REST API.
 import * as api from './api.js';
 import { drawHistogram, drawStability, formatNumber } from './charts.js';
 import {
@@ -29,7 +31,8 @@ const S = {
   plans: [], plan: null, version: null, saved: null, draft: null, dirty: false, geom: null, checks: null,
   evaluations: [], evaluation: null, feedback: null, colourer: null,
   metric: 'visibility', bounds: {}, selectedFrame: null, selectedElement: null,
-  schedules: [], dateStates: null, jobs: new Map(), fitted: null,
+  schedules: [], allSchedules: [], dateStates: null, jobs: new Map(), fitted: null,
+  realities: [], realityHidden: new Set(), me: null, pick: null, members: [], links: [],
 };
 const METRIC_COLUMNS = [
   ['VC_pct', 'VC', '%', 2, true], ['VC_bar_pct', 'V̄C', '%', 2, true], ['VR', 'VR', 'frames', 2, true],
@@ -77,10 +80,9 @@ async function init() {
   viewer = new Viewer($('#canvas-box'), { onClick: onViewClick });
   viewer.setCompass($('#compass'));
   window.sightplan = { state: S, viewer, selectFrame, selectElement, elementColour: (e) => viewer.elementAppearance(e) };
-  api.setUnauthorizedHandler(() => {
-    if (!$('#login-dialog').open) $('#login-dialog').showModal();
-  });
+  api.setUnauthorizedHandler(showLogin);
   bindUi();
+  let loggedIn = true;
   await act('Reading the server information', async () => {
     S.info = await api.get('/api/info');
     const badge = $('#mode-badge');
@@ -88,20 +90,102 @@ async function init() {
       badge.textContent = 'team mode';
       badge.classList.add('team');
       try {
-        const me = await api.get('/api/auth/me');
-        badge.textContent = `team · ${me.username}`;
-      } catch {
-        // the login dialog is open
+        S.me = await api.get('/api/auth/me');
+      } catch (err) {
+        if (err.status !== 401) throw err;
+        loggedIn = false;  // the login dialog is open
       }
     } else {
       badge.textContent = 'single-user · no login';
     }
     badge.title = S.info.message;
+    renderUser();
     S.cameras = await api.get('/api/cameras');
     fillSelect($('#plan-camera'), S.cameras.map((c) => [c.id, `${c.name} (${c.width}×${c.height})`]), 'p4p');
+    fillSelect($('#plan-aircraft'), [['', 'default (p4p; a walker for a route)'],
+      ...Object.entries(S.info.aircraft || {}).map(([id, name]) => [id, `${name} (${id})`]),
+      ['none', 'none: no battery check']], '');
   });
+  if (!loggedIn) {
+    document.body.dataset.state = 'login';
+    return;
+  }
   await loadProjects(Number(localStorage.getItem('sightplan.project')) || null);
   document.body.dataset.state = 'ready';
+}
+
+// ---------------------------------------------------------------------------------------------- accounts and roles
+function showLogin() {
+  const dialog = $('#login-dialog');
+  if (dialog.open) return;
+  $('#login-error').hidden = true;
+  dialog.showModal();
+  $('#login-user').focus();
+}
+
+async function logIn() {
+  const username = $('#login-user').value.trim();
+  const password = $('#login-password').value;
+  if (!username || !password) {
+    $('#login-error').textContent = 'Give your user name and password.';
+    $('#login-error').hidden = false;
+    return;
+  }
+  $('#login-submit').disabled = true;
+  try {
+    await api.post('/api/auth/login', { username, password });
+  } catch (err) {
+    $('#login-error').textContent = errorText(err);
+    $('#login-error').hidden = false;
+    return;
+  } finally {
+    $('#login-submit').disabled = false;
+  }
+  $('#login-password').value = '';
+  $('#login-dialog').close();
+  window.location.reload();  // everything read again, as this user
+}
+
+async function logOut() {
+  await api.post('/api/auth/logout');
+  S.me = null;
+  window.location.reload();
+}
+
+// in team mode: who is logged in, and their role in the project shown
+function renderUser() {
+  const box = $('#user-box');
+  box.hidden = !(S.info && S.info.login && S.me);
+  if (box.hidden) return;
+  $('#user-name').textContent = S.me.username;
+  const role = projectRole();
+  $('#user-role').textContent = role || 'no project';
+  $('#user-role').dataset.role = role || '';
+}
+
+// the user's role in the project shown; null in single-user mode, where everyone may do everything
+function projectRole() {
+  if (!S.info || !S.info.login || !S.project) return null;
+  return S.project.role || (S.me && S.me.projects && S.me.projects[S.project.id]) || null;
+}
+
+const canEdit = () => !(S.info && S.info.login) || ['editor', 'owner'].includes(projectRole());
+const isOwner = () => !(S.info && S.info.login) || projectRole() === 'owner';
+
+// a viewer is not offered what the server would refuse: controls disabled, editing panels hidden
+function applyRole() {
+  const allowed = { editor: canEdit(), owner: isOwner() };
+  document.body.dataset.role = projectRole() || (S.info && S.info.login ? 'none' : 'single-user');
+  for (const node of $$('[data-needs]')) {
+    const ok = allowed[node.dataset.needs];
+    if (node.matches('button, input, select, textarea')) {
+      if (node.dataset.title === undefined) node.dataset.title = node.title;
+      node.disabled = !ok;
+      node.title = ok ? node.dataset.title : `your role in this project (${projectRole()}) cannot do this`;
+    } else node.hidden = !ok;
+  }
+  if (!allowed.editor) stopPicking();
+  renderUser();
 }
 
 function fillSelect(select, options, value) {
@@ -118,7 +202,12 @@ async function loadProjects(wanted) {
     const id = S.projects.some((p) => p.id === wanted) ? wanted : S.projects.length ? S.projects.at(-1).id : null;
     fillSelect($('#project-select'), S.projects.map((p) => [p.id, p.name]), id);
     if (id !== null) await selectProject(id);
-    else $('#view-empty').textContent = 'Create a project (top bar), then upload an IFC model or a mesh.';
+    else {
+      S.project = null;
+      applyRole();
+      loadMembers();
+      $('#view-empty').textContent = 'Create a project (top bar), then upload an IFC model or a mesh.';
+    }
   });
 }
 
@@ -130,9 +219,15 @@ async function selectProject(id) {
     colourer: null, selectedFrame: null, selectedElement: null, dateStates: null, fitted: null });
   viewer.clearModel();
   viewer.clearPlan();
+  viewer.clearRealities();
   S.geometryModel = null;
+  S.realities = [];
+  S.realityHidden = new Set();
+  S.allSchedules = [];
+  S.schedules = [];
   delete document.body.dataset.model;
   resetPanels();
+  applyRole();
   if (!S.project) return;
   const [models, plans, evaluations, jobs] = await Promise.all([
     api.get(projectUrl('/models')), api.get(projectUrl('/plans')), api.get(projectUrl('/evaluations')),
@@ -141,6 +236,8 @@ async function selectProject(id) {
   renderModels();
   renderPlans();
   renderEvaluations();
+  loadRealities();
+  loadMembers();
   // background work a previous page (or another client) started: show it again
   for (const job of jobs.reverse()) if (job.status === 'queued' || job.status === 'running') trackJob(job);
   const storedModel = Number(localStorage.getItem(`sightplan.${id}.model`));
@@ -159,7 +256,12 @@ function resetPanels() {
   for (const sel of ['#load-report', '#plan-summary', '#frame-list tbody', '#missions-table tbody', '#violations',
     '#metrics-table tbody', '#compare-table tbody', '#element-info', '#frame-info', '#element-frames tbody',
     '#edit-status', '#eval-status', '#checks-summary', '#view-status']) $(sel).replaceChildren();
-  for (const sel of ['#upload-progress', '#eval-progress', '#element-card', '#frame-card', '#date-panel']) $(sel).hidden = true;
+  for (const sel of ['#upload-progress', '#eval-progress', '#element-card', '#frame-card', '#date-panel',
+    '#schedule-progress', '#schedule-report', '#reality-progress', '#share-new']) $(sel).hidden = true;
+  for (const sel of ['#schedule-list', '#reality-list', '#share-links', '#members-table tbody', '#eval-site']) {
+    $(sel).replaceChildren();
+  }
+  fillSelect($('#eval-reality'), [['', 'none']], '');
   $('#frame-view').removeAttribute('src');
   $('#version-select').replaceChildren();
   $('#export-mission').replaceChildren(el('option', { value: '' }, 'all'));
@@ -211,6 +313,7 @@ async function selectModel(id) {
     api.get(projectUrl(`/models/${id}/elements`))]);
   S.elements = elements;
   viewer.setModel(parseGeometry(buffer));
+  if (S.selectedElement !== null) viewer.highlightElement(S.selectedElement);
   S.geometryModel = id;
   document.body.dataset.model = String(id);
   if (S.geom) viewer.setPlan(S.geom, frameColours(), S.dirty ? null : S.checks);
@@ -292,6 +395,12 @@ function trackJob(job) {
     } else if (j.kind === 'load_model') {
       setProgress($('#upload-progress'), frac, j.status === 'queued' ? 'queued for tessellation'
         : `${j.message || 'loading'} — ${Math.round(frac * 100)} %`);
+    } else if (j.kind === 'link_schedule') {
+      setProgress($('#schedule-progress'), frac, j.status === 'queued' ? 'queued for linking'
+        : `${j.message || 'linking'} — ${Math.round(frac * 100)} %`);
+    } else if (j.kind === 'prep_reality') {
+      setProgress($('#reality-progress'), frac, j.status === 'queued' ? 'queued for preparation'
+        : `${j.message || 'preparing'} — ${Math.round(frac * 100)} %`);
     }
   };
   update(job);
@@ -303,10 +412,19 @@ function trackJob(job) {
   api.followJob(job.id, update).then(async (done) => {
     finished();
     if (done.kind === 'link_schedule') {
+      setProgress($('#schedule-progress'), 1, done.message);
       showMessage(`Schedule linked: ${done.message}.`, 'ok');
-      await loadSchedules();
+      await act('Reading the schedule', async () => {
+        if (!S.project || done.project_id !== S.project.id) return;
+        await loadSchedules({ prefer: done.schedule_id });
+        await showScheduleReport(done.schedule_id);
+      });
     } else if (done.kind === 'prep_reality') {
+      setProgress($('#reality-progress'), 1, `ready — ${done.message}`);
       showMessage(`Reality capture ready: ${done.message}.`, 'ok');
+      await act('Showing the reality capture', async () => {
+        if (S.project && done.project_id === S.project.id) await loadRealities();
+      });
     } else if (done.kind === 'evaluate') {
       $('#eval-status').textContent = `evaluation ${done.evaluation_id} done: ${done.message}`;
       setProgress($('#eval-progress'), 1, `done — ${done.message}`);
@@ -326,13 +444,19 @@ function trackJob(job) {
     }
   }).catch(async (err) => {
     finished();
-    const box = job.kind === 'evaluate' ? $('#eval-progress') : job.kind === 'load_model' ? $('#upload-progress') : null;
+    const box = { evaluate: $('#eval-progress'), load_model: $('#upload-progress'), link_schedule: $('#schedule-progress'),
+      prep_reality: $('#reality-progress') }[job.kind];
     if (box) {
       box.classList.add('failed');
       box.querySelector('.label').textContent = /cancel/i.test(errorText(err)) ? 'cancelled' : 'failed';
     }
     showMessage(`${names[job.kind] || job.kind} failed: ${errorText(err)}`, 'error');
     if (job.kind === 'evaluate') await act('Listing the evaluations', refreshEvaluations);
+    else if (job.kind === 'link_schedule') await act('Listing the schedules', async () => {
+      await loadSchedules();
+      if (job.schedule_id) await showScheduleReport(job.schedule_id);
+    });
+    else if (job.kind === 'prep_reality') await act('Listing the reality captures', loadRealities);
     else if (job.kind === 'load_model') await act('Listing the models', async () => {
       await refreshModels();
       if (S.model && S.model.id === job.model_id) renderLoadReport(await api.get(projectUrl(`/models/${job.model_id}`)));
@@ -370,8 +494,115 @@ function templateBody() {
     else body.altitude = num('#plan-altitude');
     if (num('#plan-oblique') !== null) body.oblique_pitch = num('#plan-oblique');
   }
+  if (template === 'bridge') {
+    body.axis = parsePoints($('#plan-axis').value, 2, 'axis point');
+    if (body.axis.length < 2) throw new Error('the bridge axis needs at least two points x, y (typed, or picked in 3D)');
+    if (list('#plan-bridge-height').length) body.height = list('#plan-bridge-height');
+    if (num('#plan-deck-z') !== null) body.deck_z = num('#plan-deck-z');
+    body.under_deck = $('#plan-under-deck').checked;
+  }
+  if (template === 'route') {
+    body.points = parsePoints($('#plan-points').value, 3, 'route point');
+    if (body.points.length < 2) throw new Error('a route needs at least two points x, y, z (typed, or picked in 3D)');
+    body.step = num('#plan-route-step');
+  }
+  // the flight settings every template takes; left empty, the server's defaults (a walker's for a route)
+  if ($('#plan-aircraft').value) body.aircraft = $('#plan-aircraft').value;
+  body.vlos_radius = num('#plan-vlos');
+  body.altitude_limit = num('#plan-alt-limit');
+  const stations = parsePoints($('#plan-stations').value, 3, 'ground station');
+  if (stations.length) body.ground_station = stations;
   for (const [k, v] of Object.entries(body)) if (v === null || Number.isNaN(v)) delete body[k];
   return body;
+}
+
+// "x, y[, z]" a line (or separated by ";"): a list of points of n coordinates each
+function parsePoints(text, n, what) {
+  const lines = text.split(/[\n;]+/).map((l) => l.trim()).filter(Boolean);
+  return lines.map((line, k) => {
+    const v = line.replace(/^\[|\]$/g, '').split(/[,\s]+/).filter(Boolean).map(Number);
+    if (v.length !== n || v.some((x) => !Number.isFinite(x))) {
+      throw new Error(`${what} ${k + 1} (“${line}”) must be ${n} numbers: ${n === 2 ? 'x, y' : 'x, y, z'} in metres`);
+    }
+    return v;
+  });
+}
+
+const fmt2 = (v) => String(Math.round(v * 100) / 100);
+
+// ---------------------------------------------------------------------------------------------- points picked in 3D
+const PICK = {
+  axis: { field: '#plan-axis', button: '#pick-axis', what: 'an axis point', colour: 0xe67e22, line: true },
+  points: { field: '#plan-points', button: '#pick-points', what: 'a route point', colour: 0x8e44ad, line: true },
+  stations: { field: '#plan-stations', button: '#pick-stations', what: 'a ground station', colour: 0x0b7a3e, line: false },
+};
+
+function startPicking(kind) {
+  if (S.pick === kind) {
+    stopPicking();
+    return;
+  }
+  stopPicking();
+  if (!viewer.model) throw new Error('pick points once the model is shown');
+  S.pick = kind;
+  const b = $(PICK[kind].button);
+  b.classList.add('active');
+  b.textContent = 'done picking';
+  document.body.dataset.picking = kind;
+  $('#view-status').textContent = `Click the model or the ground to add ${PICK[kind].what} (Esc or “done picking” to stop).`;
+}
+
+function stopPicking() {
+  if (!S.pick) return;
+  const b = $(PICK[S.pick].button);
+  b.classList.remove('active');
+  b.textContent = 'pick in 3D';
+  S.pick = null;
+  delete document.body.dataset.picking;
+  updateStatus();
+}
+
+function addPickedPoint(ev) {
+  const hit = viewer.pickPoint(ev.clientX, ev.clientY);
+  if (!hit) {
+    showMessage('Nothing there: click the model or the ground.', 'info');
+    return;
+  }
+  const [x, y, z] = hit.point;
+  let coords;
+  if (S.pick === 'axis') coords = [x, y];
+  else if (S.pick === 'points') coords = [x, y, z + (Number($('#plan-route-eye').value) || 0)];
+  else coords = [x, y, z];
+  const field = $(PICK[S.pick].field);
+  const text = field.value.replace(/\s+$/, '');
+  field.value = `${text ? `${text}\n` : ''}${coords.map(fmt2).join(', ')}`;
+  field.dataset.picked = String(Number(field.dataset.picked || 0) + 1);
+  updateMarkers();
+}
+
+// the form's points in the 3D view while the form is open (axis points at the ground's level)
+function updateMarkers() {
+  if (!viewer) return;
+  if (!$('#plan-new').open) {
+    viewer.setMarkers([]);
+    return;
+  }
+  const t = $('#plan-template').value;
+  const sets = [];
+  const safe = (fn) => {
+    try {
+      return fn();
+    } catch {
+      return [];  // a line being typed: shown once it parses
+    }
+  };
+  const ground = viewer.groundZ();
+  if (t === 'bridge') {
+    sets.push({ ...PICK.axis, points: safe(() => parsePoints($('#plan-axis').value, 2, 'axis point')).map(([x, y]) => [x, y, ground]) });
+  }
+  if (t === 'route') sets.push({ ...PICK.points, points: safe(() => parsePoints($('#plan-points').value, 3, 'route point')) });
+  sets.push({ ...PICK.stations, points: safe(() => parsePoints($('#plan-stations').value, 3, 'ground station')) });
+  viewer.setMarkers(sets);
 }
 
 async function createPlan() {
@@ -409,6 +640,9 @@ async function selectPlan(id, version = null, { keepEvaluation = false } = {}) {
   if (!S.plan) return;
   localStorage.setItem(`sightplan.${S.project.id}.plan`, String(id));
   const number = version ?? S.plan.latest_version;
+  $('#share-new').hidden = true;
+  $('#share-url').value = '';
+  act('Listing the share links', loadLinks);
   renderPlans();
   await loadVersion(number, { keepEvaluation });
 }
@@ -706,10 +940,22 @@ async function savePlan() {
 }
 
 // ---------------------------------------------------------------------------------------------- evaluations
+// where an evaluation ran: at a capture date, with a reality capture as occluders ('' for the model as built)
+function siteLabel(e) {
+  const s = e.settings || {};
+  const bits = [];
+  if (s.fourd && s.fourd.date) bits.push(` at ${s.fourd.date}`);
+  if (s.reality_id) {
+    const r = S.realities.find((x) => x.id === s.reality_id);
+    bits.push(` + ${r ? r.name : `capture ${s.reality_id}`}`);
+  }
+  return bits.join('');
+}
+
 function renderEvaluations() {
   const done = S.evaluations.filter((e) => e.status === 'done');
   const planName = (id) => (S.plans.find((p) => p.id === id) || { name: `plan ${id}` }).name;
-  const label = (e) => `#${e.id} ${planName(e.plan_id)} v${e.plan_version} · s ${e.settings.scale}`
+  const label = (e) => `#${e.id} ${planName(e.plan_id)} v${e.plan_version}${siteLabel(e)} · s ${e.settings.scale}`
     + (e.metrics ? ` · VC ${formatNumber(e.metrics.VC_pct, 3)} %` : '');
   fillSelect($('#evaluation-select'), [['', '— none —'], ...done.map((e) => [e.id, label(e)])],
     S.evaluation ? S.evaluation.id : '');
@@ -741,11 +987,13 @@ async function startEvaluation() {
   const int = (sel) => Number($(sel).value);
   const settings = { scale: Number($('#eval-scale').value), engine: $('#eval-engine').value, omega: int('#eval-omega'),
     k: int('#eval-k'), min_track: int('#eval-min-track'), min_features: int('#eval-min-features') };
+  const site = evalSite();
   const res = await api.post(projectUrl('/evaluations'), { plan_id: S.plan.id, version: S.version,
-    model_id: S.model.id, settings });
+    model_id: S.model.id, settings, ...site });
   S.evaluations.push(res.evaluation);
   setProgress($('#eval-progress'), 0, 'queued');
-  $('#eval-status').textContent = `evaluating ${S.plan.name} v${S.version} (${res.evaluation.progress_total} frames)…`;
+  $('#eval-status').textContent = `evaluating ${S.plan.name} v${S.version}${siteLabel(res.evaluation)} `
+    + `(${res.evaluation.progress_total} frames)…`;
   trackJob(res.job);
 }
 
@@ -882,14 +1130,15 @@ function renderMetricsTable() {
   const planName = (id) => (S.plans.find((p) => p.id === id) || { name: `plan ${id}` }).name;
   $('#metrics-table thead').replaceChildren(el('tr', {}, el('th', {}, 'plan'), el('th', {}, 'eval.'),
     el('th', {}, 'frames'), ...METRIC_COLUMNS.map(([, head, unit]) => el('th', {}, `${head} (${unit})`)),
-    el('th', {}, 'visible / z'), el('th', {}, 'scale')));
+    el('th', {}, 'visible / z'), el('th', {}, 'scale'), el('th', {}, 'site')));
   $('#metrics-table tbody').replaceChildren(...done.map((e) => el('tr', {
     dataset: { evaluation: e.id }, class: S.evaluation && S.evaluation.id === e.id ? 'current' : '',
     onclick: () => act('Showing the evaluation', () => selectEvaluation(e.id)),
   }, el('td', {}, `${planName(e.plan_id)} v${e.plan_version}`), el('td', {}, `#${e.id}`),
   el('td', {}, String(e.metrics.frames)),
   ...metricCells(e.metrics).map((v, k) => el('td', { dataset: { metric: METRIC_COLUMNS[k][0] } }, v)),
-  el('td', {}, `${e.metrics.visible} / ${e.metrics.z}`), el('td', {}, String(e.settings.scale)))));
+  el('td', {}, `${e.metrics.visible} / ${e.metrics.z}`), el('td', {}, String(e.settings.scale)),
+  el('td', { class: 'text', dataset: { site: siteLabel(e).trim() } }, siteLabel(e).trim() || 'as built'))));
 }
 
 function renderCompare() {
@@ -970,6 +1219,7 @@ function showTab(name) {
 // ---------------------------------------------------------------------------------------------- elements
 async function selectElement(e) {
   S.selectedElement = e;
+  viewer.highlightElement(e);
   const card = $('#element-card');
   const info = $('#element-info');
   const fb = S.feedback && S.model && S.feedback.model_id === S.model.id ? S.feedback : null;
@@ -1026,37 +1276,113 @@ function showSelection(which) {
   if (which === 'element') $('#inspector').prepend(el2);
 }
 
-function onViewClick(hit) {
-  if (hit.frame !== undefined) selectFrame(hit.frame, { scroll: true });
+function onViewClick(hit, ev) {
+  if (S.pick) addPickedPoint(ev);
+  else if (hit.frame !== undefined) selectFrame(hit.frame, { scroll: true });
   else if (hit.element !== undefined) act('Reading the element', () => selectElement(hit.element));
 }
 
 // ---------------------------------------------------------------------------------------------- the date
-async function loadSchedules() {
+async function loadSchedules({ prefer = null } = {}) {
   const panel = $('#date-panel');
   if (!S.project) {
     panel.hidden = true;
     return;
   }
+  const token = Symbol('schedules');
+  S.schedulesToken = token;
   let schedules = [];
   try {
     schedules = await api.get(projectUrl('/schedules'));
   } catch {
     schedules = [];  // no schedule support on this server, or none readable: no slider
   }
+  if (S.schedulesToken !== token) return;
+  const ofModel = (s) => s.model_id === undefined || !S.model || s.model_id === S.model.id;
+  S.allSchedules = (Array.isArray(schedules) ? schedules : []).filter(ofModel);
+  renderScheduleList();
   // a linked schedule of the model shown, with its first and last date
   const span = (s) => ({ ...s, start: s.start || s.first_date, finish: s.finish || s.last_date });
-  S.schedules = (Array.isArray(schedules) ? schedules : []).map(span).filter((s) => s.start && s.finish
-    && (s.status === undefined || s.status === 'ready') && (s.model_id === undefined || !S.model || s.model_id === S.model.id));
+  S.schedules = S.allSchedules.map(span).filter((s) => s.start && s.finish
+    && (s.status === undefined || s.status === 'ready'));
   panel.hidden = !S.schedules.length || !S.model;
   if (panel.hidden) {
     S.dateStates = null;
+    refreshModelColours();
+    updateEvalSite();
     return;
   }
   const current = $('#schedule-select').value;
-  fillSelect($('#schedule-select'), S.schedules.map((s) => [s.id, s.name]), current || S.schedules[0].id);
-  setDateRange();
+  const pick = [prefer, current].find((v) => v !== null && v !== '' && S.schedules.some((x) => String(x.id) === String(v)));
+  fillSelect($('#schedule-select'), S.schedules.map((s) => [s.id, s.name]), pick ?? S.schedules.at(-1).id);
+  if (pick === undefined || prefer !== null || String(pick) !== current) setDateRange();
   await applyDate();
+}
+
+function renderScheduleList() {
+  const items = S.allSchedules.map((s) => {
+    const state = s.status === 'ready' ? (s.first_date ? `${s.first_date} → ${s.last_date}` : 'no element dated')
+      : s.status === 'failed' ? `failed: ${s.error || ''}` : `${s.status}…`;
+    const remove = el('button', { type: 'button', class: 'icon', title: 'delete this schedule', 'data-needs': 'editor',
+      disabled: !canEdit(), onclick: () => act('Deleting the schedule', async () => {
+        await api.del(projectUrl(`/schedules/${s.id}`));
+        showMessage(`Schedule ${s.name} deleted.`, 'ok');
+        $('#schedule-report').hidden = true;
+        await loadSchedules();
+      }) }, '✕');
+    return el('li', { dataset: { schedule: s.id, status: s.status }, class: s.status === 'failed' ? 'failed' : '' },
+      el('a', { href: '#', title: 'show the link report', onclick: (ev) => {
+        ev.preventDefault();
+        act('Reading the link report', () => showScheduleReport(s.id));
+      } }, s.name), el('span', { class: 'hint' }, ` ${state}`), remove);
+  });
+  $('#schedule-list').replaceChildren(...items);
+  if (!items.length && S.model) {
+    $('#schedule-list').append(el('li', { class: 'hint' }, canEdit() ? 'No schedule: add one to see the site at a date.'
+      : 'No schedule is linked to this model.'));
+  }
+}
+
+// the link report of a schedule (as sightplan evaluate --schedule prints it), or why it failed
+async function showScheduleReport(id) {
+  const s = await api.get(projectUrl(`/schedules/${id}`));
+  const box = $('#schedule-report');
+  box.hidden = false;
+  box.dataset.schedule = String(s.id);
+  box.dataset.status = s.status;
+  box.classList.toggle('failed', s.status === 'failed');
+  $('#schedule-report-title').textContent = s.status === 'failed' ? `${s.name}: linking failed` : `Link report: ${s.name}`;
+  $('#schedule-report-lines').textContent = s.status === 'failed' ? (s.error || 'failed')
+    : ((s.report && s.report.lines) || []).join('\n') || s.status;
+}
+
+async function addSchedule() {
+  if (!S.model || S.model.status !== 'ready') throw new Error('upload a model and wait until it is loaded');
+  const own = $('#schedule-own').checked;
+  const file = $('#schedule-file').files[0];
+  if (!own && !file) throw new Error('choose a schedule file (MS Project .xml, Primavera .xer, .csv, .ifc), or use the model’s own');
+  const form = new FormData();
+  form.append('model_id', String(S.model.id));
+  if (!own) form.append('file', file);
+  const rules = $('#schedule-rules').files[0];
+  if (rules) form.append('rules', rules);
+  form.append('prefer_actual', $('#schedule-actual').checked ? 'true' : 'false');
+  const bar = $('#schedule-progress');
+  setProgress(bar, 0, own ? 'asking for the model’s work schedule…' : `uploading ${file.name}…`);
+  $('#schedule-report').hidden = true;
+  let res;
+  try {
+    res = await api.upload(projectUrl('/schedules'), form, (f) => setProgress(bar, f, `uploading ${Math.round(f * 100)} %`));
+  } catch (err) {
+    bar.classList.add('failed');
+    bar.querySelector('.label').textContent = 'refused';
+    throw err;
+  }
+  for (const sel of ['#schedule-file', '#schedule-rules']) $(sel).value = '';
+  $('#schedule-new').open = false;
+  setProgress(bar, 0, 'queued for linking');
+  await loadSchedules();
+  trackJob(res.job);
 }
 
 const DAY = 86400000;
@@ -1077,10 +1403,16 @@ function dateValue() {
   return new Date(Number(slider.dataset.start) + Number(slider.value) * DAY).toISOString().slice(0, 10);
 }
 
-function updateDateLabel() { $('#date-label').textContent = dateValue(); }
+function updateDateLabel() {
+  $('#date-label').textContent = dateValue();
+  updateEvalSite();
+}
+
+const scheduleShown = () => !$('#date-panel').hidden && $('#date-on').checked && S.schedules.length > 0;
 
 async function applyDate() {
   if ($('#date-panel').hidden || !S.model) return;
+  updateEvalSite();
   if (!$('#date-on').checked) {
     S.dateStates = null;
     refreshModelColours();
@@ -1093,9 +1425,15 @@ async function applyDate() {
     const res = await api.get(projectUrl(`/models/${S.model.id}/states?date=${date}&schedule_id=${$('#schedule-select').value}`));
     if (S.dateToken !== token) return;
     S.dateStates = res.states;
-    const counts = { built: 0, in_progress: 0, not_yet: 0 };
-    for (const v of Object.values(res.states)) counts[v] = (counts[v] || 0) + 1;
-    $('#date-label').textContent = `${res.date || date}: ${counts.built} built, ${counts.in_progress} in progress, ${counts.not_yet} not yet`;
+    let counts = res.counts;
+    if (!counts) {
+      counts = { built: 0, in_progress: 0, not_yet: 0 };
+      for (const v of Object.values(res.states)) counts[v] = (counts[v] || 0) + 1;
+    }
+    const label = $('#date-label');
+    label.textContent = `${res.date || date}: ${counts.built} built, ${counts.in_progress} in progress, ${counts.not_yet} not yet`;
+    Object.assign(label.dataset, { date: res.date || date, built: counts.built, inProgress: counts.in_progress,
+      notYet: counts.not_yet });
     refreshModelColours();
   } catch (err) {
     if (err.status === 404) {
@@ -1104,6 +1442,193 @@ async function applyDate() {
       refreshModelColours();
     } else showMessage(`The site at ${date}: ${errorText(err)}`, 'error');
   }
+}
+
+// the site an evaluation will run on: a capture date (typed, else the slider's) and a reality capture
+function evalSite() {
+  const typed = $('#eval-date').value;
+  const shown = scheduleShown();
+  const site = {};
+  if (typed || shown) {
+    site.date = typed || dateValue();
+    if (shown) site.schedule_id = Number($('#schedule-select').value);
+  }
+  if ($('#eval-reality').value) site.reality_id = Number($('#eval-reality').value);
+  return site;
+}
+
+function updateEvalSite() {
+  const site = evalSite();
+  const bits = [];
+  if (site.date) {
+    const sched = S.schedules.find((x) => x.id === site.schedule_id);
+    bits.push(`at ${site.date}${sched ? ` (schedule ${sched.name})` : ''}`);
+  }
+  if (site.reality_id) {
+    const r = S.realities.find((x) => x.id === site.reality_id);
+    bits.push(`with ${r ? r.name : `capture ${site.reality_id}`} as occluders`);
+  }
+  $('#eval-site').textContent = bits.length ? `Evaluates the site ${bits.join(', ')}.` : '';
+  $('#eval-site').dataset.date = site.date || '';
+}
+
+// ---------------------------------------------------------------------------------------------- reality captures
+async function loadRealities() {
+  if (!S.project) return;
+  const project = S.project.id;
+  const rows = await api.get(projectUrl('/reality'));
+  if (!S.project || S.project.id !== project) return;
+  S.realities = rows;
+  for (const id of [...viewer.realities.keys()]) if (!rows.some((r) => r.id === id && r.status === 'ready')) viewer.removeReality(id);
+  renderRealityList();
+  const ready = rows.filter((r) => r.status === 'ready');
+  fillSelect($('#eval-reality'), [['', 'none'], ...ready.map((r) => [r.id, `${r.name} (${r.kind})`])], $('#eval-reality').value);
+  updateEvalSite();
+  for (const r of rows) {
+    if (r.status !== 'ready' || !r.view_url) continue;
+    viewer.addReality(r, !S.realityHidden.has(r.id)).catch((err) => {
+      showMessage(`The reality capture ${r.name} cannot be shown: ${errorText(err)}`, 'error');
+    });
+  }
+}
+
+function renderRealityList() {
+  const items = S.realities.map((r) => {
+    const size = r.kind === 'points' ? `${(r.points || 0).toLocaleString('en')} points`
+      : `${(r.triangles || 0).toLocaleString('en')} triangles`;
+    const state = r.status === 'ready' ? size : r.status === 'failed' ? `failed: ${r.error || ''}` : `${r.status}…`;
+    const toggle = el('input', { type: 'checkbox', 'aria-label': `show ${r.name}`, checked: !S.realityHidden.has(r.id),
+      disabled: r.status !== 'ready', onchange: (ev) => {
+        if (ev.target.checked) S.realityHidden.delete(r.id);
+        else S.realityHidden.add(r.id);
+        viewer.setRealityVisible(r.id, ev.target.checked);
+      } });
+    const remove = el('button', { type: 'button', class: 'icon', title: 'delete this capture', 'data-needs': 'editor',
+      disabled: !canEdit(), onclick: () => act('Deleting the reality capture', async () => {
+        await api.del(projectUrl(`/reality/${r.id}`));
+        viewer.removeReality(r.id);
+        showMessage(`Reality capture ${r.name} deleted.`, 'ok');
+        await loadRealities();
+      }) }, '✕');
+    return el('li', { dataset: { reality: r.id, kind: r.kind, status: r.status }, class: r.status === 'failed' ? 'failed' : '' },
+      el('label', { class: 'check' }, toggle, ` ${r.name}`), el('span', { class: 'hint' }, ` ${r.kind} · ${state}`), remove);
+  });
+  $('#reality-list').replaceChildren(...items);
+  if (!items.length) {
+    $('#reality-list').append(el('li', { class: 'hint' }, 'No capture of the site yet'
+      + (canEdit() ? ': upload a point cloud or a mesh in the model’s frame.' : '.')));
+  }
+}
+
+async function uploadReality() {
+  if (!S.project) throw new Error('create or choose a project first');
+  const file = $('#reality-file').files[0];
+  if (!file) throw new Error('choose a point cloud (.las, .laz, .ply) or a mesh (.obj, .ply, .stl, .gltf, .glb) first');
+  const form = new FormData();
+  form.append('file', file);
+  const bar = $('#reality-progress');
+  setProgress(bar, 0, `uploading ${file.name}…`);
+  let res;
+  try {
+    res = await api.upload(projectUrl('/reality'), form, (f) => setProgress(bar, f, `uploading ${Math.round(f * 100)} %`));
+  } catch (err) {
+    bar.classList.add('failed');
+    bar.querySelector('.label').textContent = 'upload refused';
+    throw err;
+  }
+  $('#reality-file').value = '';
+  S.realities.push(res.reality);
+  renderRealityList();
+  setProgress(bar, 0, 'queued for preparation');
+  trackJob(res.job);
+}
+
+// ---------------------------------------------------------------------------------------------- members and share links
+async function loadMembers() {
+  const card = $('#sec-team');
+  card.hidden = !(S.info && S.info.login && S.project);
+  if (card.hidden) return;
+  const project = S.project.id;
+  const members = await act('Listing the members', () => api.get(projectUrl('/members')));
+  if (!members || !S.project || S.project.id !== project) return;
+  S.members = members;
+  renderMembers();
+}
+
+function renderMembers() {
+  const owner = isOwner();
+  const rows = S.members.map((m) => {
+    const self = S.me && m.username === S.me.username;
+    const role = owner ? el('select', { 'aria-label': `role of ${m.username}`, onchange: (ev) => act('Changing the role', async () => {
+      await api.request('PATCH', projectUrl(`/members/${m.user_id}`), { role: ev.target.value });
+      showMessage(`${m.username} is now ${ev.target.value}.`, 'ok');
+      await afterMembership();
+    }) }, ...['viewer', 'editor', 'owner'].map((r) => el('option', { value: r, selected: r === m.role }, r)))
+      : el('span', {}, m.role);
+    const remove = owner || self ? el('button', { type: 'button', class: 'icon', title: self ? 'leave the project' : `remove ${m.username}`,
+      onclick: () => act('Removing the member', async () => {
+        await api.del(projectUrl(`/members/${m.user_id}`));
+        showMessage(self ? 'You left the project.' : `${m.username} removed.`, 'ok');
+        if (self) await loadProjects(null);
+        else await afterMembership();
+      }) }, self ? 'leave' : '✕') : '';
+    return el('tr', { dataset: { member: m.username, role: m.role } }, el('td', {}, m.username + (self ? ' (you)' : '')),
+      el('td', {}, role), el('td', {}, remove));
+  });
+  $('#members-table tbody').replaceChildren(...rows);
+}
+
+// a role changed: my own may have too
+async function afterMembership() {
+  const [project, members] = await Promise.all([api.get(projectUrl('')), api.get(projectUrl('/members'))]);
+  Object.assign(S.project, project);
+  S.members = members;
+  applyRole();
+  renderMembers();
+  renderRealityList();
+  renderScheduleList();
+}
+
+async function addMember() {
+  const username = $('#member-name').value.trim();
+  if (!username) throw new Error('give the user name of an account (made with sightplan users add)');
+  const m = await api.post(projectUrl('/members'), { username, role: $('#member-role').value });
+  $('#member-name').value = '';
+  showMessage(`${m.username} is a ${m.role} of this project now.`, 'ok');
+  await afterMembership();
+}
+
+async function loadLinks() {
+  const list = $('#share-links');
+  if (!S.plan || !canEdit() || !$('#share-box').open) {
+    list.replaceChildren();
+    return;
+  }
+  const plan = S.plan.id;
+  const links = await api.get(projectUrl('/links'));
+  if (!S.plan || S.plan.id !== plan) return;
+  S.links = links.filter((l) => l.plan_id === plan);
+  const when = (t) => new Date(t).toLocaleString('en-GB', { dateStyle: 'short', timeStyle: 'short' });
+  list.replaceChildren(...S.links.map((l) => el('li', { dataset: { link: l.id, state: l.revoked_at ? 'revoked' : 'active' } },
+    el('span', {}, `link #${l.id}, made ${when(l.created_at)}`),
+    l.revoked_at ? el('span', { class: 'hint' }, ` revoked ${when(l.revoked_at)}`)
+      : el('button', { type: 'button', class: 'danger', onclick: () => act('Revoking the link', async () => {
+        await api.del(projectUrl(`/links/${l.id}`));
+        showMessage(`Link #${l.id} revoked: it answers 404 from now on.`, 'ok');
+        await loadLinks();
+      }) }, 'Revoke'))));
+  if (!S.links.length) list.append(el('li', { class: 'hint' }, 'No link to this plan yet.'));
+}
+
+async function createLink() {
+  if (!S.plan) throw new Error('create or choose a plan first');
+  const link = await api.post(projectUrl(`/plans/${S.plan.id}/links`), {});
+  $('#share-new').hidden = false;
+  $('#share-url').value = link.url;
+  $('#share-url').dataset.link = String(link.id);
+  $('#share-url').select();
+  showMessage(`Share link #${link.id} made: copy it now, it is shown only once.`, 'ok');
+  await loadLinks();
 }
 
 // ---------------------------------------------------------------------------------------------- status and export
@@ -1266,24 +1791,58 @@ function bindUi() {
     clearTimeout(dateTimer);
     dateTimer = setTimeout(() => applyDate(), 150);
   });
-  $('#date-on').addEventListener('change', () => applyDate());
+  $('#date-on').addEventListener('change', () => {
+    updateEvalSite();
+    applyDate();
+  });
   $('#login-form').addEventListener('submit', (ev) => {
     ev.preventDefault();
-    act('Logging in', async () => {
-      await api.post('/api/auth/login', { username: $('#login-user').value, password: $('#login-password').value });
-      $('#login-dialog').close();
-      window.location.reload();
-    });
+    act('Logging in', logIn);
   });
+  // the dialog stays until a login succeeds: every request would be refused without one
+  $('#login-dialog').addEventListener('cancel', (ev) => ev.preventDefault());
+  $('#logout').addEventListener('click', () => act('Logging out', logOut));
+  // points of the plan form picked in the 3D view
+  for (const b of $$('button[data-pick]')) b.addEventListener('click', () => act('Picking points', async () => startPicking(b.dataset.pick)));
+  for (const sel of ['#plan-axis', '#plan-points', '#plan-stations']) $(sel).addEventListener('input', updateMarkers);
+  $('#plan-new').addEventListener('toggle', () => {
+    if (!$('#plan-new').open) stopPicking();
+    updateMarkers();
+  });
+  window.addEventListener('keydown', (ev) => {
+    if (ev.key === 'Escape' && S.pick) stopPicking();
+  });
+  $('#schedule-own').addEventListener('change', (ev) => { $('#schedule-file').disabled = ev.target.checked; });
+  $('#schedule-add').addEventListener('click', () => act('Adding the schedule', addSchedule));
+  $('#reality-upload').addEventListener('click', () => act('Uploading the reality capture', uploadReality));
+  $('#member-form').addEventListener('submit', (ev) => {
+    ev.preventDefault();
+    act('Adding the member', addMember);
+  });
+  $('#share-box').addEventListener('toggle', () => act('Listing the share links', loadLinks));
+  $('#share-create').addEventListener('click', () => act('Making a share link', createLink));
+  $('#eval-date').addEventListener('change', updateEvalSite);
+  $('#eval-reality').addEventListener('change', updateEvalSite);
   window.addEventListener('resize', () => {
     renderHistogram();
     renderStability();
   });
 }
 
+const SAFETY_DEFAULT = { route: '' };  // empty: the server's default (0.3 m for a walker)
 function updateTemplateFields() {
   const t = $('#plan-template').value;
   for (const label of $$('#plan-form [data-template]')) label.hidden = label.dataset.template !== t;
+  // the safety distance follows the template unless it was typed
+  const safety = $('#plan-safety');
+  const before = safety.dataset.defaultOf || 'facade';
+  if (safety.value === (SAFETY_DEFAULT[before] ?? '10')) safety.value = SAFETY_DEFAULT[t] ?? '10';
+  safety.placeholder = t === 'route' ? '0.3 (walker)' : '';
+  safety.dataset.defaultOf = t;
+  if (S.pick && S.pick !== 'stations' && !$(PICK[S.pick].button).closest('[data-template]').dataset.template.includes(t)) {
+    stopPicking();
+  }
+  updateMarkers();
 }
 
 init().catch((err) => {

@@ -1,6 +1,8 @@
 // The 3D view: the model as one merged mesh (a colour per vertex, each element owning its vertices), the plan as
 // line segments (frustums, path), points (camera centres) and instanced spheres (safety violations), ground stations
-// with their line-of-sight circle. Rendering happens on demand (camera moves, data changes), never in a loop.
+// with their line-of-sight circle, the selected element outlined, the points a plan form picks, and reality captures
+// (a point cloud streamed as 3D Tiles, a mesh as GLB). Rendering happens on demand (camera moves, data changes);
+// only while a point cloud is shown does a loop run, which lets the cloud pick its tiles every animation frame.
 //
 // Coordinates are the viewer frame of the geometry endpoint: Y up, centred on the model's box;
 // a model point (x, y, z) is drawn at (x − ox, z − oz, −(y − oy)).
@@ -82,7 +84,13 @@ export class Viewer {
     this.modelGroup = new THREE.Group();
     this.planGroup = new THREE.Group();
     this.helpers = new THREE.Group();
-    this.scene.add(this.helpers, this.modelGroup, this.planGroup);
+    this.markerGroup = new THREE.Group();  // points picked for a plan form
+    this.realityGroup = new THREE.Group();  // reality meshes (point clouds add their own groups to the scene)
+    this.scene.add(this.helpers, this.modelGroup, this.planGroup, this.markerGroup, this.realityGroup);
+    this.realities = new Map();  // capture id → {id, kind, url, visible, object, cloud, triangles}
+    this.highlight = null;
+    this.markers = [];
+    this._looping = false;
     this.raycaster = new THREE.Raycaster();
     this.baseFrameSize = 1.5;  // metres from a camera's centre to its drawn image plane
     this.frameScale = 1;
@@ -100,7 +108,8 @@ export class Viewer {
 
   // ------------------------------------------------------------------ rendering
   requestRender() {
-    if (this._pending) return;
+    this._dirty = true;
+    if (this._pending || this._looping) return;  // the point cloud loop draws on its next frame
     this._pending = true;
     requestAnimationFrame(() => {
       this._pending = false;
@@ -109,9 +118,49 @@ export class Viewer {
   }
 
   render() {
+    for (const r of this._shownClouds()) r.cloud.update();
+    this._draw();
+  }
+
+  _draw() {
+    this._dirty = false;
     this.renderer.render(this.scene, this.camera);
     this.renders++;
     if (this.compass) this._updateCompass();
+  }
+
+  _shownClouds() {
+    const out = [];
+    for (const r of this.realities.values()) if (r.cloud && r.visible) out.push(r);
+    return out;
+  }
+
+  // While a point cloud is shown: every animation frame it picks its tiles for the camera (and queues their
+  // downloads); the view is drawn again when the camera moved or the drawn tiles changed.
+  _loop() {
+    if (this._looping) return;
+    this._looping = true;
+    const step = () => {
+      const clouds = this._shownClouds();
+      if (!clouds.length) {
+        this._looping = false;
+        if (this._dirty) this.requestRender();
+        return;
+      }
+      let changed = this._dirty;
+      for (const r of clouds) {
+        r.cloud.update();
+        const st = r.cloud.stats();
+        const key = `${st.tilesLoaded}/${st.tilesVisible}/${st.pointsVisible}`;
+        if (key !== r.key) {
+          r.key = key;
+          changed = true;
+        }
+      }
+      if (changed) this._draw();
+      requestAnimationFrame(step);
+    };
+    requestAnimationFrame(step);
   }
 
   resize() {
@@ -139,6 +188,11 @@ export class Viewer {
     return [p[0] - o[0], p[2] - o[2], -(p[1] - o[1])];
   }
 
+  fromViewer(v) {
+    const o = this.origin;
+    return [v[0] + o[0], -v[2] + o[1], v[1] + o[2]];
+  }
+
   dirToViewer(d) { return [d[0], d[2], -d[1]]; }
 
   // ------------------------------------------------------------------ the model
@@ -146,6 +200,7 @@ export class Viewer {
     this.clearModel();
     const { header } = geo;
     const z = header.elements;
+    const moved = header.origin_m.some((v, k) => v !== this.origin[k]);
     this.origin = header.origin_m;
     this.model = {
       geo,
@@ -188,10 +243,12 @@ export class Viewer {
     this.baseFrameSize = Math.min(Math.max(sphere.radius * 0.05, 0.4), 6);
     this.frameSize = this.baseFrameSize * this.frameScale;
     this._grid(box);
+    if (moved) this._replaceRealities();
     this.requestRender();
   }
 
   clearModel() {
+    this.highlightElement(null);
     if (!this.model) return;
     for (const m of [this.model.solidMesh, this.model.ghostMesh, this.model.pickMesh]) {
       m.geometry.dispose();
@@ -298,7 +355,9 @@ export class Viewer {
     this.plan = { plan, n, checks };
     if (!this.model && n) {
       const mean = [0, 1, 2].map((k) => plan.position.reduce((s, p) => s + p[k], 0) / n);
+      const moved = mean.some((v, k) => v !== this.origin[k]);
       this.origin = mean;
+      if (moved) this._replaceRealities();
     }
     const centres = new Float32Array(3 * n);
     plan.position.forEach((p, i) => centres.set(this.toViewer(p), 3 * i));
@@ -554,7 +613,7 @@ export class Viewer {
     el.addEventListener('pointerup', (ev) => {
       if (!down || Math.hypot(ev.clientX - down[0], ev.clientY - down[1]) > 4) return;
       down = null;
-      if (this.onClick) this.onClick(this.pickAt(ev.clientX, ev.clientY));
+      if (this.onClick) this.onClick(this.pickAt(ev.clientX, ev.clientY), ev);
     });
   }
 
@@ -639,4 +698,232 @@ export class Viewer {
     }
     return null;
   }
+
+  // screen point (client pixels) of a model point [x, y, z]
+  screenPoint(p) {
+    const rect = this.renderer.domElement.getBoundingClientRect();
+    const v = new THREE.Vector3(...this.toViewer(p)).project(this.camera);
+    return { x: rect.left + ((v.x + 1) / 2) * rect.width, y: rect.top + ((1 - v.y) / 2) * rect.height,
+      inView: Math.abs(v.x) < 1 && Math.abs(v.y) < 1 && v.z < 1 };
+  }
+
+  // the model point [x, y, z] under the pointer: the first surface of the model drawn there, else the ground (the
+  // level of the model's lowest point, where the grid lies); null when the ray misses both
+  pickPoint(clientX, clientY) {
+    this.raycaster.setFromCamera(this.ndc(clientX, clientY), this.camera);
+    const ray = this.raycaster.ray;
+    const groundY = this.model ? this.model.box.min.y : 0;
+    const at = ray.intersectPlane(new THREE.Plane(new THREE.Vector3(0, 1, 0), -groundY), new THREE.Vector3());
+    const groundDistance = at ? at.distanceTo(ray.origin) : Infinity;
+    if (this.model && this.modelGroup.visible) {
+      this.ensureBVH();
+      const m = this.model;
+      const ve = m.geo.vertexElement;
+      const hit = this.raycaster.intersectObject(m.pickMesh, false).find((h) => m.modes[ve[h.face.a]] !== HIDDEN);
+      if (hit && hit.distance <= groundDistance) {
+        return { point: this.fromViewer(hit.point.toArray()), on: 'model', element: ve[hit.face.a] };
+      }
+    }
+    return at ? { point: this.fromViewer(at.toArray()), on: 'ground' } : null;
+  }
+
+  // the model's lowest level (m, model z), where picked plan points without a height are drawn
+  groundZ() {
+    return this.model ? this.model.box.min.y + this.origin[2] : 0;
+  }
+
+  // ------------------------------------------------------------------ picked points of a plan form
+  // sets: [{points: [[x, y, z]], colour: 0xrrggbb, line: whether consecutive points are joined}]; drawn over
+  // everything, a fixed size on screen
+  setMarkers(sets) {
+    this._dispose(this.markerGroup);
+    this.markerGroup.clear();
+    this.markers = sets.map((set) => ({ points: set.points.map((q) => [...q]), colour: set.colour, line: !!set.line }));
+    for (const set of this.markers) {
+      if (!set.points.length) continue;
+      const flat = new Float32Array(set.points.flatMap((q) => this.toViewer(q)));
+      const g = new THREE.BufferGeometry();
+      g.setAttribute('position', new THREE.BufferAttribute(flat, 3));
+      const dots = new THREE.Points(g, new THREE.PointsMaterial({ color: set.colour, size: 11, sizeAttenuation: false,
+        depthTest: false, map: dotTexture(), alphaTest: 0.5, transparent: true }));
+      dots.renderOrder = 12;
+      this.markerGroup.add(dots);
+      if (set.line && set.points.length > 1) {
+        const lg = new THREE.BufferGeometry();
+        lg.setAttribute('position', new THREE.BufferAttribute(flat.slice(), 3));
+        const line = new THREE.Line(lg, new THREE.LineBasicMaterial({ color: set.colour, depthTest: false }));
+        line.renderOrder = 11;
+        this.markerGroup.add(line);
+      }
+    }
+    this.requestRender();
+  }
+
+  // ------------------------------------------------------------------ the selected element
+  // its triangles tinted and its edges drawn on top, in the selection colour of frames
+  highlightElement(e) {
+    if (this.highlight) {
+      this.scene.remove(this.highlight);
+      this._dispose(this.highlight);
+      this.highlight = null;
+    }
+    this.selectedElement = e;
+    const m = this.model;
+    if (e === null || e === undefined || !m || e < 0 || e >= m.z || m.triStart[e + 1] === m.triStart[e]) {
+      this.requestRender();
+      return;
+    }
+    const idx = m.geo.index.subarray(3 * m.triStart[e], 3 * m.triStart[e + 1]);
+    const pos = m.geo.position;
+    const flat = new Float32Array(idx.length * 3);
+    for (let k = 0; k < idx.length; k++) flat.set(pos.subarray(3 * idx[k], 3 * idx[k] + 3), 3 * k);
+    const g = new THREE.BufferGeometry();
+    g.setAttribute('position', new THREE.BufferAttribute(flat, 3));
+    const tint = new THREE.Mesh(g, new THREE.MeshBasicMaterial({ color: HIGHLIGHT, transparent: true, opacity: 0.6,
+      side: THREE.DoubleSide, depthWrite: false, polygonOffset: true, polygonOffsetFactor: -2, polygonOffsetUnits: -2 }));
+    tint.renderOrder = 5;
+    const edges = new THREE.LineSegments(new THREE.EdgesGeometry(g, 25), new THREE.LineBasicMaterial({
+      color: HIGHLIGHT, depthTest: false, transparent: true, opacity: 0.9 }));
+    edges.renderOrder = 10;
+    const group = new THREE.Group();
+    group.add(tint, edges);
+    group.userData.element = e;
+    this.highlight = group;
+    this.scene.add(group);
+    this.requestRender();
+  }
+
+  // ------------------------------------------------------------------ reality captures
+  // capture: {id, kind: 'points' | 'mesh', view_url, name}; resolves once it is shown (a cloud: its root tileset)
+  async addReality(capture, visible = true) {
+    const have = this.realities.get(capture.id);
+    if (have) {
+      this.setRealityVisible(capture.id, visible);
+      return have;
+    }
+    const entry = { id: capture.id, kind: capture.kind, url: capture.view_url, name: capture.name, visible,
+      object: null, cloud: null, triangles: 0 };
+    this.realities.set(capture.id, entry);
+    await this._showReality(entry);
+    return entry;
+  }
+
+  async _showReality(entry) {
+    if (entry.kind === 'points') {
+      const { addPointCloud } = await import('./pointcloud.js');
+      if (this.realities.get(entry.id) !== entry) return;
+      // the same frame as the model: Y up, the model's origin subtracted
+      entry.cloud = addPointCloud(this.scene, this.camera, this.renderer, entry.url,
+        { upAxis: 'y', origin: [...this.origin], pointSize: 2 });
+      entry.origin = [...this.origin];
+      entry.object = entry.cloud.group;
+      entry.object.visible = entry.visible;
+      entry.cloud.tiles.addEventListener('needs-update', () => this.requestRender());
+      this._loop();
+      await entry.cloud.ready;
+    } else {
+      const { GLTFLoader } = await import('three/addons/loaders/GLTFLoader.js');
+      const gltf = await new GLTFLoader().loadAsync(entry.url);
+      if (this.realities.get(entry.id) !== entry) {
+        this._dispose(gltf.scene);
+        return;
+      }
+      const group = new THREE.Group();
+      group.name = `reality ${entry.id}`;
+      group.add(gltf.scene);
+      let triangles = 0;
+      gltf.scene.traverse((o) => {
+        if (!o.isMesh) return;
+        o.material.dispose();
+        o.material = new THREE.MeshLambertMaterial({ color: REALITY_MESH, side: THREE.DoubleSide, flatShading: true });
+        const g = o.geometry;
+        triangles += (g.index ? g.index.count : g.getAttribute('position').count) / 3;
+      });
+      entry.triangles = triangles;
+      entry.object = group;
+      this._placeMesh(entry);
+      group.visible = entry.visible;
+      this.realityGroup.add(group);
+      this.requestRender();
+    }
+  }
+
+  // glTF's Y up stores model (x, y, z) as (x, z, −y): the viewer frame is that, less the origin
+  _placeMesh(entry) {
+    const [ox, oy, oz] = this.origin;
+    entry.object.position.set(-ox, -oz, oy);
+    entry.object.updateMatrixWorld(true);
+  }
+
+  // the model's origin moved: meshes move with it, clouds are streamed again in the new frame
+  _replaceRealities() {
+    for (const entry of this.realities.values()) {
+      if (entry.kind === 'mesh' && entry.object) this._placeMesh(entry);
+      else if (entry.cloud && entry.origin.some((v, k) => v !== this.origin[k])) {
+        entry.cloud.dispose();
+        entry.cloud = null;
+        entry.object = null;
+        this._showReality(entry).catch((err) => console.error('reality capture', entry.id, err));
+      }
+    }
+    this.requestRender();
+  }
+
+  setRealityVisible(id, visible) {
+    const entry = this.realities.get(id);
+    if (!entry) return;
+    entry.visible = visible;
+    if (entry.object) entry.object.visible = visible;
+    if (entry.cloud && visible) this._loop();
+    this.requestRender();
+  }
+
+  removeReality(id) {
+    const entry = this.realities.get(id);
+    if (!entry) return;
+    this.realities.delete(id);
+    if (entry.cloud) entry.cloud.dispose();
+    else if (entry.object) {
+      this.realityGroup.remove(entry.object);
+      this._dispose(entry.object);
+    }
+    this.requestRender();
+  }
+
+  clearRealities() {
+    for (const id of [...this.realities.keys()]) this.removeReality(id);
+  }
+
+  // what each capture shows: a cloud's streaming statistics, a mesh's triangles, and the box it occupies in the
+  // viewer frame
+  realityInfo() {
+    return [...this.realities.values()].map((r) => {
+      const out = { id: r.id, kind: r.kind, visible: r.visible, shown: Boolean(r.object), triangles: r.triangles };
+      if (r.cloud) Object.assign(out, r.cloud.stats());
+      if (r.object) {
+        r.object.updateMatrixWorld(true);
+        const box = new THREE.Box3().setFromObject(r.object);
+        if (!box.isEmpty()) out.box = [box.min.toArray(), box.max.toArray()];
+      }
+      return out;
+    });
+  }
+}
+
+const HIGHLIGHT = 0xff00aa;
+const REALITY_MESH = 0xc9a25e;
+let dotSprite = null;
+
+// a round dot for point markers
+function dotTexture() {
+  if (dotSprite) return dotSprite;
+  const c = document.createElement('canvas');
+  c.width = c.height = 32;
+  const ctx = c.getContext('2d');
+  ctx.beginPath();
+  ctx.arc(16, 16, 13, 0, Math.PI * 2);
+  ctx.fillStyle = '#fff';
+  ctx.fill();
+  dotSprite = new THREE.CanvasTexture(c);
+  return dotSprite;
 }

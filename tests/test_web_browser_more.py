@@ -1,0 +1,515 @@
+"""More of the web page in Debian's Chromium (headless, software GL) through Playwright: the bridge template with a
+ground station picked in the 3D view, a 4D schedule linked from the page with the date slider on the real endpoint and
+an evaluation at that date, reality captures (a coloured point cloud streamed as 3D Tiles, a mesh as GLB) with an
+evaluation that takes one as occluders, the selected element outlined, and team mode: login, members, roles, share
+links and logout.
+
+Every number the page shows is compared with the API's, and where it can be with a number known beforehand (the
+hand-counted 251 frames of the bridge, the element states written into the CSV, the library's own evaluation at the
+date). Screenshots of each step go to ``$SIGHTPLAN_TEST_ARTIFACTS`` (default ``test-artifacts/browser/``).
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import subprocess
+import sys
+import time
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+import trimesh
+
+from browser_support import ARTIFACTS, Server, launch_browser, open_page, shot, view_pixels
+from sightplan.camera.catalogue import get_camera
+from sightplan.model.load import load_model, sample_model_path
+from sightplan.plan.templates import indoor_route
+
+SCALE = 0.05
+PASSWORDS = {"olivia": "olivia-secret-1", "victor": "victor-secret-2"}
+
+
+@pytest.fixture(scope="module")
+def browser():
+    with launch_browser() as b:
+        yield b
+
+
+@pytest.fixture(scope="module")
+def server(tmp_path_factory):
+    s = Server(tmp_path_factory.mktemp("browser-more") / "data")
+    # the sample Duplex is tessellated in the background while the first test runs
+    project = s.request("POST", "/api/projects", {"name": "Duplex 4D"})["id"]
+    s.duplex = (project, s.upload(f"/api/projects/{project}/models", "duplex.ifc", sample_model_path().read_bytes()))
+    yield s
+    s.stop()
+
+
+@pytest.fixture(scope="module")
+def artifacts() -> Path:
+    ARTIFACTS.mkdir(parents=True, exist_ok=True)
+    return ARTIFACTS
+
+
+@pytest.fixture(scope="module")
+def duplex(server) -> tuple[int, int]:
+    """A project with the sample Duplex, uploaded through the API when the server started."""
+    project, res = server.duplex
+    assert server.wait_job(res["job"]["id"])["status"] == "done"
+    return project, res["model"]["id"]
+
+
+def box(size, corner) -> trimesh.Trimesh:
+    return trimesh.creation.box(size, trimesh.transformations.translation_matrix(np.add(corner, np.divide(size, 2))))
+
+
+def obj_bytes(mesh: trimesh.Trimesh) -> bytes:
+    buf = io.BytesIO()
+    mesh.export(buf, file_type="obj")
+    return buf.getvalue()
+
+
+def open_project(browser, server, project: int):
+    return open_page(browser, server, init_script=f"localStorage.setItem('sightplan.project', '{project}')")
+
+
+def click_model_point(page, point) -> dict:
+    """Click where the model point [x, y, z] is on screen; returns that screen point."""
+    at = page.evaluate(f"window.sightplan.viewer.screenPoint({json.dumps(list(point))})")
+    assert at["inView"], (point, at)
+    page.mouse.click(at["x"], at["y"])
+    return at
+
+
+def wait_for(page, expression: str, timeout_s: float = 60) -> None:
+    """Wait until ``expression`` holds in the page; an error message shown meanwhile fails at once, with its text."""
+    page.wait_for_function(f"() => ({expression}) || document.querySelector('.msg.error')", timeout=timeout_s * 1000)
+    errors = page.locator(".msg.error").all_inner_texts()
+    assert not errors, errors
+
+
+def metric_cells(page, evaluation: int) -> dict[str, str]:
+    row = page.locator(f"#metrics-table tr[data-evaluation='{evaluation}']")
+    return {k: row.locator(f"td[data-metric={k}]").inner_text() for k in ("VC_pct", "VR", "R_m_per_px", "O_deg")}
+
+
+def api_cells(metrics: dict) -> dict[str, str]:
+    return {"VC_pct": f"{metrics['VC_pct']:.2f}", "VR": f"{metrics['VR']:.2f}",
+            "R_m_per_px": "—" if metrics["R_m_per_px"] is None else f"{metrics['R_m_per_px']:.4f}",
+            "O_deg": "—" if metrics["O_deg"] is None else f"{metrics['O_deg']:.2f}"}
+
+
+# --------------------------------------------------------------------------- (a) a bridge, a picked ground station
+def test_bridge_plan_from_the_form_with_a_picked_ground_station(browser, server, artifacts):
+    """A 60 × 10 m deck at z 8–10 on two piers; the axis [0, 0] → [60, 0] typed, 15 m off it: the 251 frames counted
+    by hand in test_web_templates. The ground station is picked by clicking the ground at (30, −25, 0)."""
+    started = time.monotonic()
+    mesh = trimesh.util.concatenate([box((60, 10, 2), (0, -5, 8)), box((4, 2, 8), (28, 3, 0)), box((4, 2, 8), (28, -5, 0))])
+    project = server.request("POST", "/api/projects", {"name": "Bridge"})["id"]
+    res = server.upload(f"/api/projects/{project}/models", "bridge.obj", obj_bytes(mesh))
+    assert server.wait_job(res["job"]["id"])["status"] == "done"
+    ctx, page, problems = open_project(browser, server, project)
+    try:
+        page.wait_for_function("document.body.dataset.model", timeout=30_000)
+        page.click("#plan-new summary")
+        page.select_option("#plan-template", "bridge")
+        assert page.is_visible("#plan-axis") and page.is_hidden("#plan-points") and page.is_visible("#plan-stations")
+        page.select_option("#plan-camera", "p4p")
+        page.fill("#plan-safety", "15")
+        page.select_option("#plan-aircraft", "m300")
+        assert page.locator("#plan-aircraft option[value=walker-360]").count() == 1  # the presets of /api/info
+
+        # an axis point picked on the deck's top (the model), then the axis typed
+        page.click("#pick-axis")
+        click_model_point(page, [30, 0, 10])
+        page.wait_for_function("document.querySelector('#plan-axis').value !== ''")
+        x, y = (float(v) for v in page.input_value("#plan-axis").split(","))
+        assert (x, y) == (pytest.approx(30, abs=0.3), pytest.approx(0, abs=0.3))
+        page.click("#pick-axis")  # done picking
+        page.fill("#plan-axis", "0, 0\n60, 0")
+        page.dispatch_event("#plan-axis", "input")
+
+        # a ground station picked on the ground south of the bridge
+        page.click("#pick-stations")
+        assert page.evaluate("document.body.dataset.picking") == "stations"
+        click_model_point(page, [30, -25, 0])
+        page.wait_for_function("document.querySelector('#plan-stations').value !== ''")
+        station = [float(v) for v in page.input_value("#plan-stations").split(",")]
+        assert station == [pytest.approx(30, abs=0.3), pytest.approx(-25, abs=0.3), pytest.approx(0, abs=1e-6)]
+        markers = page.evaluate("window.sightplan.viewer.markers")
+        assert [m["points"] for m in markers] == [[[0, 0, 0], [60, 0, 0]], [station]]  # axis at the ground's level
+        rgb = view_pixels(page, shot(page, artifacts, "20-bridge-form-picked"))
+        orange = ((abs(rgb[..., 0] - 0xe6) < 30) & (abs(rgb[..., 1] - 0x7e) < 30) & (rgb[..., 2] < 90)).sum()
+        green = ((rgb[..., 1] > rgb[..., 0] + 60) & (rgb[..., 1] > rgb[..., 2] + 20) & (rgb[..., 0] < 60)).sum()
+        assert orange > 50 and green > 30, (orange, green)  # the axis line and dots, the station's dot
+        page.click("#pick-stations")
+
+        page.click("#plan-create")
+        wait_for(page, "window.sightplan.viewer.plan && window.sightplan.viewer.plan.n > 0")
+        assert page.inner_text("#plan-summary").startswith("251 frames")
+        assert page.evaluate("window.sightplan.viewer.plan.n") == 251
+        assert page.evaluate("window.sightplan.viewer.markers.length") == 0  # the form closed: no picked points drawn
+        (plan,) = server.get(f"/api/projects/{project}/plans")
+        v1 = server.get(f"/api/projects/{project}/plans/{plan['id']}/versions/1")
+        assert len(v1["frames"]) == plan["versions"][0]["frames"] == 251
+        assert v1["parameters"]["template"] == "bridge" and v1["parameters"]["deck_z"] == pytest.approx(8.0)
+        assert v1["missions"][0]["ground_station"] == pytest.approx(station, abs=1e-9)
+        assert {tuple(m["ground_station"]) for m in v1["missions"]} == {tuple(station)}
+        page.wait_for_function("document.querySelector('#checks-summary').textContent.includes('VLOS')", timeout=30_000)
+        shot(page, artifacts, "21-bridge-plan")
+
+        # a walked route: two points picked on the ground, at the height typed (1.6 m above what was clicked)
+        page.click("#plan-new summary")
+        page.select_option("#plan-template", "route")
+        assert page.input_value("#plan-safety") == "15" and page.is_hidden("#plan-axis")  # typed: kept
+        page.fill("#plan-safety", "")  # the walker's default
+        page.select_option("#plan-camera", "x3")
+        page.select_option("#plan-aircraft", "")  # the default: a walker for a route
+        page.fill("#plan-stations", "")
+        page.fill("#plan-route-step", "2")
+        page.click("#pick-points")
+        for point in ([10, -20, 0], [50, -20, 0]):
+            click_model_point(page, point)
+        page.wait_for_function("document.querySelector('#plan-points').value.split('\\n').length === 2")
+        points = [[float(v) for v in line.split(",")] for line in page.input_value("#plan-points").splitlines()]
+        assert np.allclose(points, [[10, -20, 1.6], [50, -20, 1.6]], atol=0.3) and points[0][2] == 1.6
+        assert page.evaluate("window.sightplan.viewer.markers")[0]["points"] == points
+        shot(page, artifacts, "21b-route-form-picked")
+        page.click("#plan-create")
+        wait_for(page, "window.sightplan.state.plan && window.sightplan.state.plan.name === 'route plan'")
+        route = server.get(f"/api/projects/{project}/plans")[-1]
+        expected = len(indoor_route(get_camera("x3"), points, 2.0))
+        assert page.evaluate("window.sightplan.viewer.plan.n") == route["versions"][0]["frames"] == expected
+        assert expected == int(np.ceil(np.linalg.norm(np.subtract(points[1], points[0])) / 2 - 1e-9)) + 1  # ≈ 40 m / 2 + 1
+        assert not [p for p in problems if "page error" in p], problems
+    finally:
+        ctx.close()
+    assert time.monotonic() - started < 45
+
+
+# --------------------------------------------------------------------------- (b) a schedule and the date slider
+@pytest.fixture(scope="module")
+def csv_dates():
+    """10 targets finished on 10 January 2025 (started the 2nd), 5 started on the 5th and finished on the 20th."""
+    scene, _ = load_model("sample")
+    targets = np.flatnonzero(scene.elements.is_target)
+    done, busy = targets[:10], targets[10:15]
+    rows = ["global_id,start,finish"]
+    rows += [f"{scene.elements.global_id[i]},2025-01-02,2025-01-10" for i in done]
+    rows += [f"{scene.elements.global_id[i]},2025-01-05,2025-01-20" for i in busy]
+    return scene, done, busy, "\n".join(rows).encode()
+
+
+def test_schedule_from_the_page_dates_the_site_and_the_evaluation(browser, server, artifacts, duplex, csv_dates):
+    from sightplan.evaluate import EvaluationSettings, evaluate
+    from sightplan.plan.format import plan_from_dict
+
+    project, model = duplex
+    scene, done, busy, csv = csv_dates
+    z = scene.n_elements
+    ctx, page, problems = open_project(browser, server, project)
+    try:
+        page.wait_for_function("document.body.dataset.model", timeout=30_000)
+        assert page.is_hidden("#date-panel")  # no schedule yet
+        page.click("#schedule-new summary")
+        page.set_input_files("#schedule-file", {"name": "dates.csv", "mimeType": "text/csv", "buffer": csv})
+        page.click("#schedule-add")
+        page.wait_for_selector("#schedule-report[data-status=ready]", timeout=60_000)
+        (sched,) = server.get(f"/api/projects/{project}/schedules")
+        assert sched["status"] == "ready" and sched["report"]["linked"] == 15
+        assert (sched["first_date"], sched["last_date"]) == ("2025-01-02", "2025-01-20")
+        assert page.inner_text("#schedule-report-lines") == "\n".join(sched["report"]["lines"])
+        assert sched["report"]["lines"][0] == "schedule dates.csv: 15 tasks"  # the name it was uploaded as
+        assert page.inner_text("#schedule-progress .label").startswith("linked")
+        assert page.locator(f"#schedule-list li[data-schedule='{sched['id']}'][data-status=ready]").count() == 1
+
+        # the slider on the real states endpoint: 2025-01-12 is day 10 of 2025-01-02 … 2025-01-20
+        page.wait_for_selector("#date-panel:not([hidden])")
+        assert page.get_attribute("#date-slider", "max") == "18"
+        page.fill("#date-slider", "10")
+        page.dispatch_event("#date-slider", "input")
+        page.wait_for_function("document.getElementById('date-label').dataset.date === '2025-01-12'", timeout=30_000)
+        states = server.get(f"/api/projects/{project}/models/{model}/states?date=2025-01-12&schedule_id={sched['id']}")
+        label = page.eval_on_selector("#date-label", "e => ({...e.dataset})")
+        shown = {"built": int(label["built"]), "in_progress": int(label["inProgress"]), "not_yet": int(label["notYet"])}
+        assert shown == states["counts"] == {"built": z - 5, "in_progress": 5, "not_yet": 0}
+        assert page.inner_text("#date-label") == f"2025-01-12: {z - 5} built, 5 in progress, 0 not yet"
+        looks = page.evaluate(f"[...Array({z}).keys()].map((e) => window.sightplan.elementColour(e))")
+        assert {e for e, look in enumerate(looks) if look["rgb"] == pytest.approx([0.96, 0.55, 0.12])} == set(busy)
+        rgb = view_pixels(page, shot(page, artifacts, "22-schedule-site-at-2025-01-12"))
+        orange = ((rgb[..., 0] > 200) & (abs(rgb[..., 1] - 140) < 40) & (rgb[..., 2] < 90)).sum()
+        assert orange > 200, orange  # the elements in progress
+
+        # an orbit of 8 frames, evaluated at the slider's date
+        page.click("#plan-new summary")
+        page.select_option("#plan-template", "orbit")
+        page.fill("#plan-radius", "22")
+        page.fill("#plan-height", "6")
+        page.fill("#plan-step", "45")
+        page.click("#plan-create")
+        wait_for(page, "window.sightplan.viewer.plan && window.sightplan.viewer.plan.n === 8")
+        page.fill("#eval-scale", str(SCALE))
+        assert page.get_attribute("#eval-site", "data-date") == "2025-01-12"
+        page.click("#eval-start")
+        wait_for(page, "window.sightplan.state.feedback && window.sightplan.state.evaluation", 90)
+        (ev,) = server.get(f"/api/projects/{project}/evaluations")
+        assert ev["status"] == "done"
+        assert ev["settings"]["fourd"] == {"date": "2025-01-12", "schedule_id": sched["id"], "basis": "finish",
+                                           "unscheduled": "present"}
+        assert metric_cells(page, ev["id"]) == api_cells(ev["metrics"])
+        assert page.inner_text(f"#metrics-table tr[data-evaluation='{ev['id']}'] td[data-site]") == "at 2025-01-12"
+        # the library at that date: the 5 elements in progress do not stand yet
+        start = np.full(z, np.datetime64("NaT"), "datetime64[s]")
+        finish = start.copy()
+        start[done], finish[done] = np.datetime64("2025-01-02"), np.datetime64("2025-01-10")
+        start[busy], finish[busy] = np.datetime64("2025-01-05"), np.datetime64("2025-01-20")
+        at = replace(scene, elements=scene.elements.with_dates(start, finish)).at("2025-01-12")
+        assert int(at.targets.sum()) == int(scene.elements.is_target.sum()) - 5
+        plan = plan_from_dict(server.get(f"/api/projects/{project}/plans/{ev['plan_id']}/versions/1"))
+        ref = evaluate(at, plan, EvaluationSettings(scale=SCALE, engine=ev["settings"]["engine"]), cache_dir=False)
+        assert ev["metrics"]["VC_pct"] == pytest.approx(100 * ref.metrics.plan.VC)
+        assert ev["metrics"]["VR"] == pytest.approx(ref.metrics.plan.VR)
+        shot(page, artifacts, "23-evaluated-at-a-date")
+        assert not [p for p in problems if "page error" in p], problems
+    finally:
+        ctx.close()
+
+
+# --------------------------------------------------------------------------- (c) reality captures
+def ply_wall(n: int = 200_000) -> bytes:
+    """A wall of blue points 5 m east of the house: x 14, y −20 … 2, z −1.5 … 6."""
+    import plyfile
+
+    rng = np.random.default_rng(3)
+    vertex = np.empty(n, dtype=[("x", "f4"), ("y", "f4"), ("z", "f4"), ("red", "u1"), ("green", "u1"), ("blue", "u1")])
+    vertex["x"] = 14.0 + rng.normal(0, 0.01, n)
+    vertex["y"] = rng.uniform(-20, 2, n)
+    vertex["z"] = rng.uniform(-1.5, 6, n)
+    vertex["red"], vertex["green"], vertex["blue"] = 20, 40, 250
+    buf = io.BytesIO()
+    plyfile.PlyData([plyfile.PlyElement.describe(vertex, "vertex")]).write(buf)
+    return buf.getvalue()
+
+
+def test_reality_captures_are_drawn_beside_the_model_and_occlude(browser, server, artifacts, duplex):
+    pytest.importorskip("plyfile")
+    project, model = duplex
+    server.request("POST", f"/api/projects/{project}/plans", {"model_id": model, "template": "orbit", "radius": [24],
+                                                              "height": [5.0], "step": 60})
+    hoarding = box((2, 2, 3), (-8, -12, -1.5))  # a mesh west of the house
+    ctx, page, problems = open_project(browser, server, project)
+    try:
+        page.wait_for_function("document.body.dataset.model && window.sightplan.viewer.plan", timeout=30_000)
+        if page.is_visible("#date-on"):
+            page.uncheck("#date-on")  # the site as built
+        for name, data in (("wall.ply", ply_wall()), ("hoarding.obj", obj_bytes(hoarding))):
+            page.set_input_files("#reality-file", {"name": name, "mimeType": "application/octet-stream", "buffer": data})
+            page.click("#reality-upload")
+            page.wait_for_selector(f"#reality-list li[data-status=ready]:has-text('{name}')", timeout=90_000)
+        cloud, mesh = server.get(f"/api/projects/{project}/reality")
+        assert (cloud["kind"], cloud["points"], mesh["kind"], mesh["triangles"]) == ("points", 200_000, "mesh", 12)
+        page.click("#view-fit")
+        page.wait_for_function("""() => { const r = window.sightplan.viewer.realityInfo();
+            return r.length === 2 && r.every((x) => x.shown && x.box) && r[0].pointsVisible > 0 && r[0].loading === 0; }""",
+                               timeout=60_000)
+        info = {r["kind"]: r for r in page.evaluate("window.sightplan.viewer.realityInfo()")}
+        # placed in the model's frame: the boxes are the captures' bounds through the viewer's own mapping
+        for kind, row, tol in (("points", cloud, 0.2), ("mesh", mesh, 1e-3)):
+            corners = page.evaluate(f"[{json.dumps(row['bounds']['lo'])}, {json.dumps(row['bounds']['hi'])}]"
+                                    ".map((p) => window.sightplan.viewer.toViewer(p))")
+            expected = np.sort(np.array(corners), axis=0)
+            assert np.allclose(info[kind]["box"], expected, atol=tol), (kind, info[kind]["box"], expected)
+        assert info["mesh"]["triangles"] == 12
+        assert 0 < info["points"]["pointsVisible"] <= 200_000
+        rgb = view_pixels(page, shot(page, artifacts, "24-reality-captures"))
+        blue = ((rgb[..., 2] > 200) & (rgb[..., 0] < 80) & (rgb[..., 1] < 110)).sum()
+        tan = ((abs(rgb[..., 0] - 0xc9) < 45) & (abs(rgb[..., 1] - 0xa2) < 45) & (rgb[..., 2] < 120)).sum()
+        assert blue > 3000 and tan > 100, (blue, tan)  # the wall's points in their own colour; the mesh
+        # hidden by its toggle: no blue left
+        page.uncheck(f"#reality-list li[data-reality='{cloud['id']}'] input[type=checkbox]")
+        page.wait_for_timeout(300)
+        rgb = view_pixels(page, shot(page, artifacts, "25-point-cloud-hidden"))
+        assert ((rgb[..., 2] > 200) & (rgb[..., 0] < 80) & (rgb[..., 1] < 110)).sum() < blue / 50
+        page.check(f"#reality-list li[data-reality='{cloud['id']}'] input[type=checkbox]")
+
+        # an evaluation with the wall as occluders
+        page.click("#sec-eval details summary")
+        page.select_option("#eval-reality", str(cloud["id"]))
+        assert "wall.ply as occluders" in page.inner_text("#eval-site")
+        page.fill("#eval-scale", str(SCALE))
+        page.click("#eval-start")
+        wait_for(page, "window.sightplan.state.evaluation && window.sightplan.state.evaluation.settings.reality_id", 90)
+        ev = [e for e in server.get(f"/api/projects/{project}/evaluations") if e["settings"].get("reality_id")][-1]
+        assert ev["settings"]["reality_id"] == cloud["id"] and "fourd" not in ev["settings"]
+        assert metric_cells(page, ev["id"]) == api_cells(ev["metrics"])
+        assert page.inner_text(f"#metrics-table tr[data-evaluation='{ev['id']}'] td[data-site]") == "+ wall.ply"
+
+        # (4) the selected element outlined in the 3D view
+        target = page.evaluate("""() => {
+            const fb = window.sightplan.state.feedback;
+            for (let e = 0; e < fb.elements.ifc_class.length; e++) {
+              if (!fb.elements.ifc_class[e].startsWith('IfcWall')) continue;
+              const p = window.sightplan.viewer.elementScreenPoint(e);
+              if (p) return { e, ...p };
+            }
+            return null; }""")
+        assert target is not None
+        before = view_pixels(page, shot(page, artifacts, "26-before-selection"))
+        page.mouse.click(target["x"], target["y"])
+        page.wait_for_selector(f"#element-card[data-element='{target['e']}']:not([hidden])")
+        assert page.evaluate("window.sightplan.viewer.highlight.userData.element") == target["e"]
+        after = view_pixels(page, shot(page, artifacts, "27-element-outlined"))
+
+        def magenta(a):
+            return ((a[..., 0] > 180) & (a[..., 1] < 120) & (a[..., 2] > 110)).sum()
+
+        assert magenta(after) > magenta(before) + 300, (magenta(before), magenta(after))
+
+        # a reload shows the captures again, in the frame of the model that arrives after them
+        page.reload()
+        page.wait_for_function("""() => { const r = document.body.dataset.model && window.sightplan.viewer.realityInfo();
+            return r && r.length === 2 && r.every((x) => x.shown && x.box) && r[0].pointsVisible > 0; }""",
+                               timeout=60_000)
+        again = {r["kind"]: r for r in page.evaluate("window.sightplan.viewer.realityInfo()")}
+        for kind in ("points", "mesh"):
+            assert np.allclose(again[kind]["box"], info[kind]["box"], atol=0.2), kind
+        assert not [p for p in problems if "page error" in p], problems
+    finally:
+        ctx.close()
+
+
+# --------------------------------------------------------------------------- (d) team mode
+def add_user(data: Path, name: str) -> None:
+    """``sightplan users add NAME --data DIR --password-stdin``."""
+    r = subprocess.run([sys.executable, "-m", "sightplan", "users", "add", name, "--data", str(data), "--password-stdin"],
+                       input=PASSWORDS[name] + "\n", capture_output=True, text=True, timeout=60)
+    assert r.returncode == 0, r.stdout + r.stderr
+
+
+def log_in(page, name: str, password: str | None = None) -> None:
+    page.wait_for_selector("#login-dialog[open]")
+    page.fill("#login-user", name)
+    page.fill("#login-password", password or PASSWORDS[name])
+    page.click("#login-submit")
+
+
+@pytest.fixture(scope="module")
+def team_server(tmp_path_factory):
+    data = tmp_path_factory.mktemp("browser-team") / "data"
+    for name in PASSWORDS:
+        add_user(data, name)
+    s = Server(data, ("--team",))
+    yield s
+    s.stop()
+
+
+def test_team_mode_login_members_share_links_and_roles(browser, team_server, artifacts):
+    server = team_server
+    cube = box((6, 4, 3), (0, 0, 0))
+    ctx, page, problems = open_page(browser, server, wait_ready=False)
+    try:
+        # not logged in: the dialog, and nothing else loads
+        page.wait_for_selector("#login-dialog[open]", timeout=30_000)
+        assert page.evaluate("document.body.dataset.state") == "login"
+        shot(page, artifacts, "30-login-dialog")
+        log_in(page, "olivia", "not-her-password")
+        page.wait_for_selector("#login-error:not([hidden])")
+        assert "wrong user name or password" in page.inner_text("#login-error")
+        page.keyboard.press("Escape")  # the dialog stays
+        assert page.is_visible("#login-dialog")
+        log_in(page, "olivia")
+        page.wait_for_function("document.body.dataset.state === 'ready'", timeout=30_000)
+        assert page.inner_text("#user-name") == "olivia" and page.is_visible("#logout")
+        assert page.inner_text("#mode-badge") == "team mode"
+
+        # her project: she owns it; a model and a plan
+        page.fill("#project-name", "Team site")
+        page.click("#project-create")
+        page.wait_for_function("document.querySelector('#project-select').selectedOptions[0]?.text === 'Team site'")
+        page.wait_for_function("document.getElementById('user-role').textContent === 'owner'")
+        project = int(page.input_value("#project-select"))
+        page.set_input_files("#model-file", {"name": "cube.obj", "mimeType": "text/plain", "buffer": obj_bytes(cube)})
+        page.click("#model-upload")
+        wait_for(page, "document.body.dataset.model")
+        page.click("#plan-new summary")
+        page.select_option("#plan-template", "orbit")
+        page.fill("#plan-radius", "12")
+        page.fill("#plan-height", "3")
+        page.fill("#plan-step", "90")
+        page.click("#plan-create")
+        wait_for(page, "window.sightplan.viewer.plan && window.sightplan.viewer.plan.n === 4")
+        plan = page.evaluate("window.sightplan.state.plan.id")
+
+        # Victor joins as a viewer
+        assert page.locator("#members-table tr[data-member=olivia][data-role=owner]").count() == 1
+        page.fill("#member-name", "victor")
+        page.select_option("#member-role", "viewer")
+        page.click("#member-add")
+        page.wait_for_selector("#members-table tr[data-member=victor][data-role=viewer]")
+        members = page.request.get(f"{server.url}/api/projects/{project}/members").json()
+        assert sorted((m["username"], m["role"]) for m in members) == [("olivia", "owner"), ("victor", "viewer")]
+        shot(page, artifacts, "31-owner-members")
+
+        # a share link, shown once, opened without an account, then revoked
+        page.click("#share-box summary")
+        page.click("#share-create")
+        page.wait_for_selector("#share-new:not([hidden])")
+        url = page.input_value("#share-url")
+        assert url.startswith(f"{server.url}/api/shared/spl")
+        link = int(page.get_attribute("#share-url", "data-link"))
+        page.wait_for_selector(f"#share-links li[data-link='{link}'][data-state=active]")
+        shot(page, artifacts, "32-share-link")
+        stranger = browser.new_context()
+        try:
+            other = stranger.new_page()
+            response = other.goto(url)
+            assert response.status == 200
+            shared = json.loads(other.inner_text("body"))
+            assert shared["plan"]["id"] == plan and shared["plan"]["name"] == "orbit plan"
+            assert shared["plan"]["versions"][0]["frames"] == 4
+            assert other.context.request.get(f"{server.url}/api/projects/{project}").status == 401  # no account
+            page.click(f"#share-links li[data-link='{link}'] button")
+            page.wait_for_selector(f"#share-links li[data-link='{link}'][data-state=revoked]")
+            assert other.goto(url).status == 404
+        finally:
+            stranger.close()
+        links = page.request.get(f"{server.url}/api/projects/{project}/links").json()
+        assert [(x["id"], x["revoked_at"] is not None) for x in links] == [(link, True)]
+
+        # log out: the login dialog; Victor logs in and only reads
+        page.click("#logout")
+        page.wait_for_selector("#login-dialog[open]", timeout=30_000)
+        shot(page, artifacts, "33-logged-out")
+        log_in(page, "victor")
+        page.wait_for_function("document.body.dataset.state === 'ready' && document.body.dataset.model", timeout=30_000)
+        assert page.inner_text("#user-name") == "victor" and page.inner_text("#user-role") == "viewer"
+        assert page.locator("#project-select option").all_inner_texts() == ["Team site"]
+        page.wait_for_function("window.sightplan.viewer.plan && window.sightplan.viewer.plan.n === 4", timeout=30_000)
+        for sel in ("#model-upload", "#model-delete", "#eval-start", "#member-add"):
+            assert page.is_disabled(sel) or page.is_hidden(sel), sel
+        for sel in ("#plan-new", "#plan-upload-box", "#sec-edit", "#share-box", "#schedule-new", "#reality-file",
+                    "#member-form", "#model-file"):
+            assert page.is_hidden(sel), sel
+        assert page.is_visible("#members-table") and page.locator("#members-table select").count() == 0
+        assert page.is_visible("#export-qgc") and page.is_enabled("#export-qgc")  # reading stays
+        refused = page.request.post(f"{server.url}/api/projects/{project}/plans",
+                                    data={"model_id": 1, "template": "orbit", "radius": [9], "height": [2]})
+        assert refused.status == 403  # what the page does not offer, the API refuses
+        shot(page, artifacts, "34-viewer")
+
+        # a session that ends under the page: the next request brings up the login dialog
+        ctx.clear_cookies()
+        page.click("button[data-tab=frames]")
+        page.click("#frame-list tbody tr[data-frame='1']")
+        page.wait_for_selector("#login-dialog[open]", timeout=30_000)
+        log_in(page, "victor")
+        page.wait_for_function("document.body.dataset.state === 'ready'", timeout=30_000)
+        page.click("#logout")
+        page.wait_for_selector("#login-dialog[open]", timeout=30_000)
+        shot(page, artifacts, "35-viewer-logged-out")
+        assert not [p for p in problems if "page error" in p], problems
+    finally:
+        ctx.close()
