@@ -85,3 +85,25 @@ def test_route_and_flight_settings_match_the_library(client):
     for bad, word in (({"aircraft": "jumbo"}, "aircraft"), ({"vlos_radius": 5, "safety_distance": 10}, "VLOS")):
         r = client.post(f"/api/projects/{pid}/plans", json=body | bad)
         assert r.status_code == 422 and word in r.json()["detail"], r.text
+
+
+def test_the_flight_checks_use_the_settings_the_plan_was_made_with(client):
+    pid = client.post("/api/projects", json={"name": "checks"}).json()["id"]
+    mid = upload_model(client, pid, sample_model_path(), "duplex.ifc")
+    points = [[2.0, 2.0, 1.6], [12.0, 2.0, 1.6], [12.0, 6.0, 1.6]]
+    route = client.post(f"/api/projects/{pid}/plans", json={"model_id": mid, "template": "route", "points": points,
+                                                            "step": 1.0, "camera": "insta360-x3"}).json()["id"]
+    data = client.get(f"/api/projects/{pid}/plans/{route}/versions/1").json()
+    assert data["parameters"]["flight"] == {"safety_distance_m": 0.3, "vlos_radius_m": 0.0, "altitude_limit_m": 0.0,
+                                            "aircraft": "walker-360"}
+    checks = client.get(f"/api/projects/{pid}/plans/{route}/versions/1/checks").json()
+    # walked indoors: no line of sight to keep, 0.3 m clearance, a walker's battery
+    assert checks["vlos_radius_m"] is None and checks["safety_distance_m"] == 0.3
+    assert all(checks["in_sight"]) and not any("sight" in v or "altitude" in v for v in checks["violations"])
+    body = {"model_id": mid, "template": "orbit", "radius": [25], "height": [8.0], "step": 30, "vlos_radius": 60,
+            "safety_distance": 6}
+    orbit_id = client.post(f"/api/projects/{pid}/plans", json=body).json()["id"]
+    checks = client.get(f"/api/projects/{pid}/plans/{orbit_id}/versions/1/checks").json()
+    assert checks["vlos_radius_m"] == 60 and checks["safety_distance_m"] == 6
+    wider = client.get(f"/api/projects/{pid}/plans/{orbit_id}/versions/1/checks", params={"vlos_radius": 400}).json()
+    assert wider["vlos_radius_m"] == 400

@@ -91,25 +91,43 @@ def dated_scene(scene: Scene, dates_path: Path, fourd: dict[str, Any]) -> Scene:
     return undated.at(fourd["date"], basis=fourd.get("basis", "finish"), unscheduled=fourd.get("unscheduled", "present"))
 
 
-def flight_settings(body: TemplatePlanIn):
-    """The flight checks' settings of a template request: a drone's defaults, or a walker's for a route."""
-    import numpy as np
+FLIGHT_KEY = "flight"  # the flight settings a plan was made with, recorded in its parameters
 
+
+def _aircraft(name: str):
     from ..plan.checks import battery
-    from ..plan.checks.feasibility import FlightSettings
 
+    presets = {**battery.AIRCRAFT, **battery.ROVERS}
+    if name.lower() == "none":
+        return None
+    if name not in presets:
+        raise PlanError(f"unknown aircraft {name!r}: use one of {', '.join(presets)} or 'none'")
+    return presets[name]
+
+
+def flight_record(body: TemplatePlanIn) -> dict[str, Any]:
+    """The flight settings of a template request, with a drone's defaults or a walker's for a route."""
     walked = body.template == "route"
     safety, vlos, preset, limit = (0.3, 0.0, "walker-360", 0.0) if walked else (10.0, 500.0, "p4p", 120.0)
-    name = body.aircraft if body.aircraft is not None else preset
-    presets = {**battery.AIRCRAFT, **getattr(battery, "ROVERS", {})}
-    if name.lower() != "none" and name not in presets:
-        raise PlanError(f"unknown aircraft {name!r}: use one of {', '.join(presets)} or 'none'")
-    vlos = body.vlos_radius if body.vlos_radius is not None else vlos
-    limit = body.altitude_limit if body.altitude_limit is not None else limit
-    stations = np.array(body.ground_station, float) if body.ground_station else None
-    return FlightSettings(safety_distance_m=body.safety_distance if body.safety_distance is not None else safety,
-                          vlos_radius_m=vlos or None, ground_stations=stations, altitude_limit_m=limit or None,
-                          aircraft=None if name.lower() == "none" else presets[name])
+    record = {"safety_distance_m": body.safety_distance if body.safety_distance is not None else safety,
+              "vlos_radius_m": body.vlos_radius if body.vlos_radius is not None else vlos,
+              "altitude_limit_m": body.altitude_limit if body.altitude_limit is not None else limit,
+              "aircraft": body.aircraft if body.aircraft is not None else preset}
+    _aircraft(record["aircraft"])  # an unknown preset is refused before anything is planned
+    return record
+
+
+def flight_settings(record: dict[str, Any], ground_stations=None, **overrides):
+    """FlightSettings from a recorded flight (``flight_record``); ``overrides`` (not None) replace its values."""
+    import numpy as np
+
+    from ..plan.checks.feasibility import FlightSettings
+
+    r = record | {k: v for k, v in overrides.items() if v is not None}
+    stations = np.array(ground_stations, float) if ground_stations is not None and len(ground_stations) else None
+    return FlightSettings(safety_distance_m=float(r["safety_distance_m"]), vlos_radius_m=r["vlos_radius_m"] or None,
+                          ground_stations=stations, altitude_limit_m=r["altitude_limit_m"] or None,
+                          aircraft=_aircraft(r["aircraft"]))
 
 
 def template_plan(scene: Scene, body: TemplatePlanIn) -> Plan:
@@ -119,7 +137,8 @@ def template_plan(scene: Scene, body: TemplatePlanIn) -> Plan:
     from ..plan.templates import bridge, facade_grid, indoor_route, lawnmower, orbit
 
     cam = get_camera(body.camera)
-    settings = flight_settings(body)
+    record = flight_record(body)
+    settings = flight_settings(record, body.ground_station)
     distance = settings.safety_distance_m
     if body.template == "facade":
         plan = facade_grid(scene, cam, distance, body.overlap, footprint=body.footprint)
@@ -140,7 +159,8 @@ def template_plan(scene: Scene, body: TemplatePlanIn) -> Plan:
             raise PlanError("a route needs 'points' (at least two [x, y, z]) and 'step' in metres")
         plan = indoor_route(cam, body.points, body.step)
     report = (plan_flights if body.split else check_plan)(scene, plan, settings)
-    return with_site(report.plan, scene)
+    planned = report.plan
+    return with_site(replace(planned, parameters={**planned.parameters, FLIGHT_KEY: record}), scene)
 
 
 def read_uploaded_plan(path: Path, camera: str | None, scene: Scene | None) -> Plan:

@@ -26,7 +26,7 @@ from ..deps import ProjectRead, ServerState, SessionDep, StateDep, in_project
 from ..models import Evaluation, Model, Plan, PlanVersion
 from ..scenes import evaluation_scene
 from ..schemas import ErrorOut
-from ..services import FOURD_KEY, REALITY_KEY, load_scene, rebuilt_evaluation
+from ..services import FLIGHT_KEY, FOURD_KEY, REALITY_KEY, flight_settings, load_scene, rebuilt_evaluation
 
 router = APIRouter(tags=["viewer"])
 NOT_FOUND = {404: {"model": ErrorOut, "description": "No such project, model, plan, version, evaluation, frame or element"}}
@@ -223,11 +223,24 @@ def _num(x: float | None, digits: int = 3) -> float | None:
     return None if x is None or not np.isfinite(x) else round(float(x), digits)
 
 
-def flight_checks(scene, plan, safety_distance_m: float, vlos_radius_m: float | None) -> dict[str, Any]:
-    """The library's flight checks of the plan's missions as they are (``check_plan``), for drawing."""
-    from ...plan.checks.feasibility import FlightSettings, check_plan
+def plan_flight(plan) -> dict[str, Any]:
+    """The flight settings the plan was made with (a template's), else a drone's defaults with the plan's safety
+    distance (or 5 m) and a walker's for an indoor route."""
+    recorded = plan.parameters.get(FLIGHT_KEY)
+    if isinstance(recorded, dict) and {"safety_distance_m", "vlos_radius_m", "altitude_limit_m", "aircraft"} <= set(recorded):
+        return recorded
+    if plan.parameters.get("template") == "indoor_route":
+        return {"safety_distance_m": 0.3, "vlos_radius_m": 0, "altitude_limit_m": 0, "aircraft": "walker-360"}
+    return {"safety_distance_m": float(plan.parameters.get("safety_distance_m") or 5.0), "vlos_radius_m": 500.0,
+            "altitude_limit_m": 120.0, "aircraft": "p4p"}
 
-    report = check_plan(scene, plan, FlightSettings(safety_distance_m=safety_distance_m, vlos_radius_m=vlos_radius_m))
+
+def flight_checks(scene, plan, settings) -> dict[str, Any]:
+    """The library's flight checks of the plan's missions as they are (``check_plan``), for drawing."""
+    from ...plan.checks.feasibility import check_plan
+
+    report = check_plan(scene, plan, settings)
+    safety_distance_m, vlos_radius_m = settings.safety_distance_m, settings.vlos_radius_m
     safety = report.safety
     summary = report.to_dict()
     return {
@@ -284,9 +297,9 @@ def plan_checks(project: ProjectRead, plan_id: int, number: int, session: Sessio
                 model_id: Annotated[int | None, Query(description="Model to check against (default: the plan's)")]
                 = None,
                 safety_distance: Annotated[float | None, Query(gt=0, description="Least distance to the model (m); "
-                                                               "default: the plan's template value, else 5")] = None,
-                vlos_radius: Annotated[float, Query(ge=0, description="Visual line-of-sight radius (m); 0: none")]
-                = 500.0,
+                                                               "default: the plan's")] = None,
+                vlos_radius: Annotated[float | None, Query(ge=0, description="Visual line-of-sight radius (m); 0: "
+                                                           "none; default: the plan's")] = None,
                 ) -> dict[str, Any]:
     version = plan_version(session, project.id, plan_id, number)
     model_id = model_id if model_id is not None else version.plan.model_id
@@ -294,15 +307,16 @@ def plan_checks(project: ProjectRead, plan_id: int, number: int, session: Sessio
         raise HTTPException(422, f"plan {plan_id} is for no model: give model_id")
     model = ready_model(session, project.id, model_id)
     plan = read_stored_plan(state, version)
-    g = safety_distance or float(plan.parameters.get("safety_distance_m") or 5.0)
-    vlos = vlos_radius or None
+    settings = flight_settings(plan_flight(plan), safety_distance_m=safety_distance, vlos_radius_m=vlos_radius)
+    key = (settings.safety_distance_m, settings.vlos_radius_m, settings.altitude_limit_m,
+           getattr(settings.aircraft, "name", None))
 
     def make() -> dict[str, Any]:
         scene = load_scene(state.storage, model.stored_name)[0]
-        return flight_checks(scene, plan, g, vlos)
+        return flight_checks(scene, plan, settings)
 
     return {"plan_id": plan_id, "version": number, "model_id": model_id,
-            **_checks_cache.get((version.stored_name, model.stored_name, g, vlos), make)}
+            **_checks_cache.get((version.stored_name, model.stored_name, *key), make)}
 
 
 # --------------------------------------------------------------------------- an evaluation
