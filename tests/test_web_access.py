@@ -237,6 +237,28 @@ def test_share_link_reads_the_plan_until_revoked(server, alices):
         assert r.status_code == 404 and "revoked" in r.json()["detail"], url
 
 
+def test_password_change_ends_sessions_but_not_tokens(tmp_path):
+    data = tmp_path / "d"
+    add_user(data, "carol")
+    with TestClient(create_app(ServerConfig(data_dir=data, team=True))) as c:
+        login(c, "carol")
+        token = c.post("/api/auth/tokens", json={"name": "script"}).json()["token"]
+        cookie = c.cookies.get("sightplan_session")
+        wrong = c.post("/api/auth/password", json={"old_password": "nope", "new_password": "carol-new-secret"})
+        assert wrong.status_code == 403 and "current password is wrong" in wrong.json()["detail"]
+        short = c.post("/api/auth/password", json={"old_password": PASSWORDS["carol"], "new_password": "short"})
+        assert short.status_code == 422 and "8 characters" in short.json()["detail"]
+        ok = c.post("/api/auth/password", json={"old_password": PASSWORDS["carol"], "new_password": "carol-new-secret"})
+        assert ok.status_code == 204
+        c.cookies.clear()
+        c.cookies.set("sightplan_session", cookie)
+        assert c.get("/api/auth/me").status_code == 401  # the session ended
+        c.cookies.clear()
+        assert c.get("/api/auth/me", headers={"Authorization": f"Bearer {token}"}).json()["username"] == "carol"
+        assert c.post("/api/auth/login", json={"username": "carol", "password": PASSWORDS["carol"]}).status_code == 401
+        assert c.post("/api/auth/login", json={"username": "carol", "password": "carol-new-secret"}).status_code == 200
+
+
 def test_api_token_works_as_bearer_until_revoked(server, alices):
     c = login(server, "alice")
     r = c.post("/api/auth/tokens", json={"name": "nightly script"})

@@ -513,3 +513,48 @@ def test_team_mode_login_members_share_links_and_roles(browser, team_server, art
         assert not [p for p in problems if "page error" in p], problems
     finally:
         ctx.close()
+
+
+def test_account_dialog_tokens_and_password(browser, team_server, artifacts):
+    server = team_server
+    ctx, page, problems = open_page(browser, server, wait_ready=False)
+    try:
+        log_in(page, "victor")
+        page.wait_for_function("document.body.dataset.state === 'ready'", timeout=30_000)
+        page.click("#account")
+        page.wait_for_selector("#account-dialog[open]")
+        page.fill("#token-name", "nightly export")
+        page.click("#token-create")
+        page.wait_for_selector("#token-new:not([hidden])")
+        secret = page.input_value("#token-secret")
+        token_id = page.get_attribute("#token-secret", "data-token")
+        assert secret.startswith("spt_")
+        page.wait_for_selector(f"#token-list li[data-token='{token_id}']")
+        assert "nightly export" in page.inner_text(f"#token-list li[data-token='{token_id}']")
+        shot(page, artifacts, "36-account-token")
+        bearer = {"Authorization": f"Bearer {secret}"}
+        fresh = browser.new_context()  # no cookie: the token alone
+        try:
+            me = fresh.request.get(f"{server.url}/api/auth/me", headers=bearer)
+            assert me.status == 200 and me.json()["username"] == "victor"
+            page.click(f"#token-list li[data-token='{token_id}'] button")
+            page.wait_for_selector(f"#token-list li[data-token='{token_id}']", state="detached")
+            assert fresh.request.get(f"{server.url}/api/auth/me", headers=bearer).status == 401
+        finally:
+            fresh.close()
+        # a wrong current password: said in the dialog, which stays (it is not a lost session)
+        page.fill("#pw-old", "not-the-password")
+        page.fill("#pw-new", "victor-new-secret")
+        page.click("#pw-save")
+        page.wait_for_selector("#pw-error:not([hidden])")
+        assert "current password is wrong" in page.inner_text("#pw-error")
+        assert page.is_visible("#account-dialog") and not page.is_visible("#login-dialog")
+        page.fill("#pw-old", PASSWORDS["victor"])
+        page.click("#pw-save")
+        page.wait_for_selector("#login-dialog[open]", timeout=30_000)  # the sessions ended
+        log_in(page, "victor", "victor-new-secret")
+        page.wait_for_function("document.body.dataset.state === 'ready'", timeout=30_000)
+        assert page.inner_text("#user-name") == "victor"
+        assert not [p for p in problems if "page error" in p], problems
+    finally:
+        ctx.close()

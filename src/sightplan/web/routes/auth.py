@@ -54,11 +54,13 @@ def me(user: UserDep, session: SessionDep) -> UserOut:
 
 
 @router.post("/password", status_code=204, response_class=Response, summary="Change your password",
-             description="Ends your login sessions (API tokens stay).", responses=UNAUTHORIZED)
+             description="Ends your login sessions (API tokens stay).",
+             responses={**UNAUTHORIZED, 403: {"model": ErrorOut, "description": "The current password is wrong"},
+                        422: {"model": ErrorOut, "description": "The new password is too short"}})
 def change_password(body: PasswordIn, user: UserDep, session: SessionDep) -> Response:
     user = require_user(user)
     if authenticate(session, user.username, body.old_password) is None:
-        raise HTTPException(401, "the old password is wrong")
+        raise HTTPException(403, "the current password is wrong")  # 403, not 401: the session itself is fine
     try:
         set_password(session, user, body.new_password)
     except AccountError as exc:

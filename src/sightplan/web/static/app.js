@@ -146,6 +146,56 @@ async function logIn() {
   window.location.reload();  // everything read again, as this user
 }
 
+// the account dialog: password change and API tokens
+async function openAccount() {
+  $('#pw-error').hidden = true;
+  $('#token-new').hidden = true;
+  $('#account-dialog').showModal();
+  await loadTokens();
+}
+
+async function loadTokens() {
+  const tokens = await api.get('/api/auth/tokens');
+  const rows = tokens.map((t) => {
+    const li = el('li', { 'data-token': String(t.id) });
+    const used = t.last_used_at ? `last used ${new Date(t.last_used_at).toLocaleString()}` : 'never used';
+    li.append(el('span', {}, `${t.name || '(no name)'} · created ${new Date(t.created_at).toLocaleDateString()} · ${used} `));
+    const revoke = el('button', { type: 'button' }, 'Revoke');
+    revoke.addEventListener('click', () => act('Revoking the token', async () => {
+      await api.del(`/api/auth/tokens/${t.id}`);
+      await loadTokens();
+    }));
+    li.append(revoke);
+    return li;
+  });
+  if (!rows.length) rows.push(el('li', { class: 'hint' }, 'No API tokens.'));
+  $('#token-list').replaceChildren(...rows);
+}
+
+async function createToken() {
+  const t = await api.post('/api/auth/tokens', { name: $('#token-name').value.trim() });
+  $('#token-secret').value = t.token;
+  $('#token-secret').dataset.token = String(t.id);
+  $('#token-new').hidden = false;
+  $('#token-name').value = '';
+  await loadTokens();
+}
+
+async function changePassword() {
+  const body = { old_password: $('#pw-old').value, new_password: $('#pw-new').value };
+  try {
+    await api.post('/api/auth/password', body);
+  } catch (err) {
+    $('#pw-error').textContent = errorText(err);
+    $('#pw-error').hidden = false;
+    return;
+  }
+  $('#pw-old').value = '';
+  $('#pw-new').value = '';
+  $('#account-dialog').close();
+  window.location.reload();  // the sessions ended: log in again with the new password
+}
+
 async function logOut() {
   await api.post('/api/auth/logout');
   S.me = null;
@@ -1802,6 +1852,15 @@ function bindUi() {
   // the dialog stays until a login succeeds: every request would be refused without one
   $('#login-dialog').addEventListener('cancel', (ev) => ev.preventDefault());
   $('#logout').addEventListener('click', () => act('Logging out', logOut));
+  $('#account').addEventListener('click', () => act('Reading your API tokens', openAccount));
+  $('#token-form').addEventListener('submit', (ev) => {
+    ev.preventDefault();
+    act('Creating an API token', createToken);
+  });
+  $('#password-form').addEventListener('submit', (ev) => {
+    ev.preventDefault();
+    act('Changing the password', changePassword);
+  });
   // points of the plan form picked in the 3D view
   for (const b of $$('button[data-pick]')) b.addEventListener('click', () => act('Picking points', async () => startPicking(b.dataset.pick)));
   for (const sel of ['#plan-axis', '#plan-points', '#plan-stations']) $(sel).addEventListener('input', updateMarkers);
