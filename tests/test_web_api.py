@@ -499,3 +499,37 @@ def test_real_server_starts_and_answers(tmp_path):
         proc.wait(timeout=15)
         reader.join(timeout=5)
     assert "single-user mode, no login" in "".join(output)
+
+
+# --------------------------------------------------------------------------- hostile or broken requests
+def test_hostile_requests_get_one_clear_4xx(tmp_path):
+    with TestClient(create_app(ServerConfig(data_dir=tmp_path / "d", max_upload_bytes=1024 * 1024))) as c:
+        pid = c.post("/api/projects", json={"name": "p"}).json()["id"]
+        big = 10**20  # past a database integer
+        for url in (f"/api/projects/{big}", f"/api/jobs/{big}", f"/api/projects/{pid}/plans/{big}",
+                    f"/api/jobs?project_id={big}", f"/api/projects/{pid}/plans/1/versions/{big}"):
+            r = c.get(url)
+            assert r.status_code == 404 and "not found" in r.json()["detail"], url
+        r = c.post(f"/api/projects/{pid}/plans", json={"model_id": big, "template": "orbit"})
+        assert r.status_code == 422 and "out of range" in r.json()["detail"]
+        r = c.post(f"/api/projects/{pid}/plans/upload", files={"file": ("deep.json", b"[" * 100_000)})
+        assert r.status_code == 422 and "nested too deeply" in r.json()["detail"]
+
+        def chunks():  # a multipart body sent in chunks, without a length: refused once past the limit
+            yield b'--XX\r\nContent-Disposition: form-data; name="file"; filename="big.ifc"\r\n\r\n'
+            for _ in range(64):
+                yield b"x" * (1 << 20)
+
+        r = c.post(f"/api/projects/{pid}/models", content=chunks(),
+                   headers={"content-type": "multipart/form-data; boundary=XX"})
+        assert r.status_code == 413 and "limit of 1 MB" in r.json()["detail"]
+        assert not any((tmp_path / "d" / "tmp").iterdir()) and not any((tmp_path / "d" / "models").iterdir())
+        # single-user mode answers only its loopback names, and refuses changes from other sites' pages
+        r = c.get("/api/projects", headers={"host": "evil.example"})
+        assert r.status_code == 400 and "loopback" in r.json()["detail"]
+        r = c.post("/api/projects", json={"name": "x"}, headers={"origin": "https://evil.example"})
+        assert r.status_code == 403 and "another site" in r.json()["detail"]
+        r = c.post("/api/projects", json={"name": "mine"}, headers={"host": "127.0.0.1:8000",
+                                                                     "origin": "http://127.0.0.1:8000"})
+        assert r.status_code == 201
+        assert [p["name"] for p in c.get("/api/projects").json()] == ["p", "mine"]

@@ -150,6 +150,8 @@ def test_mesh_capture_is_a_y_up_glb_and_occludes_in_evaluations(client, project)
         rgb = np.asarray(Image.open(io.BytesIO(view.content)).convert("RGB")).reshape(-1, 3).astype(int)
         grey.append(float(np.mean(np.abs(rgb - np.round(np.asarray(OCCLUDER[:3]) * 255)).max(axis=1) <= 2)))
     assert grey[1] > grey[0] + 0.2  # the hoarding, an occluder, fills much of the view
+    in_use = client.delete(f"/api/projects/{project}/reality/{rid}")
+    assert in_use.status_code == 409 and f"evaluation(s) {eid}" in in_use.json()["detail"]
     report = client.get(f"/api/projects/{project}/evaluations/{eid}/report.html")
     assert report.status_code in (200, 503)  # 503 only where three.js is not installed
 

@@ -98,3 +98,28 @@ def test_cancelling_a_running_evaluation_stops_it_and_leaves_no_result(tmp_path)
         assert not any((tmp_path / "d" / "evaluations").iterdir())
         again = c.post(f"/api/jobs/{job_id}/cancel")
         assert again.status_code == 409 and "failed already" in again.json()["detail"]
+
+
+def test_a_cancelled_queued_job_leaves_no_mark_for_a_later_job_of_the_same_id(tmp_path):
+    from sightplan.web.models import Job
+
+    with TestClient(create_app(ServerConfig(data_dir=tmp_path / "d", workers=1))) as c:
+        state = c.app.state.sightplan
+        pid = c.post("/api/projects", json={"name": "p"}).json()["id"]
+        with state.db.session() as s:  # a job waiting in the queue (not handed to the worker yet)
+            job = Job(project_id=pid, kind="load_model", message="queued")
+            s.add(job)
+            s.flush()
+            job_id = job.id
+        r = c.post(f"/api/jobs/{job_id}/cancel")
+        assert r.status_code == 200 and r.json()["status"] == "failed" and r.json()["error"] == "cancelled"
+        state.worker.run(job_id)  # the worker reaches it: not queued any more, nothing to do
+        with state.db.session() as s:  # the id taken again by a new job (SQLite reuses the largest id)
+            s.delete(s.get(Job, job_id))
+        with state.db.session() as s:
+            again = Job(project_id=pid, kind="load_model", message="queued")
+            s.add(again)
+            s.flush()
+            assert again.id == job_id
+        state.worker.run(job_id)  # no model: it fails, but for its own reason, not as "cancelled"
+        assert c.get(f"/api/jobs/{job_id}").json()["error"] != "cancelled"

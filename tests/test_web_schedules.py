@@ -109,6 +109,8 @@ def test_evaluation_at_a_capture_date_matches_the_library(client, duplex, csv_sc
     assert ev["metrics"]["VC_pct"] == pytest.approx(100 * ref.VC) and ev["metrics"]["VR"] == pytest.approx(ref.VR)
     assert ev["settings"]["fourd"] == {"date": "2025-01-12", "schedule_id": sid, "basis": "finish",
                                        "unscheduled": "absent"}
+    in_use = client.delete(f"/api/projects/{pid}/schedules/{sid}")
+    assert in_use.status_code == 409 and f"evaluation(s) {ev['id']}" in in_use.json()["detail"]
     html = client.get(f"/api/projects/{pid}/evaluations/{ev['id']}/report.html")
     assert html.status_code == 200
     # a date needs a schedule; a schedule needs a date

@@ -290,6 +290,8 @@ def read_json(path: str | Path) -> Any:
         return json.loads(text)
     except json.JSONDecodeError as exc:
         raise PlanError(f"{path} is not JSON: {exc.msg} at line {exc.lineno}, column {exc.colno}") from None
+    except RecursionError:
+        raise PlanError(f"{path} is not a plan: its JSON is nested too deeply to read") from None
 
 
 def read_plan(path: str | Path) -> Plan:

@@ -117,7 +117,13 @@ class _Photo:
     name: str
 
 
+MAX_ENTRY_BYTES = 64 * 1024 * 1024  # a mission's KML/WPML is kilobytes; more is not a mission file
+
+
 def _parse(z: zipfile.ZipFile, name: str, path: Path) -> ET.Element:
+    if z.getinfo(name).file_size > MAX_ENTRY_BYTES:
+        raise PlanError(f"{path.name}, {name}: {z.getinfo(name).file_size / 1e6:.0f} MB unpacked, too large for a "
+                        "mission file")
     try:
         root = ET.fromstring(z.read(name))
     except ET.ParseError as exc:

@@ -7,6 +7,7 @@ import logging
 from fastapi import FastAPI, Request
 from fastapi.exceptions import RequestValidationError
 from fastapi.responses import JSONResponse
+from sqlalchemy.exc import DataError
 from starlette.exceptions import HTTPException as StarletteHTTPException
 
 from ..errors import SightplanError
@@ -45,7 +46,27 @@ def install_error_handlers(app: FastAPI) -> None:
     async def too_large(_request: Request, exc: UploadTooLarge) -> JSONResponse:
         return JSONResponse({"detail": str(exc)}, status_code=413)
 
+    @app.exception_handler(OverflowError)
+    async def overflow(_request: Request, exc: OverflowError) -> JSONResponse:
+        return JSONResponse({"detail": f"a number is out of range: {exc}"}, status_code=422)
+
+    @app.exception_handler(DataError)
+    async def out_of_range(_request: Request, exc: DataError) -> JSONResponse:
+        return JSONResponse({"detail": f"a value the database cannot hold: {exc.orig}"}, status_code=422)
+
     @app.exception_handler(Exception)
     async def internal(request: Request, exc: Exception) -> JSONResponse:
         log.exception("internal error on %s %s", request.method, request.url.path)
         return JSONResponse({"detail": f"internal error: {type(exc).__name__}: {exc}"}, status_code=500)
+
+
+MAX_ID = 2**63 - 1
+
+
+def ids_in_range(request: Request) -> None:
+    """An id in the path or the query past what a database integer holds names nothing: 404, not a database error."""
+    from fastapi import HTTPException
+
+    for name, value in [*request.path_params.items(), *request.query_params.items()]:
+        if (name.endswith("_id") or name in ("number", "frame", "index")) and str(value).isdigit() and int(value) > MAX_ID:
+            raise HTTPException(404, f"{name} {value} not found")

@@ -169,9 +169,9 @@ class SettingsIn(BaseModel):
     k: int = Field(3, ge=1)
     min_track: int = Field(5, ge=1)
     min_features: int = Field(50, ge=0)
-    feature_density: float = Field(1.0, ge=0)
+    feature_density: float = Field(1.0, ge=0, le=100, description="Simulated features per m² of surface")
     seed: int = Field(0, ge=0)
-    d_max: float = Field(1000.0, gt=0)
+    d_max: float = Field(1000.0, gt=0, le=100_000, description="Farthest distance a frame sees (m)")
 
 
 class EvaluationIn(BaseModel):

@@ -126,6 +126,8 @@ class Worker:
         with self.db.session() as s:
             job = s.get(Job, job_id)
             if job is None or job.status != "queued":
+                with self._lock:
+                    self._cancelled.discard(job_id)
                 return
             job.status, job.started_at = "running", utcnow()
             kind = job.kind
@@ -174,6 +176,10 @@ class Worker:
                         message = message.replace(str(self.storage.schedule_path(schedule.stored_name)),
                                                   schedule.original_name).replace(schedule.stored_name,
                                                                                   schedule.original_name)
+                    model = s.get(Model, schedule.model_id)
+                    if model is not None:  # "<stored>.ifc has no work schedule" names the model as uploaded
+                        message = message.replace(str(self.storage.model_path(model.stored_name)),
+                                                  model.original_name).replace(model.stored_name, model.original_name)
                     job.error = message
                     schedule.status, schedule.error = "failed", message
             if job.reality_id is not None:
@@ -241,11 +247,12 @@ class Worker:
             ev_row.status, ev_row.started_at = "running", utcnow()
             job.message = f"evaluating plan version {version.number} against {model.original_name}"
             evaluation_id, stored_model, stored_plan = ev_row.id, model.stored_name, version.stored_name
+            project_id = ev_row.project_id
             settings_json, result_name = dict(ev_row.settings), ev_row.result_dir
             model_label, plan_label = model.original_name, f"{version.plan.name} v{version.number}"
         settings = evaluation_settings(settings_json)
         with self.db.session() as s:
-            scene = evaluation_scene(self.storage, s, stored_model, settings_json)
+            scene = evaluation_scene(self.storage, s, stored_model, settings_json, project_id)
         plan = read_plan(self.storage.plan_path(stored_plan))
         progress = self._progress(job_id, len(plan), evaluation_id)
         result = evaluate(scene, plan, settings, cache_dir=self.storage.frame_cache, progress=lambda i, n: progress(i))

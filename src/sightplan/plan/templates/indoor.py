@@ -14,6 +14,8 @@ from ...errors import PlanError
 from ..poses import R_from_gimbal
 from ..types import Mission, Plan
 
+MAX_ROUTE_FRAMES = 100_000  # a walked capture of more frames is a typo in the step, not a plan
+
 
 def indoor_route(camera: Camera, points_m: ArrayLike, step_m: float, pitch_deg: float = 0.0) -> Plan:
     """Frames every ``step_m`` along the (k, 3) polyline ``points_m`` (model frame, metres), its ends included.
@@ -31,6 +33,9 @@ def indoor_route(camera: Camera, points_m: ArrayLike, step_m: float, pitch_deg: 
     if (seg_len == 0).any():
         raise PlanError(f"route point {int(np.flatnonzero(seg_len == 0)[0]) + 1} repeats the one before it")
     total = seg_len.sum()
+    if total / step_m > MAX_ROUTE_FRAMES:
+        raise PlanError(f"a step of {step_m:g} m along {total:.1f} m of route makes over {MAX_ROUTE_FRAMES:,} frames: "
+                        "take a longer step")
     n = int(np.ceil(total / step_m - 1e-9)) + 1
     s = np.linspace(0.0, total, n)
     ends = np.cumsum(seg_len)

@@ -148,7 +148,7 @@ def read_html_report(project_id: int, evaluation_id: int, session: SessionDep, s
         assert model is not None
         try:
             result = rebuilt_evaluation(folder, ev.settings, ev.metrics or {})
-            scene = evaluation_scene(state.storage, session, model.stored_name, ev.settings)
+            scene = evaluation_scene(state.storage, session, model.stored_name, ev.settings, ev.project_id)
             plan = read_plan(state.storage.plan_path(version.stored_name))
             tmp = state.storage.temp_path(".html")
             write_html(result, scene, plan, tmp, model_label=model.original_name,

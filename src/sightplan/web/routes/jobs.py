@@ -12,7 +12,7 @@ from fastapi.responses import StreamingResponse
 from sqlalchemy import select
 from starlette.concurrency import run_in_threadpool
 
-from ..deps import ServerState, SessionDep, StateDep, UserDep, found, project_for
+from ..deps import ServerState, SessionDep, StateDep, UserDep, current_user, found, project_for
 from ..models import FINAL_STATES, Job, Membership
 from ..schemas import ErrorOut, JobOut
 
@@ -108,7 +108,10 @@ async def job_events(request: Request, state: ServerState, job_id: int) -> Async
             responses={200: {"description": "`event: progress` with the job as JSON on each change, then "
                                             "`event: done` or `event: failed`", "content": {"text/event-stream": {}}},
                        **NOT_FOUND})
-def stream_job(job_id: int, request: Request, session: SessionDep, state: StateDep, user: UserDep) -> StreamingResponse:
-    visible_job(session, job_id, user)
+def stream_job(job_id: int, request: Request, state: StateDep) -> StreamingResponse:
+    # its own short session, not the request's: the stream lasts as long as the job, and must not keep a database
+    # connection (or a transaction) all that time
+    with state.db.session() as session:
+        visible_job(session, job_id, current_user(request, state, session))
     return StreamingResponse(job_events(request, state, job_id), media_type="text/event-stream",
                              headers={"Cache-Control": "no-cache", "X-Accel-Buffering": "no"})

@@ -12,6 +12,7 @@ from fastapi import APIRouter, BackgroundTasks, Body, File, Form, HTTPException,
 from fastapi.responses import FileResponse
 from sqlalchemy import func, select
 from sqlalchemy.orm import Session
+from starlette.concurrency import run_in_threadpool
 
 from ...errors import PlanError, SightplanError
 from ...export import ExportFormat
@@ -96,17 +97,23 @@ async def upload_plan(project_id: int, session: SessionDep, state: StateDep,
                       camera: Annotated[str | None, Form(description="Camera of a poses CSV or a flight-app mission")]
                       = None) -> PlanOut:
     get_project(session, project_id)
-    scene = ready_scene(state, session, project_id, model_id)[1] if model_id is not None else None
+    if model_id is not None:
+        in_project(session, Model, model_id, project_id, "model")
     original = display_name(file.filename or "")
     tmp, _ = await receive_upload(state, file, PLAN_SUFFIXES, "plan")
-    try:
-        data = read_uploaded_plan(tmp, camera, scene)
-    except SightplanError as exc:
-        raise PlanError(str(exc).replace(str(tmp), original).replace(tmp.name, original)) from None
-    finally:
-        tmp.unlink(missing_ok=True)
-    row = Plan(project_id=project_id, model_id=model_id, name=name or original, source=f"upload {original}")
-    return commit_version(state, session, row, data, f"uploaded {original}")
+
+    def store() -> PlanOut:  # parsing and writing, off the event loop
+        try:
+            scene = ready_scene(state, session, project_id, model_id)[1] if model_id is not None else None
+            data = read_uploaded_plan(tmp, camera, scene)
+        except SightplanError as exc:
+            raise PlanError(str(exc).replace(str(tmp), original).replace(tmp.name, original)) from None
+        finally:
+            tmp.unlink(missing_ok=True)
+        row = Plan(project_id=project_id, model_id=model_id, name=name or original, source=f"upload {original}")
+        return commit_version(state, session, row, data, f"uploaded {original}")
+
+    return await run_in_threadpool(store)
 
 
 @router.get("", response_model=list[PlanOut], summary="List the project's plans", responses=NOT_FOUND)

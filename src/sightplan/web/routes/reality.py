@@ -14,7 +14,9 @@ from sqlalchemy import select
 
 from ..deps import PROJECT_ACCESS, ProjectEdit, SessionDep, StateDep, in_project
 from ..models import Job, Reality
+from ..scenes import evaluations_using
 from ..schemas import ErrorOut, JobOut, Time
+from ..services import REALITY_KEY
 from ..storage import display_name
 from ..uploads import queue_upload, receive_upload
 
@@ -132,6 +134,10 @@ def delete_reality(project_id: int, reality_id: int, session: SessionDep, state:
     row = in_project(session, Reality, reality_id, project_id, "reality capture")
     if row.status in ("queued", "preparing"):
         raise HTTPException(409, f"reality capture {reality_id} is being prepared; delete it when it is done")
+    users = evaluations_using(session, project_id, REALITY_KEY, reality_id)
+    if users:
+        raise HTTPException(409, f"reality capture {reality_id} is the occluder of evaluation(s) "
+                                 f"{', '.join(map(str, users))}: delete those first")
     files = [state.storage.reality_path(n) for n in (row.stored_name, row.view_name, row.view_name + ".glb")]
     session.delete(row)
     session.commit()

@@ -11,8 +11,9 @@ from sqlalchemy import select
 
 from ..deps import PROJECT_ACCESS, ProjectEdit, SessionDep, StateDep, in_project
 from ..models import Job, Model, Schedule
+from ..scenes import evaluations_using
 from ..schemas import ErrorOut, JobOut, Time
-from ..services import element_states, load_element_dates
+from ..services import FOURD_KEY, element_states, load_element_dates
 from ..storage import display_name
 from ..uploads import queue_upload, receive_upload
 
@@ -125,6 +126,10 @@ def delete_schedule(project_id: int, schedule_id: int, session: SessionDep, stat
     row = in_project(session, Schedule, schedule_id, project_id, "schedule")
     if row.status in ("queued", "linking"):
         raise HTTPException(409, f"schedule {schedule_id} is still being linked; delete it when it is done")
+    users = evaluations_using(session, project_id, FOURD_KEY, schedule_id)
+    if users:
+        raise HTTPException(409, f"schedule {schedule_id} dates evaluation(s) {', '.join(map(str, users))}: delete "
+                                 "those first")
     files = [state.storage.schedule_path(n) for n in (row.stored_name, row.rules_name, row.dates_name) if n]
     session.delete(row)
     session.commit()

@@ -120,12 +120,12 @@ def view_engine(state: ServerState, model: Model, d_max: float, session: Session
 
     def make():
         if site and session is not None:
-            scene = evaluation_scene(state.storage, session, model.stored_name, site)
+            scene = evaluation_scene(state.storage, session, model.stored_name, site, model.project_id)
         else:
             scene = load_scene(state.storage, model.stored_name)[0]
         return make_engine(ray_engine_name("auto"), scene, d_max=d_max, threads=1)
 
-    return _engine_cache.get((model.stored_name, float(d_max), json.dumps(site, sort_keys=True)), make)
+    return _engine_cache.get((model.project_id, model.stored_name, float(d_max), json.dumps(site, sort_keys=True)), make)
 
 
 def check_frame(plan, frame: int) -> None:
@@ -326,7 +326,7 @@ def feedback_dict(state: ServerState, session: Session, ev_row: Evaluation, mode
     from ...report.overview import OBSERVED_ONLY, VISIBLE
 
     ev = evaluation_result(state, ev_row)
-    scene = evaluation_scene(state.storage, session, model.stored_name, ev_row.settings)
+    scene = evaluation_scene(state.storage, session, model.stored_name, ev_row.settings, ev_row.project_id)
     plan = read_stored_plan(state, ev_row.plan_version)
     data = viewer_data(ev, scene, plan, "visibility", None)
     em, fm, mp = ev.metrics.elements, ev.metrics.frames, ev.metrics.params
@@ -375,7 +375,7 @@ def evaluation_element(project: ProjectRead, evaluation_id: int, index: int, ses
                        ) -> dict[str, Any]:
     ev_row = done_evaluation(session, project.id, evaluation_id)
     model = in_project(session, Model, ev_row.model_id, project.id, "model")
-    scene = evaluation_scene(state.storage, session, model.stored_name, ev_row.settings)
+    scene = evaluation_scene(state.storage, session, model.stored_name, ev_row.settings, ev_row.project_id)
     if not 0 <= index < scene.n_elements:
         raise HTTPException(404, f"element {index} not found: the model has elements 0 to {scene.n_elements - 1}")
     rows = json.loads((state.storage.evaluation_dir(ev_row.result_dir) / "elements.json").read_text(encoding="utf-8"))
