@@ -77,9 +77,16 @@ class Worker:
         with self._lock:
             self._cancelled.add(job_id)
 
-    def fail(self, job_id: int, message: str) -> None:
-        """Mark a job failed with its model, schedule or evaluation (as a failure inside it would)."""
-        self._fail(job_id, message)
+    def fail_if_queued(self, job_id: int, message: str) -> None:
+        """Mark a job that has not started failed (with its model, schedule or evaluation, as a failure inside it
+        would); a job that started meanwhile is left to stop at its next step. The check and the change are one
+        step under the worker's lock, which the start of a job takes too."""
+        with self._lock:
+            with self.db.session() as s:
+                job = s.get(Job, job_id)
+                if job is None or job.status != "queued":
+                    return
+            self._fail(job_id, message)
 
     def _check(self, job_id: int) -> None:
         if self._stopping.is_set():
@@ -123,11 +130,10 @@ class Worker:
         return update
 
     def _run(self, job_id: int) -> None:
-        with self.db.session() as s:
+        with self._lock, self.db.session() as s:  # the lock: a cancel is either before the start or after it
             job = s.get(Job, job_id)
             if job is None or job.status != "queued":
-                with self._lock:
-                    self._cancelled.discard(job_id)
+                self._cancelled.discard(job_id)
                 return
             job.status, job.started_at = "running", utcnow()
             kind = job.kind

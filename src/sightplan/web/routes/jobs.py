@@ -64,9 +64,8 @@ def cancel_job(job_id: int, session: SessionDep, state: StateDep, user: UserDep)
     if job.status in FINAL_STATES:
         raise HTTPException(409, f"job {job_id} is {job.status} already")
     state.worker.cancel(job_id)
-    if job.status == "queued":
-        session.commit()
-        state.worker.fail(job_id, CANCELLED)
+    session.commit()
+    state.worker.fail_if_queued(job_id, CANCELLED)
     session.expire_all()
     return found(session.get(Job, job_id), "job", job_id)
 
@@ -77,14 +76,15 @@ def _snapshot(state: ServerState, job_id: int) -> JobOut | None:
         return None if job is None else JobOut.model_validate(job)
 
 
-async def job_events(request: Request, state: ServerState, job_id: int) -> AsyncIterator[str]:
+async def job_events(request: Request, state: ServerState, job_id: int, created_at=None) -> AsyncIterator[str]:
     """``progress`` events whenever the job changes, then one ``done`` or ``failed`` event; a comment line every
-    15 s keeps proxies from closing an idle stream."""
+    15 s keeps proxies from closing an idle stream. The stream follows the job it was opened for: should that job
+    be deleted and its id taken by another, it ends."""
     last: tuple | None = None
     quiet = 0.0
     while True:
         job = await run_in_threadpool(_snapshot, state, job_id)
-        if job is None:
+        if job is None or (created_at is not None and job.created_at != created_at):
             yield f"event: failed\ndata: {json.dumps({'detail': f'job {job_id} was deleted'})}\n\n"
             return
         key = (job.status, job.progress_done, job.progress_total, job.message)
@@ -112,6 +112,6 @@ def stream_job(job_id: int, request: Request, state: StateDep) -> StreamingRespo
     # its own short session, not the request's: the stream lasts as long as the job, and must not keep a database
     # connection (or a transaction) all that time
     with state.db.session() as session:
-        visible_job(session, job_id, current_user(request, state, session))
-    return StreamingResponse(job_events(request, state, job_id), media_type="text/event-stream",
+        created = JobOut.model_validate(visible_job(session, job_id, current_user(request, state, session))).created_at
+    return StreamingResponse(job_events(request, state, job_id, created), media_type="text/event-stream",
                              headers={"Cache-Control": "no-cache", "X-Accel-Buffering": "no"})
