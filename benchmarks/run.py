@@ -257,9 +257,7 @@ def run_cell(spec: str, args) -> dict:
                 "features": features.key, "feature_params": features.params}
         res["metrics"] = plan_metrics(scene, frames, len(features), meta)
         if engine_name == "gl":
-            from sightplan.engines import gl
-
-            res["renderer"] = gl.probe()["renderer"]
+            res["renderer"] = engine.renderer  # the driver this engine drew with (no second context)
         if engine_name == "trimesh":  # embree on the very same frames, after the peak is taken
             with make_engine("embree", scene, features, d_max=defaults.d_max) as emb:
                 res["embree_same_frames_cast_s"] = cast(emb, plan, scale, warmup=True)[1]

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import json
 import os
-import socket
 import subprocess
 import sys
 import threading
@@ -25,7 +24,7 @@ from sqlalchemy import create_engine, text  # noqa: E402
 from sightplan.model.load import sample_model_path  # noqa: E402
 from sightplan.web.app import create_app  # noqa: E402
 from sightplan.web.config import ServerConfig, is_loopback  # noqa: E402
-from web_support import wait_job  # noqa: E402
+from web_support import free_port, wait_job  # noqa: E402
 
 SCALE = 0.05
 CUBE_OBJ = """o box
@@ -468,14 +467,8 @@ def test_other_addresses_than_loopback_mean_team_mode(tmp_path):
     assert ServerConfig(data_dir=tmp_path, team=True).team
 
 
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
 def test_real_server_starts_and_answers(tmp_path):
-    port = _free_port()
+    port = free_port()
     env = {**os.environ, "PYTHONUNBUFFERED": "1"}
     proc = subprocess.Popen([sys.executable, "-m", "sightplan", "serve", "--port", str(port), "--data", str(tmp_path / "d")],
                             stdout=subprocess.PIPE, stderr=subprocess.STDOUT, env=env, text=True)

@@ -2,8 +2,16 @@
 
 from __future__ import annotations
 
+import socket
 import time
 from pathlib import Path
+
+
+def free_port() -> int:
+    """A TCP port on the loopback address that nothing listens on now."""
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
 
 
 def wait_job(client, job_id: int, timeout_s: float = 120.0) -> dict:

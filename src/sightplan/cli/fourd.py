@@ -26,11 +26,11 @@ def link_with_schedule(console: Console, scene, model: str, schedule: str | None
     """The undated scene with element dates from ``schedule`` (and ``rules``); the link report is printed."""
     if schedule is None and rules is None:
         return scene
-    from ..model.load import resolve_model_path
+    from ..model.load import IFC_EXTENSIONS, resolve_model_path
     from ..schedule import link_schedule, read_schedule
 
     model_path = resolve_model_path(model)
-    ifc = model_path if model_path.suffix.lower() in (".ifc", ".ifczip") else None
+    ifc = model_path if model_path.suffix.lower() in IFC_EXTENSIONS else None
     tasks = read_schedule(schedule if schedule is not None else "model", model_path=ifc)
     scene, report = link_schedule(scene, tasks, rules, model_path=ifc, prefer_actual=prefer_actual)
     for line in report.describe():

@@ -23,6 +23,7 @@ from ..metrics import Metrics
 from ..metrics.elements import ElementMetrics
 from ..model.scene import Scene
 from .overview import OBSERVED_ONLY, OCCLUDER, UNSEEN, VISIBLE
+from .tables import json_number
 
 ColourBy = Literal["visibility", "vr", "ssd", "orientation"]
 COLOUR_BY: tuple[str, ...] = get_args(ColourBy)
@@ -241,9 +242,6 @@ def split_elements(scene: Scene, frame: ViewerFrame) -> ElementGeometry:
                            vertex_start, face_start)
 
 
-def _finite(x: float) -> float | None:
-    x = float(x)
-    return x if math.isfinite(x) else None
 
 
 def element_extras(scene: Scene, em: ElementMetrics, classes: NDArray[np.int8], i: int) -> dict:
@@ -252,8 +250,8 @@ def element_extras(scene: Scene, em: ElementMetrics, classes: NDArray[np.int8], 
     return {
         "element": int(i), "global_id": str(el.global_id[i]), "name": str(el.name[i]), "ifc_class": str(el.ifc_class[i]),
         "storey": str(el.storey[i]), "target": bool(em.is_target[i]), "visibility": VISIBILITY_CLASSES[int(classes[i])],
-        "VR_i": int(em.VR[i]), "R_i_m_per_px": _finite(em.R[i]), "O_i_deg": _finite(em.O[i]),
-        "frames_observed": int(em.frames_observed[i]), "pixels_total": _finite(em.pixels_total[i]),
+        "VR_i": int(em.VR[i]), "R_i_m_per_px": json_number(em.R[i]), "O_i_deg": json_number(em.O[i]),
+        "frames_observed": int(em.frames_observed[i]), "pixels_total": json_number(em.pixels_total[i]),
     }
 
 

@@ -66,6 +66,7 @@ PLAN_COLUMNS: tuple[tuple[str, str, str, str, float], ...] = (
     ("T", "T", "features", ".1f", 1.0),
 )
 STABLE_COLOUR, UNSTABLE_COLOUR = VISIBLE, UNSEEN
+COLOURS_JS = Path(__file__).with_name("colours.js")  # the viewer's colouring, shared with the web page
 
 
 # --------------------------------------------------------------------------- three.js
@@ -317,7 +318,7 @@ def html_report(ev: Evaluation, scene: Scene, plan: Plan, *, model_label: str = 
     """The report page as one string; every script, picture and the model are inside it."""
     colour_by = check_colour_by(colour_by)
     colour_bounds(ev.metrics.elements, colour_by, bounds)  # refuse bad bounds before any work
-    modules = three_modules(three_dir)
+    modules = three_modules(three_dir) | {"sightplan/colours": COLOURS_JS.read_text(encoding="utf-8")}
     glb = scene_glb(scene, ev.metrics, colour_by, bounds)
     e = html.escape
     p, s = ev.metrics.plan, ev.settings

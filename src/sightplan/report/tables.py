@@ -16,7 +16,7 @@ from ..model.scene import Scene
 from ..plan.types import Plan
 
 
-def _num(x: float) -> float | None:
+def json_number(x: float) -> float | None:
     """A JSON-safe number: None for NaN/inf."""
     x = float(x)
     return x if math.isfinite(x) else None
@@ -81,7 +81,7 @@ def report_dict(ev: Evaluation, scene: Scene, plan: Plan, model_path: str = "", 
         "metrics": {"VC_pct": pct(p.VC), "VC_bar_pct": pct(p.VC_bar), "VR": p.VR, "R_m_per_px": p.R, "O_deg": p.O,
                     "T": p.T, "stable_frames_pct": pct(p.stable_share), "z": p.z, "visible": p.n_visible,
                     "observed": p.n_observed, "frames": p.n_frames, "features": ev.n_features},
-        "timings": {k: _num(v) for k, v in ev.timings.items()},
+        "timings": {k: json_number(v) for k, v in ev.timings.items()},
         "cache_hits": ev.cache_hits,
     }
 

@@ -4,6 +4,7 @@
 import * as THREE from 'three';
 import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
 import { GLTFLoader } from 'three/addons/loaders/GLTFLoader.js';
+import { Colourer } from 'sightplan/colours';
 
 const data = JSON.parse(document.getElementById('sightplan-data').textContent);
 const root = document.getElementById('viewer');
@@ -15,32 +16,9 @@ const legend = document.getElementById('legend');
 const info = document.getElementById('element-info');
 const xrayInput = document.getElementById('xray');
 
-function hexToRgb(hex) {
-  const n = parseInt(hex.slice(1), 16);
-  return [((n >> 16) & 255) / 255, ((n >> 8) & 255) / 255, (n & 255) / 255];
-}
-
-const STOPS = data.colours.gradient.map(hexToRgb);
-const CLASSES = data.colours.classes.map(hexToRgb);
-const UNSEEN = hexToRgb(data.colours.unseen);
-const OCCLUDER = hexToRgb(data.colours.occluder);
-
-// 0 good (green) → 0.5 yellow → 1 bad (red), interpolated in sRGB like the glTF's colours.
-function gradient(t) {
-  const x = Math.min(1, Math.max(0, t)) * (STOPS.length - 1);
-  const k = Math.min(STOPS.length - 2, Math.floor(x));
-  const f = x - k;
-  return STOPS[k].map((c, j) => c + (STOPS[k + 1][j] - c) * f);
-}
-
-function colourOf(metric, i, lo, hi) {
-  if (!data.elements.target[i]) return OCCLUDER;
-  const v = data.metrics[metric][i];
-  if (metric === 'visibility') return CLASSES[v];
-  if (v === null) return UNSEEN;
-  const t = data.labels[metric].higher_better ? (hi - v) / (hi - lo) : (v - lo) / (hi - lo);
-  return gradient(t);
-}
+const colourer = new Colourer(data);  // the traffic light of the glTF's colours, as the web page colours
+const { stops: STOPS, classes: CLASSES, unseen: UNSEEN, occluder: OCCLUDER } = colourer;
+const colourOf = (metric, i, lo, hi) => colourer.colourOf(metric, i, lo, hi);
 
 function fmt(v, digits) {
   if (v === null || v === undefined) return '—';

@@ -43,10 +43,6 @@ def check_password(password: str) -> None:
         raise AccountError(f"a password needs at least {MIN_PASSWORD} characters")
 
 
-def check_role(role: str) -> str:
-    if role not in ROLES:
-        raise AccountError(f"unknown role {role!r}: use one of {', '.join(ROLES)}")
-    return role
 
 
 def find_user(session: Session, username: str) -> User | None:

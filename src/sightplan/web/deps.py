@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Iterator
 from dataclasses import dataclass
-from typing import Annotated, TypeVar
+from typing import TYPE_CHECKING, Annotated, TypeVar
 
 from fastapi import Depends, HTTPException, Request
 from sqlalchemy.orm import Session
@@ -15,6 +15,9 @@ from .db import Database
 from .models import Base, Project, User
 from .storage import Storage
 from .worker import Worker
+
+if TYPE_CHECKING:
+    from .models import Model
 
 
 @dataclass
@@ -120,6 +123,16 @@ ProjectRead = Annotated[Project, Depends(readable_project)]
 ProjectEdit = Annotated[Project, Depends(editable_project)]
 ProjectOwn = Annotated[Project, Depends(owned_project)]
 PROJECT_ACCESS = [Depends(project_access)]
+
+
+def ready_model(session: Session, project_id: int, model_id: int) -> Model:
+    """The project's model ``model_id`` once it is tessellated; 409 before (with the loader's message if it failed)."""
+    from .models import Model
+
+    model = in_project(session, Model, model_id, project_id, "model")
+    if model.status != "ready":
+        raise HTTPException(409, f"model {model_id} is {model.status}, not ready" + (f": {model.error}" if model.error else ""))
+    return model
 
 
 def in_project(session: Session, cls: type[T], ident: int, project_id: int, what: str) -> T:

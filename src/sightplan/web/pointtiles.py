@@ -422,6 +422,7 @@ class _TileWriter:
 
     def __init__(self, out_dir: Path, frame: _Frame) -> None:
         self.dir = out_dir / TILES_DIR
+        self.dir.mkdir(parents=True, exist_ok=True)
         self.frame = frame
         self.pad = _BOX_PAD * frame.edge
         self.n_tiles = self.n_files = self.max_points = self.depth = self.n_points = 0
@@ -464,7 +465,6 @@ class _TileWriter:
 
     def write(self, name: str, pos: NDArray[np.float64], rgb: NDArray[np.uint8] | None, box: NDArray[np.float64]) -> None:
         centre = (box[0] + box[1]) / 2
-        self.dir.mkdir(parents=True, exist_ok=True)
         (self.dir / name).write_bytes(glb_points(pos, rgb, centre))
         self.n_files += 1
         self.n_points += len(pos)
@@ -653,7 +653,6 @@ def _build_out_of_core(cloud: _Cloud, frame: _Frame, writer: _TileWriter, tmp: P
         for s, m in zip(starts, sizes):
             with open(files[b[order[s]]], "ab") as fh:
                 rec[s:s + m].tofile(fh)
-    del bucket_of_cell
 
     # pass 1: per bucket, levels; points above the bucket's level set aside (at most the budget per level)
     upper: list[tuple] = []
@@ -683,10 +682,8 @@ def _build_out_of_core(cloud: _Cloud, frame: _Frame, writer: _TileWriter, tmp: P
     del upper
     for ell in range(max((lev for lev, _ in buckets), default=0)):
         _cap(u_level, u_h, lambda idx, e=ell: u_code[idx] >> 3 * (DEPTH - e), ell, frame.budget)
-    u_bucket = np.full(len(u_code), -1, np.int64)
-    for i, (top, key) in enumerate(buckets):
-        inside = (u_code >> 3 * (DEPTH - top)) == key
-        u_bucket[inside] = i
+    u_bucket = bucket_of_cell[u_code >> shift].astype(np.int64)  # the buckets partition the occupied cells
+    del bucket_of_cell
     moved = u_level >= np.array([lev for lev, _ in buckets], np.int64)[u_bucket] if len(u_code) else np.zeros(0, bool)
 
     # pass 2: each bucket's tiles, with the points the upper nodes moved down into it

@@ -177,18 +177,14 @@ def read_uploaded_plan(path: Path, camera: str | None, scene: Scene | None) -> P
     return with_site(plan, scene) if scene is not None else plan
 
 
-def checked_plan_json(storage: Storage, data: Any) -> Plan:
-    """An edited plan JSON validated exactly as a plan file is read (``read_plan``)."""
-    from ..plan.format import read_plan
+def checked_plan_json(data: Any) -> Plan:
+    """An edited plan JSON validated exactly as a plan file is read (``read_plan`` parses, then ``plan_from_dict``)."""
+    from ..plan.format import plan_from_dict
 
-    tmp = storage.temp_path(".json")
     try:
-        tmp.write_text(json.dumps(data), encoding="utf-8")
-        return read_plan(tmp)
+        return plan_from_dict(data)
     except (TypeError, ValueError) as exc:
         raise PlanError(f"the plan is not valid JSON: {exc}") from None
-    finally:
-        tmp.unlink(missing_ok=True)
 
 
 def rebuilt_evaluation(result: Path, settings: dict[str, Any], metrics_json: dict[str, Any]) -> Evaluation:

@@ -12,7 +12,7 @@ from sqlalchemy import select
 from sqlalchemy.orm import Session
 
 from ...errors import ReportError
-from ..deps import PROJECT_ACCESS, ServerState, SessionDep, StateDep, get_project, in_project
+from ..deps import PROJECT_ACCESS, ServerState, SessionDep, StateDep, in_project, ready_model
 from ..models import Evaluation, Job, Model, Plan, PlanVersion, Reality, Schedule
 from ..scenes import evaluation_scene
 from ..schemas import ElementsOut, ErrorOut, EvaluationIn, EvaluationOut, EvaluationStartOut, JobOut
@@ -73,7 +73,6 @@ def evaluation_out(ev: Evaluation) -> EvaluationOut:
              responses={**NOT_FOUND, 409: {"model": ErrorOut, "description": "The model is not ready"},
                         422: {"model": ErrorOut, "description": "Invalid settings, or no model given"}})
 def start_evaluation(project_id: int, body: EvaluationIn, session: SessionDep, state: StateDep) -> EvaluationStartOut:
-    get_project(session, project_id)
     plan = in_project(session, Plan, body.plan_id, project_id, "plan")
     number = body.version if body.version is not None else max((v.number for v in plan.versions), default=0)
     version = next((v for v in plan.versions if v.number == number), None)
@@ -82,9 +81,7 @@ def start_evaluation(project_id: int, body: EvaluationIn, session: SessionDep, s
     model_id = body.model_id if body.model_id is not None else plan.model_id
     if model_id is None:
         raise HTTPException(422, f"plan {plan.id} is for no model: give model_id")
-    model = in_project(session, Model, model_id, project_id, "model")
-    if model.status != "ready":
-        raise HTTPException(409, f"model {model_id} is {model.status}, not ready" + (f": {model.error}" if model.error else ""))
+    ready_model(session, project_id, model_id)
     settings = body.settings.model_dump()
     evaluation_settings(settings)  # the library's own checks, before anything is queued
     if body.reality_id is not None:
@@ -102,7 +99,6 @@ def start_evaluation(project_id: int, body: EvaluationIn, session: SessionDep, s
 
 @router.get("", response_model=list[EvaluationOut], summary="List the project's evaluations", responses=NOT_FOUND)
 def list_evaluations(project_id: int, session: SessionDep) -> list[EvaluationOut]:
-    get_project(session, project_id)
     rows = session.scalars(select(Evaluation).where(Evaluation.project_id == project_id).order_by(Evaluation.id))
     return [evaluation_out(e) for e in rows]
 

@@ -39,7 +39,7 @@ def _keep_an_owner(session: Session, m: Membership, new_role: str | None) -> Non
 
 @router.get("/members", response_model=list[MemberOut], summary="The project's members and their roles",
             responses=NOT_FOUND)
-def list_members(project: ProjectRead, session: SessionDep) -> list[MemberOut]:
+def list_members(project: ProjectRead) -> list[MemberOut]:
     return [_member_out(m) for m in project.members]
 
 

@@ -7,7 +7,7 @@ from typing import Annotated
 from fastapi import APIRouter, File, HTTPException, Response, UploadFile
 from sqlalchemy import select
 
-from ..deps import PROJECT_ACCESS, SessionDep, StateDep, get_project, in_project
+from ..deps import PROJECT_ACCESS, SessionDep, StateDep, in_project
 from ..models import Evaluation, Job, Model, Schedule
 from ..schemas import ErrorOut, JobOut, ModelDetailOut, ModelOut, ModelUploadOut
 from ..storage import MODEL_SUFFIXES, display_name
@@ -26,7 +26,6 @@ NOT_FOUND = {404: {"model": ErrorOut, "description": "No such project or model"}
 async def upload_model(project_id: int, state: StateDep, session: SessionDep,
                        file: Annotated[UploadFile, File(description="IFC (.ifc, .ifczip) or mesh (.obj, .ply, .stl, "
                                                                     ".gltf, .glb) file")]) -> ModelUploadOut:
-    get_project(session, project_id)
     tmp, size = await receive_upload(state, file, MODEL_SUFFIXES, "model")
     stored = state.storage.new_name(tmp.suffix)
 
@@ -45,7 +44,6 @@ async def upload_model(project_id: int, state: StateDep, session: SessionDep,
 
 @router.get("", response_model=list[ModelOut], summary="List the project's models", responses=NOT_FOUND)
 def list_models(project_id: int, session: SessionDep) -> list[Model]:
-    get_project(session, project_id)
     return list(session.scalars(select(Model).where(Model.project_id == project_id).order_by(Model.id)))
 
 

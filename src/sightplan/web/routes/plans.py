@@ -18,7 +18,7 @@ from ...errors import PlanError, SightplanError
 from ...export import ExportFormat
 from ...model.scene import Scene
 from ...plan.types import Plan as PlanData
-from ..deps import PROJECT_ACCESS, ServerState, SessionDep, StateDep, get_project, in_project
+from ..deps import PROJECT_ACCESS, ServerState, SessionDep, StateDep, in_project, ready_model
 from ..models import Job, Model, Plan, PlanVersion
 from ..schemas import ErrorOut, PlanOut, PlanVersionOut, TemplatePlanIn
 from ..services import checked_plan_json, load_scene, read_uploaded_plan, template_plan
@@ -41,10 +41,7 @@ def plan_out(plan: Plan) -> PlanOut:
 
 
 def ready_scene(state: ServerState, session: Session, project_id: int, model_id: int) -> tuple[Model, Scene]:
-    model = in_project(session, Model, model_id, project_id, "model")
-    if model.status != "ready":
-        detail = f": {model.error}" if model.error else ""
-        raise HTTPException(409, f"model {model_id} is {model.status}, not ready{detail}")
+    model = ready_model(session, project_id, model_id)
     return model, load_scene(state.storage, model.stored_name)[0]
 
 
@@ -75,7 +72,6 @@ def commit_version(state: ServerState, session: Session, plan_row: Plan, data: P
                          "checked as `sightplan plan` does; the model's georeference is recorded for exports.",
              responses={**NOT_FOUND, **BAD_PLAN, **NOT_READY})
 def create_from_template(project_id: int, body: TemplatePlanIn, session: SessionDep, state: StateDep) -> PlanOut:
-    get_project(session, project_id)
     _, scene = ready_scene(state, session, project_id, body.model_id)
     data = template_plan(scene, body)
     row = Plan(project_id=project_id, model_id=body.model_id, name=body.name or f"{body.template} plan",
@@ -96,7 +92,6 @@ async def upload_plan(project_id: int, session: SessionDep, state: StateDep,
                       model_id: Annotated[int | None, Form(description="The project's model the plan is for")] = None,
                       camera: Annotated[str | None, Form(description="Camera of a poses CSV or a flight-app mission")]
                       = None) -> PlanOut:
-    get_project(session, project_id)
     if model_id is not None:
         in_project(session, Model, model_id, project_id, "model")
     original = display_name(file.filename or "")
@@ -118,7 +113,6 @@ async def upload_plan(project_id: int, session: SessionDep, state: StateDep,
 
 @router.get("", response_model=list[PlanOut], summary="List the project's plans", responses=NOT_FOUND)
 def list_plans(project_id: int, session: SessionDep) -> list[PlanOut]:
-    get_project(session, project_id)
     return [plan_out(p) for p in session.scalars(select(Plan).where(Plan.project_id == project_id).order_by(Plan.id))]
 
 
@@ -150,7 +144,7 @@ def put_version(project_id: int, plan_id: int, session: SessionDep, state: State
                 body: Annotated[dict[str, Any], Body(description="The edited plan JSON")],
                 note: Annotated[str, Query(max_length=500, description="What changed")] = "edited") -> PlanOut:
     plan = in_project(session, Plan, plan_id, project_id, "plan")
-    return commit_version(state, session, plan, checked_plan_json(state.storage, body), note)
+    return commit_version(state, session, plan, checked_plan_json(body), note)
 
 
 @router.delete("/{plan_id}", status_code=204, response_class=Response,

@@ -22,11 +22,12 @@ from fastapi.responses import FileResponse
 from sqlalchemy.orm import Session
 
 from ...errors import ReportError
-from ..deps import ProjectRead, ServerState, SessionDep, StateDep, in_project
-from ..models import Evaluation, Model, Plan, PlanVersion
+from ..deps import ProjectRead, ServerState, SessionDep, StateDep, in_project, ready_model
+from ..models import Evaluation, Model, PlanVersion
 from ..scenes import evaluation_scene
 from ..schemas import ErrorOut
 from ..services import FLIGHT_KEY, FOURD_KEY, REALITY_KEY, flight_settings, load_scene, rebuilt_evaluation
+from . import evaluations, plans
 
 router = APIRouter(tags=["viewer"])
 NOT_FOUND = {404: {"model": ErrorOut, "description": "No such project, model, plan, version, evaluation, frame or element"}}
@@ -35,6 +36,7 @@ BAD_VALUE = {422: {"model": ErrorOut, "description": "An unknown metric or bad b
 PNG = {200: {"description": "A PNG image", "content": {"image/png": {}}}}
 
 STATIC_DIR = Path(__file__).resolve().parents[1] / "static"
+COLOURS_JS = Path(__file__).resolve().parents[2] / "report" / "colours.js"
 # Only these packages of web/node_modules are served, read-only, under /vendor/<package>/ (3d-tiles-renderer streams
 # reality point clouds; its build imports nothing but three.js and its own chunks).
 VENDOR_PACKAGES = ("three", "three-mesh-bvh", "3d-tiles-renderer")
@@ -76,26 +78,8 @@ _engine_cache = _Cache(2)
 
 
 # --------------------------------------------------------------------------- lookups
-def ready_model(session: Session, project_id: int, model_id: int) -> Model:
-    model = in_project(session, Model, model_id, project_id, "model")
-    if model.status != "ready":
-        raise HTTPException(409, f"model {model_id} is {model.status}, not ready" + (f": {model.error}" if model.error else ""))
-    return model
-
-
-def plan_version(session: Session, project_id: int, plan_id: int, number: int) -> PlanVersion:
-    plan = in_project(session, Plan, plan_id, project_id, "plan")
-    for v in plan.versions:
-        if v.number == number:
-            return v
-    raise HTTPException(404, f"plan {plan_id} has no version {number} (it has 1 to {len(plan.versions)})")
-
-
-def done_evaluation(session: Session, project_id: int, evaluation_id: int) -> Evaluation:
-    ev = in_project(session, Evaluation, evaluation_id, project_id, "evaluation")
-    if ev.status != "done":
-        raise HTTPException(409, f"evaluation {evaluation_id} is {ev.status}, not done" + (f": {ev.error}" if ev.error else ""))
-    return ev
+plan_version = plans.get_version
+done_evaluation = evaluations.done_evaluation
 
 
 def read_stored_plan(state: ServerState, version: PlanVersion):
@@ -514,6 +498,8 @@ def index_page() -> FileResponse:
 
 @router.get("/static/{path:path}", response_class=FileResponse, include_in_schema=False)
 def static_file(path: str) -> FileResponse:
+    if path == COLOURS_JS.name:  # the colouring the HTML report's viewer uses too
+        return _file(COLOURS_JS, "no-cache")
     return _file(safe_file(STATIC_DIR, path), "no-cache")
 
 

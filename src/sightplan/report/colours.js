@@ -1,5 +1,6 @@
-// Element and frame colours. An evaluation's feedback carries the colours and default bounds of the HTML report
-// (report/gltf.py): a traffic-light gradient between two bounds (green good → yellow → red bad), unseen targets red,
+// Element and frame colours, shared by the HTML report's viewer (viewer.js, inlined by html.py) and the web page
+// (served as /static/colours.js). Both read the data of html.py's viewer_data: the colours and default bounds of
+// report/gltf.py, a traffic-light gradient between two bounds (green good → yellow → red bad), unseen targets red,
 // occluders grey. Colours here are sRGB in [0, 1].
 
 export function hexToRgb(hex) {
