@@ -17,7 +17,7 @@ from .errors import SightplanError
 from .metrics import MetricParams, Metrics, compute_metrics
 from .model.scene import Scene
 from .observations.cache import FrameCache
-from .observations.features import FeatureSet, sample_features
+from .observations.features import FeatureSet, cached_features
 from .observations.table import FrameObservation, Observations
 from .plan.types import Plan
 
@@ -64,9 +64,10 @@ class Evaluation:
 
 
 def scene_features(scene: Scene, settings: EvaluationSettings, features: FeatureSet | None = None) -> FeatureSet:
-    """``features`` when they were sampled on ``scene``, or the settings' sampling of it when None."""
+    """``features`` when they were sampled on ``scene``, or the settings' sampling of it when None
+    (sampled once per scene and sampling parameters, then read from the cache)."""
     if features is None:
-        return sample_features(scene, settings.feature_density, settings.feature_seed)
+        return cached_features(scene, settings.feature_density, settings.feature_seed)
     if features.params.get("scene") not in (None, scene.key):
         raise SightplanError("the feature set was sampled on another scene (another model, options or capture date); "
                              "sample it again for this one")

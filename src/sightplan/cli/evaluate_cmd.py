@@ -171,9 +171,9 @@ def evaluate(
         write_plan(the_plan, save_plan)
     feature_set = FeatureSet.load(features) if features is not None else None
     if save_features is not None:
-        from ..observations.features import sample_features
+        from ..observations.features import cached_features
 
-        feature_set = feature_set or sample_features(scene, feature_density, seed)
+        feature_set = feature_set or cached_features(scene, feature_density, seed)
         feature_set.save(save_features)
     with Progress(TextColumn("[bold]casting frames"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
                   TimeRemainingColumn(), console=console, transient=False) as bar:

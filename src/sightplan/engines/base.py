@@ -8,6 +8,7 @@ feature visibility test are written once, here, so engines cannot drift apart.
 from __future__ import annotations
 
 import os
+import threading
 from abc import ABC, abstractmethod
 from concurrent.futures import ThreadPoolExecutor
 from typing import Literal
@@ -21,6 +22,7 @@ from ..model.scene import Scene
 from ..observations.features import FeatureSet
 from ..observations.table import FrameObservation
 from . import kernels
+from .featurecull import FeatureIndex
 
 EngineName = Literal["auto", "embree", "gl", "trimesh"]
 
@@ -60,6 +62,8 @@ class Engine(ABC):
         self._face_offset = np.einsum("ij,ij->i", normals, v0)
         self._face_element = np.ascontiguousarray(scene.face_element, dtype=np.int32)
         self._pool = ThreadPoolExecutor(self.threads) if self.threads > 1 else None
+        self._feature_index: FeatureIndex | None = None
+        self._index_lock = threading.Lock()
 
     # --------------------------------------------------------------- backend
     @abstractmethod
@@ -184,11 +188,48 @@ class Engine(ABC):
         return ids.reshape(shape), np.where(hit, t, np.inf).reshape(shape), np.where(hit, cos, 0.0).reshape(shape)
 
     # -------------------------------------------------------------- features
+    @property
+    def feature_index(self) -> FeatureIndex | None:
+        """The features in frustum-culling blocks, built on first use (once per engine)."""
+        if self.features is None or len(self.features) == 0:
+            return None
+        if self._feature_index is None:
+            with self._index_lock:
+                if self._feature_index is None:
+                    self._feature_index = FeatureIndex(self.features.points, self.features.normals)
+        return self._feature_index
+
     def visible_features(self, camera: Camera, R_world_camera: NDArray, C_world: NDArray) -> NDArray[np.int32]:
-        """(q,) int32 indices of the features observed from this pose (METRICS.md §5.2).
+        """(q,) int32 ascending indices of the features observed from this pose (METRICS.md §5.2).
 
         Observed iff it projects inside the image, lies within d_max, faces the camera,
         and nothing is hit along the ray from the centre closer than its distance − 0.5 mm.
+        Only the features of blocks in the view frustum are tested (:mod:`.featurecull`);
+        the result equals :meth:`visible_features_reference`.
+        """
+        index = self.feature_index
+        if index is None:
+            return np.zeros(0, np.int32)
+        if isinstance(camera, PinholeCamera):
+            cand, dirs, dist = index.candidates(C_world, R_world_camera, camera.width, camera.height, camera.fx,
+                                                camera.fy, camera.cx, camera.cy, self.d_max)
+        else:
+            cand, dirs, dist = index.candidates(C_world, None, 0, 0, 1.0, 1.0, 0.0, 0.0, self.d_max)
+        if len(cand) == 0:
+            return cand
+        origin = (np.asarray(C_world, np.float64) - self.centre).astype(np.float32)
+        return cand[self._unoccluded(origin, dirs, dist - OCCLUSION_TOLERANCE_M)]
+
+    def _unoccluded(self, origin32: NDArray[np.float32], directions: NDArray[np.float32],
+                    tfar: NDArray[np.float64]) -> NDArray[np.bool_]:
+        """(k,) True where nothing is hit along each ray from ``origin32`` (local frame) closer than ``tfar``."""
+        t = self.hit_distance(np.broadcast_to(origin32, directions.shape), directions)
+        return t >= tfar
+
+    def visible_features_reference(self, camera: Camera, R_world_camera: NDArray, C_world: NDArray) -> NDArray[np.int32]:
+        """The brute-force form of :meth:`visible_features`: every feature tested, one first-hit ray per candidate.
+
+        Kept as the reference the indexed path is tested against.
         """
         fs = self.features
         if fs is None or len(fs) == 0:

@@ -612,14 +612,22 @@ class GLEngine(Engine):
         super().close()
 
     # ------------------------------------------------------------ arbitrary rays
-    def first_hit(self, origins: NDArray[np.float32], directions: NDArray[np.float32]) -> NDArray[np.int32]:
-        """Arbitrary rays are not frames: they go to the Embree engine (built once, on first use)."""
+    def _rays(self):
+        """The Embree engine that casts this engine's arbitrary rays (built once, on first use)."""
         with self._lock:
             if self._ray_engine is None:
                 from .embree import EmbreeEngine
 
                 self._ray_engine = EmbreeEngine(self.scene, None, d_max=self.d_max, threads=1)
-        return self._ray_engine.first_hit(origins, directions)
+            return self._ray_engine
+
+    def first_hit(self, origins: NDArray[np.float32], directions: NDArray[np.float32]) -> NDArray[np.int32]:
+        """Arbitrary rays are not frames: they go to the Embree engine."""
+        return self._rays().first_hit(origins, directions)
+
+    def _unoccluded(self, origin32, directions, tfar):
+        """Feature sight lines go to the Embree engine too (its occlusion query)."""
+        return self._rays()._unoccluded(origin32, directions, tfar)
 
     # ------------------------------------------------------------------ views
     def _views(self, cam: Camera, R: NDArray):

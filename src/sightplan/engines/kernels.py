@@ -17,103 +17,110 @@ MODE_PINHOLE = 0
 MODE_EQUIRECT = 1
 
 
-@nb.njit(nogil=True, cache=True, fastmath=False)
-def pinhole_directions(p0, p1, width, fx, fy, cx, cy, R, out):
-    """World ray directions (unit, float32) of pixels p0..p1 (row-major) of a pinhole camera."""
-    for k in range(p1 - p0):
-        p = p0 + k
-        u = p % width
-        v = p // width
-        x = (u + 0.5 - cx) / fx
-        y = (v + 0.5 - cy) / fy
-        inv = 1.0 / math.sqrt(x * x + y * y + 1.0)
-        x *= inv
-        y *= inv
-        z = inv
-        out[k, 0] = R[0, 0] * x + R[0, 1] * y + R[0, 2] * z
-        out[k, 1] = R[1, 0] * x + R[1, 1] * y + R[1, 2] * z
-        out[k, 2] = R[2, 0] * x + R[2, 1] * y + R[2, 2] * z
-
-
-@nb.njit(nogil=True, cache=True, fastmath=False)
-def equirect_directions(p0, p1, width, height, R, out):
-    """World ray directions (unit, float32) of pixels p0..p1 of an equirectangular camera."""
-    for k in range(p1 - p0):
-        p = p0 + k
-        u = p % width
-        v = p // width
+@nb.njit(nogil=True, cache=True, inline="always")
+def pixel_direction(mode, p, width, height, fx, fy, cx, cy, R):
+    """Unit world direction (float64 x, y, z) of pixel p (row-major) of a pinhole or equirectangular camera."""
+    u = p % width
+    v = p // width
+    if mode == MODE_EQUIRECT:
         lon = 2.0 * math.pi * (u + 0.5) / width - math.pi
         lat = 0.5 * math.pi - math.pi * (v + 0.5) / height
         cl = math.cos(lat)
         x = cl * math.sin(lon)
         y = -math.sin(lat)
         z = cl * math.cos(lon)
-        out[k, 0] = R[0, 0] * x + R[0, 1] * y + R[0, 2] * z
-        out[k, 1] = R[1, 0] * x + R[1, 1] * y + R[1, 2] * z
-        out[k, 2] = R[2, 0] * x + R[2, 1] * y + R[2, 2] * z
+    else:
+        x = (u + 0.5 - cx) / fx
+        y = (v + 0.5 - cy) / fy
+        inv = 1.0 / math.sqrt(x * x + y * y + 1.0)
+        x *= inv
+        y *= inv
+        z = inv
+    return (R[0, 0] * x + R[0, 1] * y + R[0, 2] * z,
+            R[1, 0] * x + R[1, 1] * y + R[1, 2] * z,
+            R[2, 0] * x + R[2, 1] * y + R[2, 2] * z)
+
+
+@nb.njit(nogil=True, cache=True, fastmath=False)
+def pinhole_directions(p0, p1, width, fx, fy, cx, cy, R, out):
+    """World ray directions (unit, float32) of pixels p0..p1 (row-major) of a pinhole camera."""
+    for k in range(p1 - p0):
+        out[k, 0], out[k, 1], out[k, 2] = pixel_direction(MODE_PINHOLE, p0 + k, width, 0, fx, fy, cx, cy, R)
+
+
+@nb.njit(nogil=True, cache=True, fastmath=False)
+def equirect_directions(p0, p1, width, height, R, out):
+    """World ray directions (unit, float32) of pixels p0..p1 of an equirectangular camera."""
+    for k in range(p1 - p0):
+        out[k, 0], out[k, 1], out[k, 2] = pixel_direction(MODE_EQUIRECT, p0 + k, width, height, 1.0, 1.0, 0.0, 0.0, R)
+
+
+@nb.njit(nogil=True, cache=True, inline="always")
+def add_hit(f, d0, d1, d2, origin, R, mode, face_normal, face_offset, face_element, d_max, count, depth_sum, angle_sum):
+    """Add one ray's first hit (triangle f, float64 unit direction d) to the per-element sums.
+
+    The hit distance is recomputed in float64 from the hit triangle's plane
+    (face_normal · X = face_offset), so engines that return only triangle ids give the
+    same distances as those that return t.
+    θ_p = arccos(clamp(n_p · (−a), 0, 1)), n_p the flat normal turned toward the camera,
+    a the optical axis (pinhole) or the axis of the cube face the ray falls in (equirect).
+    """
+    n0 = face_normal[f, 0]
+    n1 = face_normal[f, 1]
+    n2 = face_normal[f, 2]
+    dn = n0 * d0 + n1 * d1 + n2 * d2
+    if dn == 0.0:
+        return
+    t = (face_offset[f] - (n0 * origin[0] + n1 * origin[1] + n2 * origin[2])) / dn
+    if t > d_max or t < 0.0:
+        return
+    if dn > 0.0:  # turn the normal toward the camera
+        n0 = -n0
+        n1 = -n1
+        n2 = -n2
+    ax0 = R[0, 2]
+    ax1 = R[1, 2]
+    ax2 = R[2, 2]
+    if mode == MODE_EQUIRECT:
+        # camera-frame direction = Rᵀ d; the cube face is its largest |component|
+        c0 = R[0, 0] * d0 + R[1, 0] * d1 + R[2, 0] * d2
+        c1 = R[0, 1] * d0 + R[1, 1] * d1 + R[2, 1] * d2
+        c2 = R[0, 2] * d0 + R[1, 2] * d1 + R[2, 2] * d2
+        a0, a1, a2 = abs(c0), abs(c1), abs(c2)
+        if a0 >= a1 and a0 >= a2:
+            j = 0
+            s = 1.0 if c0 > 0 else -1.0
+        elif a1 >= a2:
+            j = 1
+            s = 1.0 if c1 > 0 else -1.0
+        else:
+            j = 2
+            s = 1.0 if c2 > 0 else -1.0
+        ax0 = s * R[0, j]
+        ax1 = s * R[1, j]
+        ax2 = s * R[2, j]
+    c = -(n0 * ax0 + n1 * ax1 + n2 * ax2)
+    if c > 1.0:
+        c = 1.0
+    elif c < 0.0:
+        c = 0.0
+    e = face_element[f]
+    count[e] += 1
+    depth_sum[e] += t
+    angle_sum[e] += math.acos(c) * (180.0 / math.pi)
 
 
 @nb.njit(nogil=True, cache=True, fastmath=False)
 def accumulate_hits(prim, dirs, origin, R, mode, face_normal, face_offset, face_element, d_max,
                     count, depth_sum, angle_sum):
-    """Add each ray's first hit to per-element sums.
+    """Add each ray's first hit to per-element sums (see :func:`add_hit`).
 
     prim: (n,) int32 first-hit triangle (−1 on a miss). dirs: (n, 3) float32 unit world
-    directions. origin: (3,) float64 camera centre. The hit distance is recomputed in
-    float64 from the hit triangle's plane (face_normal · X = face_offset), so engines that
-    return only triangle ids give the same distances as those that return t.
-    θ_p = arccos(clamp(n_p · (−a), 0, 1)), n_p the flat normal turned toward the camera,
-    a the optical axis (pinhole) or the axis of the cube face the ray falls in (equirect).
+    directions. origin: (3,) float64 camera centre.
     count (z,) int64, depth_sum (z,) float64 metres, angle_sum (z,) float64 degrees.
     """
-    ax0 = R[0, 2]
-    ax1 = R[1, 2]
-    ax2 = R[2, 2]
-    rad2deg = 180.0 / math.pi
     for k in range(prim.shape[0]):
         f = prim[k]
-        if f < 0:
-            continue
-        d0 = np.float64(dirs[k, 0])
-        d1 = np.float64(dirs[k, 1])
-        d2 = np.float64(dirs[k, 2])
-        n0 = face_normal[f, 0]
-        n1 = face_normal[f, 1]
-        n2 = face_normal[f, 2]
-        dn = n0 * d0 + n1 * d1 + n2 * d2
-        if dn == 0.0:
-            continue
-        t = (face_offset[f] - (n0 * origin[0] + n1 * origin[1] + n2 * origin[2])) / dn
-        if t > d_max or t < 0.0:
-            continue
-        if dn > 0.0:  # turn the normal toward the camera
-            n0 = -n0
-            n1 = -n1
-            n2 = -n2
-        if mode == MODE_EQUIRECT:
-            # camera-frame direction = Rᵀ d; the cube face is its largest |component|
-            c0 = R[0, 0] * d0 + R[1, 0] * d1 + R[2, 0] * d2
-            c1 = R[0, 1] * d0 + R[1, 1] * d1 + R[2, 1] * d2
-            c2 = R[0, 2] * d0 + R[1, 2] * d1 + R[2, 2] * d2
-            a0, a1, a2 = abs(c0), abs(c1), abs(c2)
-            if a0 >= a1 and a0 >= a2:
-                j = 0
-                s = 1.0 if c0 > 0 else -1.0
-            elif a1 >= a2:
-                j = 1
-                s = 1.0 if c1 > 0 else -1.0
-            else:
-                j = 2
-                s = 1.0 if c2 > 0 else -1.0
-            ax0 = s * R[0, j]
-            ax1 = s * R[1, j]
-            ax2 = s * R[2, j]
-        c = -(n0 * ax0 + n1 * ax1 + n2 * ax2)
-        if c > 1.0:
-            c = 1.0
-        elif c < 0.0:
-            c = 0.0
-        e = face_element[f]
-        count[e] += 1
-        depth_sum[e] += t
-        angle_sum[e] += math.acos(c) * rad2deg
+        if f >= 0:
+            add_hit(f, np.float64(dirs[k, 0]), np.float64(dirs[k, 1]), np.float64(dirs[k, 2]), origin, R, mode,
+                    face_normal, face_offset, face_element, d_max, count, depth_sum, angle_sum)

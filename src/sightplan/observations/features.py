@@ -12,7 +12,10 @@ Every feature is offset 1 mm along its normal and belongs to that side only.
 
 from __future__ import annotations
 
+import hashlib
 import json
+import os
+import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -21,6 +24,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import ObservationsError
+from ..model.cache import default_cache_dir
 from ..model.scene import Scene
 
 CORNER_ANGLE_DEG = 30.0
@@ -28,6 +32,8 @@ MERGE_GRID_M = 0.001
 OFFSET_M = 0.001
 KIND_CORNER = 0
 KIND_SURFACE = 1
+#: Bump when the sampling changes, so cached feature sets are not reused.
+SAMPLING_VERSION = 1
 
 
 @dataclass(frozen=True)
@@ -47,8 +53,6 @@ class FeatureSet:
 
     @property
     def key(self) -> str:
-        import hashlib
-
         h = hashlib.sha256(self.points.tobytes())
         h.update(self.normals.tobytes())
         return h.hexdigest()[:32]
@@ -183,3 +187,41 @@ def sample_features(scene: Scene, density_per_m2: float = 1.0, seed: int = 0, co
     return FeatureSet(pts + OFFSET_M * nrm, nrm, kind, elem,
                       {"density_per_m2": density_per_m2, "seed": seed, "corners": corners,
                        "corner_angle_deg": CORNER_ANGLE_DEG, "scene": scene.key})
+
+
+def cached_features(scene: Scene, density_per_m2: float = 1.0, seed: int = 0, cache_dir: str | Path | None = None
+                    ) -> FeatureSet:
+    """:func:`sample_features` of ``scene``, sampled once and kept beside the scene cache.
+
+    The file is keyed by the scene's key (model, loader options, capture date) and the
+    sampling parameters; an unreadable or stale file is sampled again and replaced.
+    """
+    if not (density_per_m2 >= 0 and np.isfinite(density_per_m2)):
+        raise ObservationsError(f"feature density must be ≥ 0 per m², got {density_per_m2}")
+    directory = Path(cache_dir) if cache_dir is not None else default_cache_dir()
+    name = hashlib.sha256(json.dumps([SAMPLING_VERSION, scene.key, float(density_per_m2), int(seed)]).encode())
+    path = directory / f"features-{name.hexdigest()[:40]}.npz"
+    if path.is_file():
+        try:
+            with np.load(path, allow_pickle=False) as z:
+                params = json.loads(str(z["header"]))["params"]
+                fs = FeatureSet(z["points"], z["normals"], z["kind"], z["element"], params)
+            if params.get("scene") == scene.key and len(fs.kind) == len(fs.points) == len(fs.element):
+                return fs
+        except (OSError, ValueError, KeyError, TypeError):
+            pass  # sampled again below
+    fs = sample_features(scene, density_per_m2, seed)
+    try:
+        directory.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(dir=directory, prefix=path.name, suffix=".tmp")
+        try:
+            with os.fdopen(fd, "wb") as fh:  # uncompressed: it loads at disk speed
+                np.savez(fh, header=np.array(json.dumps({"format": "sightplan-features", "version": 1,
+                                                         "params": fs.params})),
+                         points=fs.points, normals=fs.normals, kind=fs.kind, element=fs.element)
+            os.replace(tmp, path)
+        finally:
+            Path(tmp).unlink(missing_ok=True)
+    except OSError:
+        pass  # a read-only cache folder only costs the sampling next time
+    return fs
