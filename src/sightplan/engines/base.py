@@ -218,7 +218,7 @@ class Engine(ABC):
         if len(cand) == 0:
             return cand
         origin = (np.asarray(C_world, np.float64) - self.centre).astype(np.float32)
-        return cand[self._unoccluded(origin, dirs, dist - OCCLUSION_TOLERANCE_M)]
+        return np.sort(cand[self._unoccluded(origin, dirs, dist - OCCLUSION_TOLERANCE_M)])
 
     def _unoccluded(self, origin32: NDArray[np.float32], directions: NDArray[np.float32],
                     tfar: NDArray[np.float64]) -> NDArray[np.bool_]:

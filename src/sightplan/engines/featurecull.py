@@ -65,7 +65,8 @@ class FeatureIndex:
 
     def candidates(self, C_world: NDArray, R: NDArray | None, width: int, height: int, fx: float, fy: float,
                    cx: float, cy: float, d_max: float) -> tuple[NDArray[np.int32], NDArray[np.float32], NDArray[np.float64]]:
-        """Features that pass every test but occlusion: (k,) indices into the feature set (ascending),
+        """Features that pass every test but occlusion: (k,) indices into the feature set, in the
+        index's spatial order (neighbours together, so their sight lines make coherent packets),
         (k, 3) float32 unit directions from the camera centre, (k,) float64 distances.
 
         R: camera-to-world rotation of a pinhole camera (its columns are the camera axes), or
@@ -85,9 +86,7 @@ class FeatureIndex:
         keep = _cull_blocks(self.block_lo, self.block_hi, C, planes, d_max)
         idx, dirs, dist = _filter(self.points, self.normals, self.block_start, keep, C, R, pinhole,
                                   float(width), float(height), float(fx), float(fy), float(cx), float(cy), d_max)
-        ids = self.order[idx]
-        sort = np.argsort(ids, kind="stable")
-        return ids[sort], dirs[sort], dist[sort]
+        return self.order[idx], dirs, dist
 
 
 @nb.njit(nogil=True, cache=True)

@@ -618,7 +618,7 @@ class GLEngine(Engine):
             if self._ray_engine is None:
                 from .embree import EmbreeEngine
 
-                self._ray_engine = EmbreeEngine(self.scene, None, d_max=self.d_max, threads=1)
+                self._ray_engine = EmbreeEngine(self.scene, None, d_max=self.d_max, threads=self.threads)
             return self._ray_engine
 
     def first_hit(self, origins: NDArray[np.float32], directions: NDArray[np.float32]) -> NDArray[np.int32]:

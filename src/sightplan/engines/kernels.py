@@ -41,6 +41,55 @@ def pixel_direction(mode, p, width, height, fx, fy, cx, cy, R):
             R[2, 0] * x + R[2, 1] * y + R[2, 2] * z)
 
 
+@nb.njit(nogil=True, cache=True)
+def direction_tables(mode, width, height, fx, fy, cx, cy):
+    """Per-column and per-row terms of :func:`pixel_direction`, so a frame computes each once.
+
+    Pinhole: columns (u + 0.5 − cx)/fx, rows (v + 0.5 − cy)/fy. Equirectangular: columns
+    sin and cos of the longitude, rows cos and sin of the latitude. The values are those
+    :func:`pixel_direction` computes, so :func:`table_direction` returns the same directions.
+    """
+    cols = np.empty((width, 2))
+    rows = np.empty((height, 2))
+    for u in range(width):
+        if mode == MODE_EQUIRECT:
+            lon = 2.0 * math.pi * (u + 0.5) / width - math.pi
+            cols[u, 0] = math.sin(lon)
+            cols[u, 1] = math.cos(lon)
+        else:
+            cols[u, 0] = (u + 0.5 - cx) / fx
+    for v in range(height):
+        if mode == MODE_EQUIRECT:
+            lat = 0.5 * math.pi - math.pi * (v + 0.5) / height
+            rows[v, 0] = math.cos(lat)
+            rows[v, 1] = math.sin(lat)
+        else:
+            rows[v, 0] = (v + 0.5 - cy) / fy
+    return cols, rows
+
+
+@nb.njit(nogil=True, cache=True, inline="always")
+def table_direction(mode, p, width, cols, rows, R):
+    """:func:`pixel_direction` of pixel p from the tables of :func:`direction_tables`."""
+    u = p % width
+    v = p // width
+    if mode == MODE_EQUIRECT:
+        cl = rows[v, 0]
+        x = cl * cols[u, 0]
+        y = -rows[v, 1]
+        z = cl * cols[u, 1]
+    else:
+        x = cols[u, 0]
+        y = rows[v, 0]
+        inv = 1.0 / math.sqrt(x * x + y * y + 1.0)
+        x *= inv
+        y *= inv
+        z = inv
+    return (R[0, 0] * x + R[0, 1] * y + R[0, 2] * z,
+            R[1, 0] * x + R[1, 1] * y + R[1, 2] * z,
+            R[2, 0] * x + R[2, 1] * y + R[2, 2] * z)
+
+
 @nb.njit(nogil=True, cache=True, fastmath=False)
 def pinhole_directions(p0, p1, width, fx, fy, cx, cy, R, out):
     """World ray directions (unit, float32) of pixels p0..p1 (row-major) of a pinhole camera."""

@@ -18,7 +18,7 @@ import numba as nb
 import numpy as np
 
 from . import rtc
-from .kernels import add_hit, pixel_direction
+from .kernels import add_hit, direction_tables, table_direction
 
 LANES = rtc.LANES
 _intersect8 = rtc.intersect8
@@ -67,11 +67,12 @@ def cast_pixels(scene, p0, p1, mode, width, height, fx, fy, cx, cy, R, origin32,
         f[_ORG_X + k] = origin32[0]
         f[_ORG_Y + k] = origin32[1]
         f[_ORG_Z + k] = origin32[2]
+    cols, rows = direction_tables(mode, width, height, fx, fy, cx, cy)
     for start in range(p0, p1, LANES):
         n = min(LANES, p1 - start)
         for k in range(LANES):
             if k < n:
-                x, y, z = pixel_direction(mode, start + k, width, height, fx, fy, cx, cy, R)
+                x, y, z = table_direction(mode, start + k, width, cols, rows, R)
                 f[_DIR_X + k] = x
                 f[_DIR_Y + k] = y
                 f[_DIR_Z + k] = z

@@ -1,0 +1,289 @@
+"""Speed on real sizes: `python benchmarks/speed.py` (or `--quick`, `--help`).
+
+For each model, from the bundled Duplex to a ~3 M-triangle Revit-like building, in a fresh
+process each (so every peak memory is that model's alone), with the Embree engine on
+every core:
+- load: cached load of the scene (the first, uncached load is `benchmarks/load.py`'s);
+  feature sampling, first time and from the cache; BVH build;
+- drone frames (DJI Phantom 4 Pro, 20 MP) at scale 1 and 0.25, on rings around the
+  model: seconds per frame, of which the feature test; CPU seconds per frame too, since
+  other work on the machine stretches wall time but not CPU time;
+- raw Embree on the very same rays: embreex's ``rtcIntersect1`` (its ``run``), on as many
+  threads, without generating rays, reducing or testing features; the ratio of
+  sightplan's whole frame to that cast is the overhead of everything else;
+- 360° frames (Insta360 One RS 1-inch, 21 MP) on a walk through the model;
+- the paper's 1.78 s per P1 frame (57 min for 1,924 frames on its GPU) beside them.
+Then the growth with the plan: the Duplex evaluated end to end (`evaluate`, scale 0.25)
+with 50 to 2,000 frames, each in its own process: seconds, seconds per frame, peak memory.
+Writes benchmarks/speed.json.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import resource
+import sys
+import tempfile
+import time
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+
+import numpy as np
+from rich.console import Console
+
+from run import PAPER_S_PER_FRAME_P1, cell_plan, emit, numeric_table, peak_rss_mb, run_script
+from sightplan.engines.embree import EmbreeEngine
+from sightplan.evaluate import EvaluationSettings, evaluate
+from sightplan.model.load import load_model
+from sightplan.observations.features import cached_features
+
+HERE = Path(__file__).resolve().parent
+DATA = HERE.parent.parent / "shared" / "data"
+RESULT_PREFIX = "SPEED "
+WORKDIR = HERE / ".cache"
+PLAN_SIZES = (50, 200, 500, 2000)
+console = Console(width=max(150, Console().width))  # the tables are wide; keep them whole in logs
+
+
+def model_path(name: str) -> str | None:
+    """The file of a named model (generated on first use), or None when it is not available here."""
+    if name == "duplex":
+        return "sample"
+    if name == "steel":
+        found = sorted(DATA.glob("schependomlaan/*Staal*.ifc"))
+        return str(found[0]) if found else None
+    if name == "revit-like":
+        from revit_like import write_revit_like_ifc  # benchmarks/revit_like.py, beside this script
+
+        path = WORKDIR / "revit_like.ifc"
+        if not path.is_file():
+            WORKDIR.mkdir(exist_ok=True)
+            write_revit_like_ifc(path)
+        return str(path)
+    if name.startswith("campus-"):
+        return name  # built in memory (benchmarks/large.py)
+    raise ValueError(f"unknown model {name!r}")
+
+
+def load(name: str, cache_dir: Path):
+    if name.startswith("campus-"):
+        from large import campus_scene  # benchmarks/large.py: columns of 100 triangles
+
+        return campus_scene(int(float(name.split("-")[1].rstrip("M")) * 1e6) // 100)
+    scene, _ = load_model(model_path(name), cache_dir=cache_dir)
+    return scene
+
+
+def cpu_s() -> float:
+    r = resource.getrusage(resource.RUSAGE_SELF)
+    return r.ru_utime + r.ru_stime
+
+
+def frame_rays(engine: EmbreeEngine, cam, R, C_world) -> tuple[np.ndarray, np.ndarray]:
+    """The rays sightplan casts for one frame: (n, 3) float32 directions and the local float32 origin."""
+    n = cam.width * cam.height
+    dirs = np.empty((n, 3), np.float32)
+    engine._directions(cam, np.ascontiguousarray(R, np.float64), 0, n, dirs)
+    return dirs, (np.asarray(C_world, np.float64) - engine.centre).astype(np.float32)
+
+
+def raw_embree_s(single, pool, threads: int, dirs: np.ndarray, origin: np.ndarray) -> float:
+    """Seconds embreex's rtcIntersect1 takes for these rays, split over ``threads`` threads."""
+    parts = np.array_split(np.arange(len(dirs)), threads)
+
+    def part(idx):
+        d = dirs[idx[0]: idx[-1] + 1]
+        single.run(np.broadcast_to(origin, d.shape), d, query="INTERSECT")
+
+    t = time.perf_counter()
+    list(pool.map(part, parts))
+    return time.perf_counter() - t
+
+
+def frames_case(engine: EmbreeEngine, plan, scale: float, single, pool) -> dict:
+    """Seconds per frame (wall and CPU), of which features, and raw Embree on the same rays."""
+    feature_s = [0.0]
+    visible = engine.visible_features
+
+    def timed_features(*a):
+        t = time.perf_counter()
+        out = visible(*a)
+        feature_s[0] += time.perf_counter() - t
+        return out
+
+    engine.visible_features = timed_features
+    wall = cpu = raw = 0.0
+    rays = 0
+    for i in range(len(plan)):
+        cam = plan.camera_of(i)
+        t, c = time.perf_counter(), cpu_s()
+        engine.observe(cam, plan.R_world_camera[i], plan.C_world[i], scale)
+        wall += time.perf_counter() - t
+        cpu += cpu_s() - c
+    peak = peak_rss_mb()
+    del engine.visible_features
+    if single is not None:
+        for i in range(len(plan)):
+            cam = plan.camera_of(i)
+            cam = cam.scaled(scale) if scale != 1 else cam
+            dirs, origin = frame_rays(engine, cam, plan.R_world_camera[i], plan.C_world[i])
+            raw += raw_embree_s(single, pool, engine.threads, dirs, origin)
+            rays += len(dirs)
+    n = len(plan)
+    return {"frames": n, "scale": scale, "s_per_frame": wall / n, "cpu_s_per_frame": cpu / n,
+            "feature_s_per_frame": feature_s[0] / n, "feature_share": feature_s[0] / wall if wall else None,
+            "raw_embree_s_per_frame": raw / n if single is not None else None,
+            "raw_embree_mrays_per_s": rays / raw / 1e6 if raw else None,
+            "ratio_to_raw": wall / raw if raw else None, "peak_rss_mb": peak}
+
+
+def model_case(args) -> dict:
+    cache_dir = Path(args.cache)
+    t, c = time.perf_counter(), cpu_s()
+    scene = load(args.model, cache_dir)
+    res = {"model": args.model, "triangles": int(len(scene.faces)), "elements": int(scene.n_elements),
+           "load_s": time.perf_counter() - t, "load_cpu_s": cpu_s() - c}
+    t = time.perf_counter()
+    features = cached_features(scene, 1.0, 0, cache_dir=cache_dir)
+    res.update(features=len(features), features_s=time.perf_counter() - t)
+    t = time.perf_counter()
+    cached_features(scene, 1.0, 0, cache_dir=cache_dir)
+    res["features_cached_s"] = time.perf_counter() - t
+    t = time.perf_counter()
+    engine = EmbreeEngine(scene, features)
+    res.update(build_s=time.perf_counter() - t, threads=engine.threads)
+    drone = cell_plan(scene, "drone", max(args.frames, args.frames_full))
+    walk = cell_plan(scene, "360", args.frames_360)
+    engine.observe(drone.camera_of(0), drone.R_world_camera[0], drone.C_world[0], 0.05)  # compile the kernels
+    res["peak_rss_before_frames_mb"] = peak_rss_mb()
+    cases = {"drone@1": (drone.subset(np.arange(args.frames_full)), 1.0),
+             "drone@0.25": (drone.subset(np.arange(args.frames)), 0.25),
+             "360@1": (walk, 1.0)}
+    # raw Embree needs its own BVH: built after sightplan's frames, whose peak memory is taken first
+    measured = {k: frames_case(engine, plan, scale, None, None) for k, (plan, scale) in cases.items()}
+    from embreex import rtcore_scene
+    from embreex.mesh_construction import TriangleMesh
+
+    single = rtcore_scene.EmbreeScene()
+    TriangleMesh(single, engine.local_vertices.astype(np.float32), scene.faces.astype(np.int32))
+    with ThreadPoolExecutor(engine.threads) as pool:
+        for k, (plan, scale) in cases.items():
+            raw = frames_case(engine, plan, scale, single, pool)
+            m = measured[k]
+            m.update(raw_embree_s_per_frame=raw["raw_embree_s_per_frame"],
+                     raw_embree_mrays_per_s=raw["raw_embree_mrays_per_s"],
+                     ratio_to_raw=m["s_per_frame"] / raw["raw_embree_s_per_frame"])
+    res["cases"] = measured
+    engine.close()
+    return res
+
+
+def plan_case(args) -> dict:
+    scene, _ = load_model("sample", cache_dir=Path(args.cache))
+    plan = cell_plan(scene, "drone", args.plan_frames)
+    settings = EvaluationSettings(engine="embree", scale=0.25)
+    features = cached_features(scene, settings.feature_density, settings.feature_seed, cache_dir=Path(args.cache))
+    t, c = time.perf_counter(), cpu_s()
+    ev = evaluate(scene, plan, settings, features=features, cache_dir=False)
+    wall = time.perf_counter() - t
+    return {"frames": len(plan), "s": wall, "cpu_s": cpu_s() - c, "s_per_frame": wall / len(plan),
+            "peak_rss_mb": peak_rss_mb(), "VC": ev.metrics.plan.VC, "T": ev.metrics.plan.T}
+
+
+def child(argv: list[str]) -> int:
+    p = argparse.ArgumentParser()
+    p.add_argument("--model")
+    p.add_argument("--plan-frames", type=int)
+    p.add_argument("--frames", type=int, default=24)
+    p.add_argument("--frames-full", type=int, default=6)
+    p.add_argument("--frames-360", type=int, default=3)
+    p.add_argument("--cache", required=True)
+    args = p.parse_args(argv)
+    emit(RESULT_PREFIX, plan_case(args) if args.plan_frames else model_case(args))
+    return 0
+
+
+def run_child(options: list[str]) -> dict | None:
+    proc, res, wall = run_script(__file__, ["--child", *options], RESULT_PREFIX, capture_stderr=True)
+    if proc.returncode != 0 or res is None:
+        tail = "\n".join((proc.stderr or proc.stdout).strip().splitlines()[-6:])
+        console.print(f"[red]{' '.join(options)} failed:[/red]\n{tail}", markup=True, highlight=False)
+        return None
+    res["process_s"] = wall
+    return res
+
+
+def fmt(x, digits: int = 3) -> str:
+    return "–" if x is None else f"{x:.{digits}f}"
+
+
+def print_tables(models: list[dict], plans: list[dict]) -> None:
+    t = numeric_table(("model", "triangles", "frame", "s/frame", "CPU s/frame", "features", "raw Embree s",
+                       "Mrays/s raw", "× raw", "× paper", "peak MB"), left=("model", "frame"),
+                      title="Embree engine, every core (paper: 1.78 s per 20 MP P1 frame on a GPU)")
+    for m in models:
+        for k, c in m["cases"].items():
+            t.add_row(m["model"], f"{m['triangles']:,}", k, fmt(c["s_per_frame"]), fmt(c["cpu_s_per_frame"]),
+                      f"{100 * (c['feature_share'] or 0):.0f} %", fmt(c["raw_embree_s_per_frame"]),
+                      fmt(c["raw_embree_mrays_per_s"], 1), fmt(c["ratio_to_raw"], 2),
+                      fmt(c["s_per_frame"] / PAPER_S_PER_FRAME_P1, 3), f"{c['peak_rss_mb']:.0f}")
+    console.print(t)
+    t = numeric_table(("model", "load (cached) s", "features s", "from cache s", "BVH s", "features"),
+                      left=("model",), title="Preparing a model")
+    for m in models:
+        t.add_row(m["model"], fmt(m["load_s"], 2), fmt(m["features_s"], 2), fmt(m["features_cached_s"], 2),
+                  fmt(m["build_s"], 2), f"{m['features']:,}")
+    console.print(t)
+    if plans:
+        t = numeric_table(("frames", "s", "s/frame", "CPU s", "peak MB"), left=(),
+                          title="Duplex, evaluate() at scale 0.25, as the plan grows")
+        for p in plans:
+            t.add_row(str(p["frames"]), fmt(p["s"], 1), fmt(p["s_per_frame"]), fmt(p["cpu_s"], 1),
+                      f"{p['peak_rss_mb']:.0f}")
+        console.print(t)
+
+
+def main(argv: list[str] | None = None) -> int:
+    argv = sys.argv[1:] if argv is None else argv
+    if argv and argv[0] == "--child":
+        return child(argv[1:])
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], formatter_class=argparse.RawTextHelpFormatter)
+    p.add_argument("--quick", action="store_true", help="the Duplex and a 1 M-triangle campus, few frames")
+    p.add_argument("--models", default="duplex,steel,campus-1M,revit-like,campus-5M",
+                   help="comma-separated: duplex, steel, revit-like, campus-<N>M")
+    p.add_argument("--frames", type=int, default=24, help="drone frames at scale 0.25 per model")
+    p.add_argument("--frames-full", type=int, default=6, help="drone frames at scale 1 per model")
+    p.add_argument("--frames-360", type=int, default=3, help="360° frames at scale 1 per model")
+    p.add_argument("--out", default=str(HERE / "speed.json"))
+    args = p.parse_args(argv)
+    models = ["duplex", "campus-1M"] if args.quick else args.models.split(",")
+    sizes = PLAN_SIZES[:2] if args.quick else PLAN_SIZES
+    frames = ["--frames", str(8 if args.quick else args.frames), "--frames-full", str(2 if args.quick else
+              args.frames_full), "--frames-360", str(1 if args.quick else args.frames_360)]
+    results, plans = [], []
+    with tempfile.TemporaryDirectory() as tmp:
+        cache = os.environ.get("SIGHTPLAN_CACHE") or tmp
+        for name in models:
+            if not name.startswith("campus-") and model_path(name) is None:
+                console.print(f"{name}: not available here, skipped")
+                continue
+            console.print(f"[bold]{name}[/bold] …")
+            res = run_child(["--model", name, "--cache", cache, *frames])
+            if res:
+                results.append(res)
+        for n in sizes:
+            console.print(f"[bold]Duplex, {n} frames[/bold] …")
+            res = run_child(["--plan-frames", str(n), "--cache", cache])
+            if res:
+                plans.append(res)
+    print_tables(results, plans)
+    out = {"paper_s_per_frame": PAPER_S_PER_FRAME_P1, "cpu_count": os.cpu_count(), "models": results, "plans": plans}
+    Path(args.out).write_text(json.dumps(out, indent=1, default=float))
+    console.print(f"wrote {args.out}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,142 @@
+"""The fast paths give the numbers of the plain ones.
+
+- Features: the frustum-culled feature test with Embree's occlusion query finds exactly
+  the features of the brute-force test (every feature projected, one first-hit ray per
+  candidate), so ν_f and T are the same.
+- The cast: sightplan's 8-ray packets through its own Embree binding hit the triangles
+  that embreex's one-ray-at-a-time ``rtcIntersect1`` hits on the same rays.
+- The feature set is sampled once per scene and read back from the cache.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from sightplan.camera.models import EquirectangularCamera, PinholeCamera
+from sightplan.engines import kernels, make_engine
+from sightplan.engines.embree import EmbreeEngine
+from sightplan.engines.featurecull import FeatureIndex
+from sightplan.evaluate import EvaluationSettings, evaluate
+from sightplan.metrics import MetricParams
+from sightplan.model.load import load_model
+from sightplan.observations.features import cached_features, sample_features
+from sightplan.plan.poses import R_from_gimbal
+from sightplan.plan.ring import ring_plan
+
+
+@pytest.fixture(scope="module")
+def duplex():
+    scene, _ = load_model("sample")
+    return scene
+
+
+@pytest.fixture(scope="module")
+def features(duplex):
+    return sample_features(duplex, 1.0, seed=5)
+
+
+@pytest.fixture(scope="module")
+def engine(duplex, features):
+    with make_engine("embree", duplex, features, threads=2) as e:
+        yield e
+
+
+CAMERA = PinholeCamera(400, 300, 330, 330, 200, 150, "test")
+
+
+def test_culled_features_equal_the_brute_force_test(duplex, engine):
+    plan = ring_plan(duplex, CAMERA, n_frames=12, distance_m=6)
+    lo, hi = duplex.bounds()
+    poses = [(CAMERA, plan.R_world_camera[i], plan.C_world[i]) for i in range(len(plan))]
+    # inside the house, 360°, and a pinhole looking straight down from above
+    poses.append((EquirectangularCamera(64, 32, "pano"), R_from_gimbal(30, 0)[0], (lo + hi) / 2))
+    poses.append((CAMERA, R_from_gimbal(0, -90)[0], np.r_[(lo + hi)[:2] / 2, hi[2] + 15]))
+    seen = 0
+    for cam, R, C in poses:
+        fast = engine.visible_features(cam, R, C)
+        reference = engine.visible_features_reference(cam, R, C)
+        np.testing.assert_array_equal(fast, reference)
+        seen += len(fast)
+    assert seen > 2000  # the frames really see features
+
+
+def test_frustum_candidates_equal_the_per_feature_tests():
+    """Random features and random cameras: culled blocks never hold a feature that passes."""
+    rng = np.random.default_rng(1)
+    pts = rng.uniform(-20, 20, (20000, 3))
+    nrm = rng.normal(size=(20000, 3))
+    nrm /= np.linalg.norm(nrm, axis=1)[:, None]
+    index = FeatureIndex(pts, nrm)
+    for k in range(20):
+        C = rng.uniform(-30, 30, 3)
+        R = R_from_gimbal(rng.uniform(0, 360), rng.uniform(-90, 30))[0]
+        d_max = [1000.0, 15.0][k % 2]
+        ids, dirs, dist = index.candidates(C, R, CAMERA.width, CAMERA.height, CAMERA.fx, CAMERA.fy, CAMERA.cx,
+                                           CAMERA.cy, d_max)
+        rel = pts - C
+        d = np.linalg.norm(rel, axis=1)
+        cam = rel @ R
+        with np.errstate(divide="ignore", invalid="ignore"):
+            x = CAMERA.fx * cam[:, 0] / cam[:, 2] + CAMERA.cx
+            y = CAMERA.fy * cam[:, 1] / cam[:, 2] + CAMERA.cy
+        ok = ((np.einsum("ij,ij->i", nrm, rel) < 0) & (d <= d_max) & (cam[:, 2] > 0) & (x >= 0) & (x < CAMERA.width)
+              & (y >= 0) & (y < CAMERA.height))
+        order = np.argsort(ids)
+        np.testing.assert_array_equal(ids[order], np.flatnonzero(ok))
+        np.testing.assert_allclose(dist[order], d[ok])
+        np.testing.assert_allclose(dirs[order], rel[ok] / d[ok, None], atol=1e-6)
+
+
+def test_stability_metrics_equal_with_the_brute_force_feature_test(duplex, features, monkeypatch):
+    plan = ring_plan(duplex, CAMERA, n_frames=10, distance_m=6)
+    settings = EvaluationSettings(engine="embree", metric=MetricParams(omega=50, min_track=3, min_features=20))
+    fast = evaluate(duplex, plan, settings, features=features, cache_dir=False)
+    monkeypatch.setattr(EmbreeEngine, "visible_features", EmbreeEngine.visible_features_reference)
+    slow = evaluate(duplex, plan, settings, features=features, cache_dir=False)
+    assert fast.metrics.plan.T > 10
+    assert fast.metrics.plan.T == slow.metrics.plan.T
+    np.testing.assert_array_equal(fast.metrics.frames.nu, slow.metrics.frames.nu)
+
+
+def test_packets_hit_what_single_rays_hit(duplex, engine):
+    embreex = pytest.importorskip("embreex")  # noqa: F841  (the library the binding opens)
+    from embreex import rtcore_scene
+    from embreex.mesh_construction import TriangleMesh
+
+    single = rtcore_scene.EmbreeScene()
+    TriangleMesh(single, engine.local_vertices.astype(np.float32), duplex.faces.astype(np.int32))
+    plan = ring_plan(duplex, CAMERA, n_frames=4, distance_m=6)
+    n = CAMERA.width * CAMERA.height
+    for i in range(len(plan)):
+        dirs = np.empty((n, 3), np.float32)
+        kernels.pinhole_directions(0, n, CAMERA.width, CAMERA.fx, CAMERA.fy, CAMERA.cx, CAMERA.cy,
+                                   plan.R_world_camera[i], dirs)
+        origin = np.broadcast_to((plan.C_world[i] - engine.centre).astype(np.float32), dirs.shape)
+        a = engine.first_hit(origin, dirs)
+        b = np.asarray(single.run(origin, dirs, query="INTERSECT"), np.int32)
+        assert (b >= 0).mean() > 0.2
+        assert (a == b).mean() >= 0.9995
+        # the fused cast (generation, packets, reduction) counts the pixels of those hits per element
+        fo = engine.observe(CAMERA, plan.R_world_camera[i], plan.C_world[i])
+        t, _ = engine._plane_distance(b, origin, dirs)
+        hit = (b >= 0) & (t >= 0) & (t <= engine.d_max)
+        expected = np.bincount(duplex.face_element[b[hit]], minlength=duplex.n_elements)
+        got = np.zeros(duplex.n_elements, np.int64)
+        got[fo.element] = fo.count
+        assert np.abs(got - expected).sum() <= 0.0005 * n
+
+
+def test_features_are_sampled_once_and_cached(duplex, tmp_path):
+    a = cached_features(duplex, 0.5, seed=2, cache_dir=tmp_path)
+    files = list(tmp_path.glob("features-*.npz"))
+    assert len(files) == 1
+    b = cached_features(duplex, 0.5, seed=2, cache_dir=tmp_path)
+    assert a.key == b.key and a.params == b.params
+    np.testing.assert_array_equal(a.kind, b.kind)
+    np.testing.assert_array_equal(a.element, b.element)
+    assert a.key == sample_features(duplex, 0.5, seed=2).key
+    cached_features(duplex, 0.5, seed=3, cache_dir=tmp_path)  # other parameters: another file
+    assert len(list(tmp_path.glob("features-*.npz"))) == 2
+    files[0].write_bytes(b"not a feature file")  # a damaged file is sampled again
+    assert cached_features(duplex, 0.5, seed=2, cache_dir=tmp_path).key == a.key
