@@ -8,9 +8,11 @@ every core:
 - drone frames (DJI Phantom 4 Pro, 20 MP) at scale 1 and 0.25, on rings around the
   model: seconds per frame, of which the feature test; CPU seconds per frame too, since
   other work on the machine stretches wall time but not CPU time;
-- raw Embree on the very same rays: embreex's ``rtcIntersect1`` (its ``run``), on as many
-  threads, without generating rays, reducing or testing features; the ratio of
-  sightplan's whole frame to that cast is the overhead of everything else;
+- raw Embree on the very same rays, on as many threads, without generating rays,
+  reducing or testing features: embreex's ``rtcIntersect1`` (its ``run``, how Embree is
+  called from Python), and ``rtcIntersect8`` packets through sightplan's binding on rays
+  made beforehand; the ratio of sightplan's whole frame to each is what everything else
+  costs beside the cast;
 - 360° frames (Insta360 One RS 1-inch, 21 MP) on a walk through the model;
 - the paper's 1.78 s per P1 frame (57 min for 1,924 frames on its GPU) beside them.
 Then the growth with the plan: the Duplex evaluated end to end (`evaluate`, scale 0.25)
@@ -51,8 +53,8 @@ def model_path(name: str) -> str | None:
     """The file of a named model (generated on first use), or None when it is not available here."""
     if name == "duplex":
         return "sample"
-    if name == "steel":
-        found = sorted(DATA.glob("schependomlaan/*Staal*.ifc"))
+    if name in ("prefab", "steel"):  # the Schependomlaan precast concrete (Office class, 46 k) and steel (85 k)
+        found = sorted(DATA.glob("schependomlaan/*" + ("Prefab" if name == "prefab" else "Staal") + "*.ifc"))
         return str(found[0]) if found else None
     if name == "revit-like":
         from revit_like import write_revit_like_ifc  # benchmarks/revit_like.py, beside this script
@@ -89,21 +91,21 @@ def frame_rays(engine: EmbreeEngine, cam, R, C_world) -> tuple[np.ndarray, np.nd
     return dirs, (np.asarray(C_world, np.float64) - engine.centre).astype(np.float32)
 
 
-def raw_embree_s(single, pool, threads: int, dirs: np.ndarray, origin: np.ndarray) -> float:
-    """Seconds embreex's rtcIntersect1 takes for these rays, split over ``threads`` threads."""
+def raw_s(cast_one, pool, threads: int, dirs: np.ndarray, origin: np.ndarray) -> float:
+    """Seconds ``cast_one(origins, directions)`` takes for these rays, split over ``threads`` threads."""
     parts = np.array_split(np.arange(len(dirs)), threads)
 
     def part(idx):
         d = dirs[idx[0]: idx[-1] + 1]
-        single.run(np.broadcast_to(origin, d.shape), d, query="INTERSECT")
+        cast_one(np.broadcast_to(origin, d.shape), d)
 
     t = time.perf_counter()
     list(pool.map(part, parts))
     return time.perf_counter() - t
 
 
-def frames_case(engine: EmbreeEngine, plan, scale: float, single, pool) -> dict:
-    """Seconds per frame (wall and CPU), of which features, and raw Embree on the same rays."""
+def frames_case(engine: EmbreeEngine, plan, scale: float) -> dict:
+    """Seconds per frame (wall and CPU), of which the feature test."""
     feature_s = [0.0]
     visible = engine.visible_features
 
@@ -114,29 +116,32 @@ def frames_case(engine: EmbreeEngine, plan, scale: float, single, pool) -> dict:
         return out
 
     engine.visible_features = timed_features
-    wall = cpu = raw = 0.0
-    rays = 0
+    wall = cpu = 0.0
     for i in range(len(plan)):
         cam = plan.camera_of(i)
         t, c = time.perf_counter(), cpu_s()
         engine.observe(cam, plan.R_world_camera[i], plan.C_world[i], scale)
         wall += time.perf_counter() - t
         cpu += cpu_s() - c
-    peak = peak_rss_mb()
     del engine.visible_features
-    if single is not None:
-        for i in range(len(plan)):
-            cam = plan.camera_of(i)
-            cam = cam.scaled(scale) if scale != 1 else cam
-            dirs, origin = frame_rays(engine, cam, plan.R_world_camera[i], plan.C_world[i])
-            raw += raw_embree_s(single, pool, engine.threads, dirs, origin)
-            rays += len(dirs)
     n = len(plan)
     return {"frames": n, "scale": scale, "s_per_frame": wall / n, "cpu_s_per_frame": cpu / n,
             "feature_s_per_frame": feature_s[0] / n, "feature_share": feature_s[0] / wall if wall else None,
-            "raw_embree_s_per_frame": raw / n if single is not None else None,
-            "raw_embree_mrays_per_s": rays / raw / 1e6 if raw else None,
-            "ratio_to_raw": wall / raw if raw else None, "peak_rss_mb": peak}
+            "peak_rss_mb": peak_rss_mb()}
+
+
+def raw_case(engine: EmbreeEngine, plan, scale: float, casts: dict, pool) -> dict:
+    """Seconds per frame of each raw cast of the frames' rays (no generation, reduction or features)."""
+    total = dict.fromkeys(casts, 0.0)
+    rays = 0
+    for i in range(len(plan)):
+        cam = plan.camera_of(i)
+        cam = cam.scaled(scale) if scale != 1 else cam
+        dirs, origin = frame_rays(engine, cam, plan.R_world_camera[i], plan.C_world[i])
+        for name, cast_one in casts.items():
+            total[name] += raw_s(cast_one, pool, engine.threads, dirs, origin)
+        rays += len(dirs)
+    return {name: (s / len(plan), rays / s / 1e6) for name, s in total.items()}
 
 
 def model_case(args) -> dict:
@@ -162,19 +167,20 @@ def model_case(args) -> dict:
              "drone@0.25": (drone.subset(np.arange(args.frames)), 0.25),
              "360@1": (walk, 1.0)}
     # raw Embree needs its own BVH: built after sightplan's frames, whose peak memory is taken first
-    measured = {k: frames_case(engine, plan, scale, None, None) for k, (plan, scale) in cases.items()}
+    measured = {k: frames_case(engine, plan, scale) for k, (plan, scale) in cases.items()}
     from embreex import rtcore_scene
     from embreex.mesh_construction import TriangleMesh
 
     single = rtcore_scene.EmbreeScene()
     TriangleMesh(single, engine.local_vertices.astype(np.float32), scene.faces.astype(np.int32))
+    casts = {"rtcIntersect1": lambda o, d: single.run(o, d, query="INTERSECT"), "rtcIntersect8": engine.first_hit}
     with ThreadPoolExecutor(engine.threads) as pool:
         for k, (plan, scale) in cases.items():
-            raw = frames_case(engine, plan, scale, single, pool)
+            raw = raw_case(engine, plan, scale, casts, pool)
             m = measured[k]
-            m.update(raw_embree_s_per_frame=raw["raw_embree_s_per_frame"],
-                     raw_embree_mrays_per_s=raw["raw_embree_mrays_per_s"],
-                     ratio_to_raw=m["s_per_frame"] / raw["raw_embree_s_per_frame"])
+            (s1, r1), (s8, r8) = raw["rtcIntersect1"], raw["rtcIntersect8"]
+            m.update(raw_embree_s_per_frame=s1, raw_embree_mrays_per_s=r1, ratio_to_raw=m["s_per_frame"] / s1,
+                     packets_s_per_frame=s8, packets_mrays_per_s=r8, ratio_to_packets=m["s_per_frame"] / s8)
     res["cases"] = measured
     engine.close()
     return res
@@ -220,14 +226,15 @@ def fmt(x, digits: int = 3) -> str:
 
 
 def print_tables(models: list[dict], plans: list[dict]) -> None:
-    t = numeric_table(("model", "triangles", "frame", "s/frame", "CPU s/frame", "features", "raw Embree s",
-                       "Mrays/s raw", "× raw", "× paper", "peak MB"), left=("model", "frame"),
-                      title="Embree engine, every core (paper: 1.78 s per 20 MP P1 frame on a GPU)")
+    t = numeric_table(("model", "triangles", "frame", "s/frame", "CPU s/frame", "features", "rtcIntersect1 s",
+                       "× it", "rtcIntersect8 s", "× it", "× paper", "peak MB"), left=("model", "frame"),
+                      title="Embree engine, every core, against raw Embree on the same rays "
+                            "(paper: 1.78 s per 20 MP P1 frame on a GPU)")
     for m in models:
         for k, c in m["cases"].items():
             t.add_row(m["model"], f"{m['triangles']:,}", k, fmt(c["s_per_frame"]), fmt(c["cpu_s_per_frame"]),
                       f"{100 * (c['feature_share'] or 0):.0f} %", fmt(c["raw_embree_s_per_frame"]),
-                      fmt(c["raw_embree_mrays_per_s"], 1), fmt(c["ratio_to_raw"], 2),
+                      fmt(c["ratio_to_raw"], 2), fmt(c["packets_s_per_frame"]), fmt(c["ratio_to_packets"], 2),
                       fmt(c["s_per_frame"] / PAPER_S_PER_FRAME_P1, 3), f"{c['peak_rss_mb']:.0f}")
     console.print(t)
     t = numeric_table(("model", "load (cached) s", "features s", "from cache s", "BVH s", "features"),
@@ -251,8 +258,8 @@ def main(argv: list[str] | None = None) -> int:
         return child(argv[1:])
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], formatter_class=argparse.RawTextHelpFormatter)
     p.add_argument("--quick", action="store_true", help="the Duplex and a 1 M-triangle campus, few frames")
-    p.add_argument("--models", default="duplex,steel,campus-1M,revit-like,campus-5M",
-                   help="comma-separated: duplex, steel, revit-like, campus-<N>M")
+    p.add_argument("--models", default="duplex,prefab,steel,campus-1M,revit-like",
+                   help="comma-separated: duplex, prefab, steel, revit-like, campus-<N>M")
     p.add_argument("--frames", type=int, default=24, help="drone frames at scale 0.25 per model")
     p.add_argument("--frames-full", type=int, default=6, help="drone frames at scale 1 per model")
     p.add_argument("--frames-360", type=int, default=3, help="360° frames at scale 1 per model")
