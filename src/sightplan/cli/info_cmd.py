@@ -73,6 +73,14 @@ def print_summary(s: dict) -> None:
         console.print(t)
     else:
         console.print("every product with a Body representation was tessellated (no product skipped)")
+    fallbacks = s.get("fallbacks") or []
+    if fallbacks:
+        t = Table(*fallbacks[0].keys(), title=f"products whose geometry blew up ({len(fallbacks)})", title_justify="left")
+        for row in fallbacks[:50]:
+            t.add_row(*(str(v) for v in row.values()))
+        if len(fallbacks) > 50:
+            t.add_row(f"… {len(fallbacks) - 50} more", *[""] * (len(t.columns) - 1))
+        console.print(t)
     print_warnings(console, s.get("warnings") or [])
 
 

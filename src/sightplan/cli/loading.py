@@ -6,19 +6,38 @@ from rich.console import Console
 from rich.progress import BarColumn, Progress, TaskProgressColumn, TextColumn, TimeElapsedColumn
 
 
+def _eta(seconds: float | None) -> str:
+    if seconds is None:
+        return ""
+    seconds = int(round(seconds))
+    return f"ETA {seconds // 3600}:{seconds // 60 % 60:02d}:{seconds % 60:02d}"
+
+
 def load_with_progress(console: Console, model: str, cache: bool, mesh_elements: str = "objects",
                        mesh_scale: float = 1.0, patch_area: float | None = None):
     """(scene, report) of ``model``; a cache hit shows no bar. ``mesh_*`` apply to mesh files only; ``patch_area``
-    (m²) to meshes grouped in patches and to point clouds."""
+    (m²) to meshes grouped in patches and to point clouds.
+
+    An IFC file shows its phases as they come: reading the file (from the first second), then products
+    tessellated / total with an ETA, then assembling the scene."""
     from ..model.load import MESH_EXTENSIONS, load_model, resolve_model_path
     from ..model.reality import is_point_cloud
 
     name = resolve_model_path(model).name
-    with Progress(TextColumn(f"[bold]loading {name}"), BarColumn(), TaskProgressColumn(), TimeElapsedColumn(),
+    with Progress(TextColumn("[bold]{task.description}"), BarColumn(), TaskProgressColumn(),
+                  TextColumn("{task.fields[count]}"), TimeElapsedColumn(), TextColumn("{task.fields[eta]}"),
                   console=console, transient=True) as bar:
-        task = bar.add_task("tessellating", total=1.0)
+        task = bar.add_task(f"loading {name}", total=1.0, count="", eta="")
         is_ifc = name.lower().endswith((".ifc", ".ifczip"))
-        extra: dict = {"progress": lambda share: bar.update(task, completed=share)} if is_ifc else {}
+
+        def status(s) -> None:  # a LoadProgress
+            if s.phase == "tessellating":
+                bar.update(task, description=f"tessellating {name}", total=max(s.total, 1), completed=s.done,
+                           count=f"{s.done:,}/{s.total:,} products", eta=_eta(s.eta_s))
+            elif s.phase in ("reading", "assembling"):  # no count: a pulsing bar
+                bar.update(task, description=f"{s.phase} {s.message}", total=None, count="", eta="")
+
+        extra: dict = {"status": status} if is_ifc else {}
         if name.lower().endswith(tuple(MESH_EXTENSIONS)):
             extra = {"elements": mesh_elements, "scale": mesh_scale}
             if patch_area is not None and mesh_elements == "patches":

@@ -24,7 +24,7 @@ from .scene import ElementTable, Scene
 from .summary import LoadReport
 
 #: Bump when the tessellation or the element rules change, so old entries are not reused.
-CACHE_FORMAT = 3
+CACHE_FORMAT = 4
 _COLUMNS = ("global_id", "name", "ifc_class", "discipline", "storey")
 
 

@@ -8,7 +8,9 @@ Which products become elements (``METRICS.md`` §1):
   (an IfcStair made of flights, an IfcElementAssembly of beams) are not elements, their
   parts are; they are counted in ``LoadReport.containers``;
 - every other product that yields triangles is an element; classes in ``occluders``
-  (site, terrain, furniture by default) are elements with ``is_target=False``;
+  (site, terrain, furniture by default) are elements with ``is_target=False``; one whose
+  geometry blows up (more than ``max_triangles``) is its bounding box instead, or is skipped
+  (``oversize``), and is listed in ``LoadReport.fallbacks``;
 - every other product is listed in ``LoadReport.skipped`` with the reason.
 
 Coordinates are world coordinates in metres whatever the file's length unit.
@@ -18,6 +20,7 @@ from __future__ import annotations
 
 import math
 import os
+import sys
 import time
 from collections import Counter
 from collections.abc import Callable, Iterable
@@ -34,7 +37,7 @@ from ..errors import ModelError
 from .cache import content_hash
 from .disciplines import discipline_of, lineage
 from .scene import ElementTable, Scene
-from .summary import LoadReport, SkippedProduct
+from .summary import LoadProgress, LoadReport, SkippedProduct
 
 #: Left out entirely (with subtypes): no physical extent, or not a construction product.
 EXCLUDED_CLASSES: tuple[str, ...] = (
@@ -55,14 +58,25 @@ CONTAINER_CLASSES: tuple[str, ...] = ("IfcBuilding", "IfcBuildingStorey", "IfcFa
 DEFAULT_OCCLUDERS: tuple[str, ...] = ("IfcSite", "IfcGeographicElement", "IfcFurnishingElement")
 #: Representation identifiers that carry an element's 3D shape.
 BODY_IDENTIFIERS = frozenset({"Body", "Facetation", "Body-FallBack"})
+#: A product tessellated into more triangles than this is taken as a geometry blow-up (a curved
+#: surface meshed far too finely, a broken boolean): see ``oversize``. A whole 3 M-triangle building
+#: is well under it; None turns the guard off.
+DEFAULT_MAX_TRIANGLES = 1_000_000
+#: What becomes of a product over ``max_triangles``: its bounding box (in its own axes), or nothing.
+OVERSIZE_ACTIONS = ("box", "skip")
 
 
-def ifc_options(occluders: Iterable[str] = DEFAULT_OCCLUDERS, include_occluders_as_targets: bool = False) -> dict:
+def ifc_options(occluders: Iterable[str] = DEFAULT_OCCLUDERS, include_occluders_as_targets: bool = False,
+                max_triangles: int | None = DEFAULT_MAX_TRIANGLES, oversize: str = "box") -> dict:
     """The loader options that change the scene, canonicalised (part of the content hash)."""
+    if oversize not in OVERSIZE_ACTIONS:
+        raise ValueError(f"oversize must be one of {', '.join(OVERSIZE_ACTIONS)}, not {oversize!r}")
     return {
         "loader": "ifc",
         "occluders": sorted(set(occluders)),
         "include_occluders_as_targets": bool(include_occluders_as_targets),
+        "max_triangles": None if max_triangles is None else int(max_triangles),
+        "oversize": oversize,
     }
 
 
@@ -87,36 +101,145 @@ def _open(path: Path) -> ifcopenshell.file:
         raise ModelError(f"{path.name} cannot be read as IFC: {exc}") from exc
 
 
-def _tessellate(f: ifcopenshell.file, skip_classes: list[str], num_threads: int,
-                progress: Callable[[float], None] | None = None) -> dict[int, tuple[np.ndarray, np.ndarray]]:
-    """{product step id: ((n, 3) float64 world metres, (m, 3) int32 local indices)} for every product with triangles."""
+def _peak_rss_mb() -> float:
+    """This process's peak resident memory so far (MB); 0.0 where the platform does not tell.
+
+    Linux: VmHWM, which starts afresh in a new program (ru_maxrss would carry a forking parent's peak over)."""
+    try:
+        with open("/proc/self/status", "rb") as fh:
+            for line in fh:
+                if line.startswith(b"VmHWM:"):
+                    return int(line.split()[1]) / 1024.0  # kB
+    except (OSError, ValueError, IndexError):
+        pass
+    try:
+        import resource
+    except ImportError:  # Windows
+        return 0.0
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    return peak / 2**20 if sys.platform == "darwin" else peak / 1024.0  # bytes on macOS, KiB on Linux
+
+
+def _box(verts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The axis-aligned bounding box of ``verts`` as 8 vertices and 12 outward triangles."""
+    lo, hi = verts.min(axis=0), verts.max(axis=0)
+    corners = np.array([[(lo, hi)[(i >> k) & 1][k] for k in range(3)] for i in range(8)], dtype=np.float64)
+    faces = np.array([[0, 2, 3], [0, 3, 1], [4, 5, 7], [4, 7, 6], [0, 1, 5], [0, 5, 4],
+                      [2, 6, 7], [2, 7, 3], [0, 4, 6], [0, 6, 2], [1, 3, 7], [1, 7, 5]], dtype=np.int32)
+    return corners, faces
+
+
+def _outward(verts: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """``faces``, wound the other way round when they form a closed solid turned inside out.
+
+    The geometry kernel applies a mirroring mapping operator (a mirrored family instance) without
+    turning the triangles' winding, so such a solid comes out with its normals inward, and every
+    surface feature on its hidden side. A closed, consistently wound mesh (each edge walked once in
+    each direction, vertices merged at 1 µm) with a negative signed volume is turned back; open
+    sheets are left as they are.
+    """
+    if len(faces) < 4:
+        return faces
+    _, vid = np.unique(np.round(verts * 1e6).astype(np.int64), axis=0, return_inverse=True)
+    tri = vid.ravel()[faces]
+    directed = np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]])
+    forward = np.unique(directed, axis=0)
+    backward = np.unique(directed[:, ::-1], axis=0)
+    if len(forward) != len(directed) or not np.array_equal(forward, backward):
+        return faces  # open, or not consistently wound: no inside to tell
+    t = verts[faces] - verts.mean(axis=0)
+    volume = np.einsum("ij,ij->i", t[:, 0], np.cross(t[:, 1], t[:, 2])).sum()
+    return faces[:, ::-1].copy() if volume < 0 else faces
+
+
+class _Tracker:
+    """Feeds both progress callbacks: the legacy tessellated share and the phase-aware :class:`LoadProgress`."""
+
+    def __init__(self, progress: Callable[[float], None] | None, status: Callable[[LoadProgress], None] | None) -> None:
+        self.progress, self.status = progress, status
+        self.t0 = self.phase_t0 = time.perf_counter()
+        self.share = 0.0
+
+    def phase(self, name: str, total: int = 0, message: str = "") -> None:
+        self.phase_t0 = time.perf_counter()
+        self.update(name, 0, total, self.share, message)
+
+    def update(self, phase: str, done: int, total: int, share: float, message: str = "") -> None:
+        self.share = min(1.0, max(self.share, share))  # never backwards
+        if self.progress is not None:
+            self.progress(self.share)
+        if self.status is not None:
+            now = time.perf_counter()
+            eta = (now - self.phase_t0) * (total - done) / done if 0 < done <= total else None
+            self.status(LoadProgress(phase, done, total, self.share, now - self.t0, eta, message))
+
+
+def _tessellation_total(f: ifcopenshell.file, skip_classes: list[str]) -> int:
+    """How many products the iterator will be asked to tessellate (the denominator of the progress)."""
+    skip = set(skip_classes)
+    return sum(1 for p in f.by_type("IfcProduct")
+               if p.Representation is not None and skip.isdisjoint(lineage(f.schema_identifier, p.is_a())))
+
+
+def _tessellate(f: ifcopenshell.file, skip_classes: list[str], num_threads: int, tracker: _Tracker,
+                max_triangles: int | None) -> tuple[dict[int, tuple[np.ndarray, np.ndarray]], dict[int, int]]:
+    """({product step id: ((n, 3) float64 world metres, (m, 3) int32 local indices)} for every product with
+    triangles, {product step id: its triangle count} for the products over ``max_triangles``, whose entry
+    is then their bounding box in their own placement's axes).
+
+    The kernel works in each product's local frame (``use-world-coords`` off), so a representation shared
+    by many products (an IfcMappedItem of a type's IfcRepresentationMap, as exports share furniture,
+    doors and windows) is built and triangulated once, and placed here by each product's matrix;
+    in world coordinates the kernel would rebuild it for every occurrence.
+    """
     settings = ifcopenshell.geom.settings()
-    settings.set("use-world-coords", True)
+    settings.set("use-world-coords", False)
     settings.set("no-normals", True)  # only triangles are used: no normals, no default materials
     settings.set("apply-default-materials", False)
     shapes: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+    oversize: dict[int, int] = {}
+    local: dict[str, tuple[np.ndarray, np.ndarray, int]] = {}  # geometry id -> (verts, faces, kernel's triangles)
+    total = _tessellation_total(f, skip_classes)
+    tracker.phase("tessellating", total, f"{total:,} products")
+    done = 0
     try:
         it = ifcopenshell.geom.iterator(settings, f, max(1, int(num_threads)), exclude=skip_classes)
-        if not it.initialize():
-            return shapes
-        while True:
-            shape = it.get()
-            geom = shape.geometry
-            verts = np.frombuffer(geom.verts_buffer, dtype=np.float64).reshape(-1, 3)
-            faces = np.frombuffer(geom.faces_buffer, dtype=np.int32).reshape(-1, 3)
-            if len(faces) and shape.id not in shapes:
-                shapes[shape.id] = (verts, faces)
-            if progress is not None:
-                progress(it.progress() / 100.0)
-            if not it.next():
-                break
-    except ModelError:
-        raise
+        started = it.initialize()
     except Exception as exc:  # the geometry kernel may raise anything; report it as the model's fault
         raise ModelError(f"IfcOpenShell could not tessellate the model: {exc}") from exc
-    if progress is not None:
-        progress(1.0)  # the kernel's own count includes products it skips, so it may stop short of 100 %
-    return shapes
+    while started:
+        try:
+            shape = it.get()
+            geom = shape.geometry
+            key = geom.id
+            if key not in local:
+                verts = np.frombuffer(geom.verts_buffer, dtype=np.float64).reshape(-1, 3)
+                faces = np.frombuffer(geom.faces_buffer, dtype=np.int32).reshape(-1, 3)
+                n_faces = len(faces)
+                if max_triangles is not None and n_faces > max_triangles:
+                    verts, faces = _box(verts)  # in the product's local frame: an oriented box once placed
+                else:
+                    faces = _outward(verts, faces)
+                local[key] = (verts, faces, n_faces)
+            verts, faces, n_faces = local[key]
+            if len(faces) and shape.id not in shapes:
+                m = np.frombuffer(shape.transformation_buffer, dtype=np.float64).reshape(4, 4, order="F")
+                # a mirroring placement turns the winding inside out: wind back so normals stay outward
+                placed = faces[:, ::-1] if np.linalg.det(m[:3, :3]) < 0 else faces
+                shapes[shape.id] = (verts @ m[:3, :3].T + m[:3, 3], placed)
+                if n_faces > len(faces):
+                    oversize[shape.id] = n_faces
+            more = it.next()
+            share = it.progress() / 100.0
+        except Exception as exc:
+            raise ModelError(f"IfcOpenShell could not tessellate the model: {exc}") from exc
+        done += 1
+        tracker.update("tessellating", min(done, total), total, share)
+        if not more:
+            break
+    # the kernel's own count includes products it skips, so it may stop short of 100 %
+    tracker.update("tessellating", total, total, 1.0)
+    return shapes, oversize
 
 
 def _storey(element: ifcopenshell.entity_instance) -> str:
@@ -272,10 +395,20 @@ def load_ifc(
     include_occluders_as_targets: bool = False,
     num_threads: int | None = None,
     progress: Callable[[float], None] | None = None,
+    status: Callable[[LoadProgress], None] | None = None,
+    max_triangles: int | None = DEFAULT_MAX_TRIANGLES,
+    oversize: str = "box",
 ) -> tuple[Scene, LoadReport]:
     """Load an IFC file (.ifc, .ifczip) as a Scene in world metres, with its :class:`LoadReport`.
 
-    ``progress``: called with the tessellated share (0..1) as the work goes on.
+    ``progress``: called with the tessellated share (0..1) as the work goes on, 0.0 first (before
+    the file is read), monotone, 1.0 last. ``status``: called with a :class:`LoadProgress` (phase
+    'reading', 'tessellating' with products done / total and an ETA, 'assembling', 'done') at the
+    start of each phase and after each product tessellated.
+    ``max_triangles``: a product tessellated into more triangles is replaced by its bounding box in
+    its own axes (``oversize='box'``) or left out (``'skip'``, listed in ``LoadReport.skipped``);
+    either way ``LoadReport.fallbacks`` names it with its triangle count. The kernel cannot stop
+    a product's tessellation after a time limit, so this guard acts on the result.
 
     Elements are ordered by STEP id, so the element index is stable between loads.
     ``occluders``: IFC classes (with subtypes) loaded with ``is_target=False`` unless
@@ -287,6 +420,10 @@ def load_ifc(
     t0 = time.perf_counter()
     path = Path(path)
     occluders = tuple(occluders)
+    ifc_options(occluders, include_occluders_as_targets, max_triangles, oversize)  # validates
+    tracker = _Tracker(progress, status)
+    size_mb = path.stat().st_size / 2**20 if path.is_file() else 0.0
+    tracker.phase("reading", 0, f"{path.name}, {size_mb:,.1f} MB")
     f = _open(path)
     schema = f.schema_identifier
     try:
@@ -298,12 +435,15 @@ def load_ifc(
         return [n for n in names if lineage(schema, n)]
 
     excluded_names = in_schema(EXCLUDED_CLASSES)
-    shapes = _tessellate(f, excluded_names + in_schema(CONTAINER_CLASSES), num_threads or os.cpu_count() or 1, progress)
+    shapes, over = _tessellate(f, excluded_names + in_schema(CONTAINER_CLASSES), num_threads or os.cpu_count() or 1,
+                               tracker, max_triangles)
+    tracker.phase("assembling", len(shapes), f"{len(shapes):,} elements")
 
     products = sorted(f.by_type("IfcProduct"), key=lambda p: p.id())
     excluded: Counter[str] = Counter()
     containers: Counter[str] = Counter()
     skipped: list[SkippedProduct] = []
+    fallbacks: list[SkippedProduct] = []
     warnings: list[str] = []
     kept: list[ifcopenshell.entity_instance] = []
     for p in products:
@@ -314,8 +454,16 @@ def load_ifc(
             containers[cls] += 1
             if BODY_IDENTIFIERS.intersection(_representation_ids(p)):
                 warnings.append(f"{cls} {p.Name or p.GlobalId} has Body geometry, ignored: spatial containers are not elements")
+        elif p.id() in over and oversize == "skip":
+            skipped.append(SkippedProduct(p.GlobalId, cls, p.Name or "",
+                                          f"{over[p.id()]:,} triangles, over max_triangles {max_triangles:,}"))
+            fallbacks.append(SkippedProduct(p.GlobalId, cls, p.Name or "",
+                                            f"{over[p.id()]:,} triangles > {max_triangles:,}: skipped"))
         elif p.id() in shapes:
             kept.append(p)
+            if p.id() in over:
+                fallbacks.append(SkippedProduct(p.GlobalId, cls, p.Name or "",
+                                                f"{over[p.id()]:,} triangles > {max_triangles:,}: bounding box"))
         elif any(len(rel.RelatedObjects) for rel in getattr(p, "IsDecomposedBy", None) or ()) or _classify(
             schema, cls, ("IfcSpatialElement", "IfcSpatialStructureElement")
         ):
@@ -327,9 +475,15 @@ def load_ifc(
 
     verts = [shapes[p.id()][0] for p in kept]
     faces = [shapes[p.id()][1] for p in kept]
-    offsets = np.cumsum([0] + [len(v) for v in verts[:-1]])
-    counts = np.array([len(fc) for fc in faces])
-    all_faces = np.concatenate(faces).astype(np.int64) + np.repeat(offsets, counts)[:, None]
+    counts = np.array([len(fc) for fc in faces], dtype=np.int64)
+    all_faces = np.empty((int(counts.sum()), 3), dtype=np.int32)  # the scene's dtype: no int64 intermediate
+    row = offset = 0
+    for v, fc in zip(verts, faces):
+        np.add(fc, offset, out=all_faces[row:row + len(fc)])
+        row += len(fc)
+        offset += len(v)
+    if offset >= 2**31:
+        raise ModelError(f"{path.name}: {offset:,} vertices, more than a scene can index")
     face_element = np.repeat(np.arange(len(kept), dtype=np.int32), counts)
 
     is_occluder = np.array([_classify(schema, p.is_a(), occluders) for p in kept], bool)
@@ -341,7 +495,7 @@ def load_ifc(
         storey=[_storey(p) for p in kept],
         is_target=np.ones(len(kept), bool) if include_occluders_as_targets else ~is_occluder,
     )
-    key = content_hash(path, ifc_options(occluders, include_occluders_as_targets))
+    key = content_hash(path, ifc_options(occluders, include_occluders_as_targets, max_triangles, oversize))
     metadata: dict = {"schema": schema, "unit_scale": unit_scale}
     for name, read in (("georeference", georeference), ("site_location", site_location)):
         try:
@@ -363,5 +517,8 @@ def load_ifc(
         containers=dict(sorted(containers.items())),
         warnings=tuple(warnings),
         elapsed_s=time.perf_counter() - t0,
+        fallbacks=tuple(fallbacks),
+        peak_rss_mb=round(_peak_rss_mb(), 1),
     )
+    tracker.phase("done", len(kept), f"{len(kept):,} elements, {len(scene.faces):,} triangles")
     return scene, report

@@ -37,19 +37,21 @@ def _options_and_loader(path: Path, options: dict):
     if ext in IFC_EXTENSIONS:
         from .ifc import ifc_options, load_ifc
 
-        hashed = ifc_options(**{k: v for k, v in options.items() if k not in ("num_threads", "progress")})
+        hashed = ifc_options(**{k: v for k, v in options.items() if k not in ("num_threads", "progress", "status")})
         return hashed, load_ifc
     if ext in POINT_CLOUD_EXTENSIONS or ext == ".ply":
         from .reality import is_point_cloud, load_point_cloud, reality_options
 
         if is_point_cloud(path):
             options.pop("progress", None)
+            options.pop("status", None)
             options.pop("up", None)  # a point cloud is Z up
             return reality_options(path, **options), load_point_cloud
     if ext in MESH_EXTENSIONS:
         from .mesh import load_mesh, mesh_options
 
         options.pop("progress", None)  # meshes load in one step
+        options.pop("status", None)
         return mesh_options(path, **options), load_mesh
     supported = ", ".join(SUPPORTED_EXTENSIONS)
     raise ModelError(f"{path.name}: unsupported model format {ext or '(no extension)'!r}; supported: {supported}")
@@ -61,7 +63,8 @@ def load_model(
     """Load an IFC, mesh or point cloud file (or ``"sample"``) as a :class:`Scene` in metres, with its load report.
 
     ``options`` go to :func:`~sightplan.model.ifc.load_ifc` (occluders,
-    include_occluders_as_targets, num_threads), :func:`~sightplan.model.mesh.load_mesh`
+    include_occluders_as_targets, num_threads, max_triangles, oversize, and the callbacks
+    progress and status), :func:`~sightplan.model.mesh.load_mesh`
     (elements, scale, up, and patch_area_m2, normal_angle_deg for elements='patches') or, for
     .las/.laz and .ply files without faces, :func:`~sightplan.model.reality.load_point_cloud`
     (patch_area_m2, normal_angle_deg, spacing_m, method, solid, scale). With ``cache``, the

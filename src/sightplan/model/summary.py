@@ -26,6 +26,27 @@ class SkippedProduct:
 
 
 @dataclass(frozen=True)
+class LoadProgress:
+    """Where a load stands, for a progress display.
+
+    phase: 'reading' (parsing the file: no count), 'tessellating' (``done`` of ``total`` products),
+        'assembling' (the scene and element table), 'done'.
+    share: tessellated share 0..1 (never decreases during a load).
+    elapsed_s: since the load started; eta_s: seconds left in this phase at its pace so far, None
+        while unknown.
+    message: a short note (file name and size, counts).
+    """
+
+    phase: str
+    done: int
+    total: int
+    share: float
+    elapsed_s: float
+    eta_s: float | None = None
+    message: str = ""
+
+
+@dataclass(frozen=True)
 class LoadReport:
     """How a model file became a :class:`Scene`.
 
@@ -40,6 +61,10 @@ class LoadReport:
         parts are the elements (IfcBuildingStorey, IfcElementAssembly, IfcStair, ...), by class.
     warnings: anything else the user should know, one line each.
     elapsed_s: wall-clock seconds of the load (of the cache read when ``from_cache``).
+    fallbacks: products whose geometry blew up (over the loader's ``max_triangles``), each with
+        what was done instead (its bounding box, or skipped) in ``reason``.
+    peak_rss_mb: the loading process's peak resident memory at the end of the load (MB; the
+        first load's when ``from_cache``; 0.0 where unknown).
     """
 
     source: str
@@ -55,11 +80,14 @@ class LoadReport:
     warnings: tuple[str, ...] = ()
     elapsed_s: float = 0.0
     from_cache: bool = False
+    fallbacks: tuple[SkippedProduct, ...] = ()
+    peak_rss_mb: float = 0.0
 
     def to_dict(self) -> dict:
         """Plain JSON-serialisable dict (skipped products as dicts)."""
         d = asdict(self)
         d["skipped"] = [asdict(s) for s in self.skipped]
+        d["fallbacks"] = [asdict(s) for s in self.fallbacks]
         d["warnings"] = list(self.warnings)
         return d
 
@@ -67,6 +95,7 @@ class LoadReport:
     def from_dict(cls, d: dict) -> LoadReport:
         d = dict(d)
         d["skipped"] = tuple(SkippedProduct(**s) for s in d.get("skipped", ()))
+        d["fallbacks"] = tuple(SkippedProduct(**s) for s in d.get("fallbacks", ()))
         d["warnings"] = tuple(d.get("warnings", ()))
         d["excluded"] = {str(k): int(v) for k, v in d.get("excluded", {}).items()}
         d["containers"] = {str(k): int(v) for k, v in d.get("containers", {}).items()}
@@ -88,8 +117,8 @@ def summarize(scene: Scene, report: LoadReport) -> dict:
     triangles, bounds_m ({"min": [x, y, z], "max": [...], "size": [...]}, metres),
     by_class / by_discipline / by_storey ({name: {"elements", "targets", "occluders"}};
     '' means unclassified / no storey), excluded and containers ({class: count}),
-    skipped ([{global_id, ifc_class, name, reason}]), warnings, georeference and
-    site_location (dict or None), elapsed_s, from_cache.
+    skipped and fallbacks ([{global_id, ifc_class, name, reason}]), warnings, georeference and
+    site_location (dict or None), elapsed_s, from_cache, peak_rss_mb.
     """
     el = scene.elements
     targets = np.asarray(el.is_target, bool)
@@ -111,9 +140,11 @@ def summarize(scene: Scene, report: LoadReport) -> dict:
         "excluded": dict(report.excluded),
         "containers": dict(report.containers),
         "skipped": [asdict(s) for s in report.skipped],
+        "fallbacks": [asdict(s) for s in report.fallbacks],
         "warnings": list(report.warnings),
         "georeference": scene.metadata.get("georeference"),
         "site_location": scene.metadata.get("site_location"),
         "elapsed_s": round(float(report.elapsed_s), 3),
         "from_cache": bool(report.from_cache),
+        "peak_rss_mb": round(float(report.peak_rss_mb), 1),
     }
