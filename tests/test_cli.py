@@ -374,6 +374,19 @@ def test_export_then_read_back_and_georeference_errors(tmp_path):
     assert len(root.findall(".//wpml:actionActuatorFunc[.='takePhoto']", ns)) == len(d["frames"])
     res = run_cli("export", str(plan), "--format", "qgc", "-o", str(tmp_path / "f.plan"), "--mission", "2", cwd=tmp_path)
     assert res.returncode == 0, res.stderr
+    assert "(QGroundControl plan for PX4)" in " ".join(res.stdout.split())  # the default for a .plan
+    assert json.loads((tmp_path / "f.plan").read_text())["mission"]["firmwareType"] == 12
+    res = run_cli("export", str(plan), "--format", "wpl", "-o", str(tmp_path / "f.waypoints"), "--mission", "2",
+                  "--autopilot", "px4", cwd=tmp_path)
+    assert res.returncode == 0, res.stderr
+    assert "(QGC WPL 110 waypoints for PX4)" in " ".join(res.stdout.split())
+    assert "\t115\t" not in (tmp_path / "f.waypoints").read_text()  # PX4 refuses CONDITION_YAW
+    res = run_cli("export", str(plan), "--format", "qgc", "-o", str(tmp_path / "ap.plan"), "--mission", "2",
+                  "--autopilot", "ardupilot", cwd=tmp_path)
+    assert res.returncode == 0, res.stderr
+    assert "(QGroundControl plan for ArduPilot)" in " ".join(res.stdout.split())
+    res = run_cli("export", str(plan), "--format", "qgc", "--autopilot", "apm", cwd=tmp_path)
+    assert res.returncode != 0 and "Traceback" not in res.stderr and "--autopilot" in res.stderr
     m2 = d["missions"][1]
     res = run_cli("evaluate", "sample", str(tmp_path / "f.plan"), "--scale", "0.05", "--no-picture",
                   "--out", str(tmp_path / "r"), cwd=tmp_path)

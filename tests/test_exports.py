@@ -82,6 +82,8 @@ def takeoff_height(georef: Georeference) -> float:
 
 
 def qgc_photos(doc: dict) -> list[tuple[float, float, float, float, float]]:
+    """(lat, lon, height, heading, pitch) per photo, flying the items: a NAV_WAYPOINT's yaw (param4) or the last
+    CONDITION_YAW's absolute heading, the last DO_MOUNT_CONTROL's pitch."""
     items = doc["mission"]["items"]
     home_h = doc["mission"]["plannedHomePosition"][2]
     assert [it["doJumpId"] for it in items] == list(range(1, len(items) + 1))
@@ -92,8 +94,10 @@ def qgc_photos(doc: dict) -> list[tuple[float, float, float, float, float]]:
         p = it["params"]
         if it["command"] == 16:
             assert it["frame"] == 3
-            wp, heading, pitch = (p[4], p[5], home_h + p[6]), p[3], None
-        elif it["command"] == 115:
+            wp, heading = (p[4], p[5], home_h + p[6]), p[3]
+            continue
+        assert it["frame"] == 2  # MAV_FRAME_MISSION
+        if it["command"] == 115:
             assert p[3] == 0  # absolute heading
             heading = p[0]
         elif it["command"] == 205:
@@ -107,47 +111,60 @@ def qgc_photos(doc: dict) -> list[tuple[float, float, float, float, float]]:
     return photos
 
 
+@pytest.mark.parametrize("autopilot, firmware", [("px4", 12), ("ardupilot", 3)])
 @pytest.mark.parametrize("kind", GEOREFS)
-def test_qgc_plan_read_with_json(tmp_path, kind):
+def test_qgc_plan_read_with_json(tmp_path, kind, autopilot, firmware):
     georef, offset = GEOREFS[kind]
     plan = facade_plan()
-    paths = export_plan(plan, "qgc", tmp_path / "facade.plan", georef, TAKEOFF)
+    paths = export_plan(plan, "qgc", tmp_path / "facade.plan", georef, TAKEOFF, autopilot=autopilot)
     assert [p.name for p in paths] == ["facade_m01.plan", "facade_m02.plan"]
-    photos, waypoints = [], 0
+    photos, positions = [], set()
     for path in paths:
         doc = json.loads(path.read_text())
         assert doc["fileType"] == "Plan" and doc["version"] == 1 and doc["mission"]["version"] == 2
+        assert doc["mission"]["firmwareType"] == firmware and doc["sightplan"]["autopilot"] == autopilot
         home = doc["mission"]["plannedHomePosition"]
         np.testing.assert_allclose(georef.from_geodetic(*home)[0], TAKEOFF, atol=0.01)
         assert doc["mission"]["items"][0]["params"][4:6] == home[:2]
         photos += qgc_photos(doc)
-        waypoints += sum(it["command"] == 16 for it in doc["mission"]["items"])
-    assert waypoints == 8  # 6 facade positions + 2 single photos
+        positions |= {tuple(it["params"][4:7]) for it in doc["mission"]["items"] if it["command"] == 16}
+    assert len(positions) == 8  # 6 facade positions + 2 single photos
     check_photos(plan, georef, offset, photos)
 
 
-def test_qgc_single_mission_and_condition_yaw_only_on_change(tmp_path):
+def test_qgc_single_mission_and_the_heading_commands_of_each_autopilot(tmp_path):
     georef, _ = GEOREFS["topocentric"]
     plan = facade_plan()
+    # mission "east": 2 facade positions × 3 photos at 3 headings, then 2 positions with one photo: 8 stops
     (path,) = export_plan(plan, "qgc", tmp_path / "east.plan", georef, TAKEOFF, mission=1)  # index of "east"
     assert path.name == "east.plan"
     items = json.loads(path.read_text())["mission"]["items"]
     assert sum(it["command"] == 2000 for it in items) == 8
-    # per facade waypoint: 3 photos, the 2nd and 3rd turn: 2 CONDITION_YAW; none at the single-photo waypoints
-    assert sum(it["command"] == 115 for it in items) == 2 * 2
+    # PX4 (the default for .plan): no CONDITION_YAW; one waypoint per heading, in the same place for a facade position
+    assert sum(it["command"] == 115 for it in items) == 0
+    assert sum(it["command"] == 16 for it in items) == 8
+    (path,) = export_plan(plan, "qgc", tmp_path / "east_ap.plan", georef, TAKEOFF, mission=1, autopilot="ardupilot")
+    items = json.loads(path.read_text())["mission"]["items"]
+    # ArduPilot: a CONDITION_YAW per heading, each stop ended by a waypoint holding in place: 4 arrivals + 8 holds
+    assert sum(it["command"] == 115 for it in items) == 8
+    wps = [it for it in items if it["command"] == 16]
+    assert len(wps) == 4 + 8 and sorted({it["params"][0] for it in wps}) == [0.0, 4.0]
     with pytest.raises(PlanError, match="mission index 2 asked for"):
         export_plan(plan, "qgc", tmp_path / "x.plan", georef, TAKEOFF, mission=2)
+    with pytest.raises(PlanError, match="unknown autopilot 'apm'"):
+        export_plan(plan, "qgc", tmp_path / "x.plan", georef, TAKEOFF, autopilot="apm")
 
 
 # -- QGC WPL 110 via pymavlink -----------------------------------------------------------------
 
 
+@pytest.mark.parametrize("autopilot", ["ardupilot", "px4"])
 @pytest.mark.parametrize("kind", GEOREFS)
-def test_wpl_read_with_pymavlink(tmp_path, kind):
+def test_wpl_read_with_pymavlink(tmp_path, kind, autopilot):
     mavwp = pytest.importorskip("pymavlink.mavwp")
     georef, offset = GEOREFS[kind]
     plan = facade_plan()
-    paths = export_plan(plan, "wpl", tmp_path / "facade.waypoints", georef, TAKEOFF)
+    paths = export_plan(plan, "wpl", tmp_path / "facade.waypoints", georef, TAKEOFF, autopilot=autopilot)
     assert len(paths) == 2
     photos = []
     for path in paths:
@@ -158,9 +175,12 @@ def test_wpl_read_with_pymavlink(tmp_path, kind):
         home = items[0]
         assert (home.seq, home.current, home.frame) == (0, 1, 0)
         assert georef.from_geodetic(home.x, home.y, home.z)[0] == pytest.approx(TAKEOFF, abs=0.01)
-        assert all(w.frame == 3 and w.current == 0 and w.autocontinue == 1 for w in items[1:])
+        # positional items above home (frame 3), every other one in MAV_FRAME_MISSION (2)
+        assert all(w.frame == (3 if w.command in (16, 22) else 2) for w in items[1:])
+        assert all(w.current == 0 and w.autocontinue == 1 for w in items[1:])
         assert [w.seq for w in items] == list(range(n))
         assert items[1].command == 22 and items[-1].command == 20
+        assert (115 in {w.command for w in items}) == (autopilot == "ardupilot")
         wp = heading = pitch = None
         for w in items[2:-1]:
             if w.command == 16:

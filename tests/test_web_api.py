@@ -392,6 +392,10 @@ def test_exports_every_format(client, project, orbit_plans, data_dir):
         assert "attachment" in r.headers["content-disposition"] and check(r.content), fmt
     r = client.get(f"/api/projects/{project}/plans/{pid}/versions/1/export", params={"format": "wpl", "mission": 2})
     assert r.status_code == 200 and r.content.startswith(b"QGC WPL 110")
+    assert b"\t115\t" in r.content  # ArduPilot by default: the headings as CONDITION_YAW
+    r = client.get(f"/api/projects/{project}/plans/{pid}/versions/1/export",
+                   params={"format": "wpl", "mission": 2, "autopilot": "px4"})
+    assert r.status_code == 200 and b"\t115\t" not in r.content  # PX4 refuses CONDITION_YAW
     r = client.get(f"/api/projects/{project}/plans/{pid}/versions/1/export", params={"format": "dxf"})
     assert r.status_code == 422
     r = client.get(f"/api/projects/{project}/plans/{pid}/versions/1/export", params={"format": "kml", "mission": 9})

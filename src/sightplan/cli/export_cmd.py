@@ -12,6 +12,7 @@ from .flight import parse_point
 from .main import app, console
 
 ExportFormat = Literal["qgc", "wpl", "wpml", "litchi", "kml", "geojson"]
+Autopilot = Literal["px4", "ardupilot"]
 MIN_ALTITUDE_M = 2.0
 
 
@@ -47,13 +48,16 @@ def export_command(
                                                 "relative altitudes. Default: the plan's first ground station")] = None,
     speed: Annotated[float, typer.Option(help="Flight speed between waypoints (m/s)")] = 5.0,
     mission: Annotated[int | None, typer.Option(help="Export only this mission (1 = the first)")] = None,
+    autopilot: Annotated[Autopilot | None, typer.Option(
+        help="qgc and wpl: the flight controller the file is for (they accept different commands). "
+             "Default: px4 for qgc, ardupilot for wpl")] = None,
     camera: Annotated[str | None, typer.Option(help="Camera of a poses CSV")] = None,
     cache: Annotated[bool, typer.Option(help="Reuse the model cache")] = True,
 ) -> None:
     """Export a plan to a flight app (QGroundControl, Mission Planner, DJI Pilot 2, Litchi) or to KML/GeoJSON."""
     import numpy as np
 
-    from ..export import EXTENSIONS
+    from ..export import EXTENSIONS, MAVLINK_FORMATS, file_summary
     from ..export.files import export_files, takeoff_point
     from ..geo import Georeference, resolve_georeference
     from ..plan.load import load_plan
@@ -71,8 +75,12 @@ def export_command(
     takeoff_m = parse_point(takeoff, "--takeoff") if takeoff else takeoff_point(
         plan, scene, hint="give --takeoff x,y,z (model frame, on the ground) or --model MODEL to take the south-west "
                           "corner of the plan's region")
+    if autopilot is not None and fmt not in MAVLINK_FORMATS:
+        console.print(f"[yellow]warning:[/] --autopilot is for the qgc and wpl formats; a {fmt} export ignores it",
+                      highlight=False)
     out = output or Path(plan_file).with_suffix(EXTENSIONS[fmt])
-    paths = export_files(plan, fmt, out, geo, takeoff_m, speed_m_s=speed, mission=mission, mission_label="--mission")
+    paths = export_files(plan, fmt, out, geo, takeoff_m, speed_m_s=speed, mission=mission, mission_label="--mission",
+                         autopilot=autopilot)
     console.print(f"georeference: {geo.describe()}", highlight=False)
     low = np.flatnonzero(plan.C_world[:, 2] - takeoff_m[2] < MIN_ALTITUDE_M)
     if len(low):
@@ -80,4 +88,4 @@ def export_command(
                       f"point (lowest {plan.C_world[:, 2].min() - takeoff_m[2]:+.1f} m, e.g. frame {low[0]}): raise them "
                       "before flying, or check --takeoff", highlight=False)
     for p in paths:
-        console.print(f"wrote {p}")
+        console.print(f"wrote {p} ({file_summary(fmt, autopilot)})", highlight=False)

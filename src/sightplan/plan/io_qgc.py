@@ -15,6 +15,9 @@ The mission's commands are flown in order and a frame is made wherever a photo i
 - heading: the waypoint's yaw (param4, a true heading; NaN: along the flight direction, i.e. toward
   the next position), changed by ``CONDITION_YAW`` (115), pointed by ``DO_SET_ROI_WPNEXT_OFFSET`` (196:
   toward the next waypoint plus a yaw offset) or a region of interest (195, 201), plus a gimbal yaw.
+  Both forms of :mod:`sightplan.export.qgc` read back this way: PX4's waypoints repeated in place, one
+  per heading, and ArduPilot's ``CONDITION_YAW`` after each waypoint; consecutive waypoints within
+  1 cm count as one in the plan's waypoints.
 - gimbal pitch: from the last ``DO_MOUNT_CONTROL`` (205, param1) or ``DO_GIMBAL_MANAGER_PITCHYAW``
   (1000, param1); inside Survey and CorridorScan items, and wherever none was given, −90 (nadir; a
   warning says where it was assumed outside a survey).
@@ -65,6 +68,7 @@ ABSOLUTE_FRAMES, RELATIVE_FRAMES, TERRAIN_FRAMES = {0, 5}, {3, 6}, {10, 11}
 GIMBAL_YAW_LOCK = 16
 DEFAULT_PITCH_DEG = -90.0
 DEFAULT_SPEED_M_S = 5.0
+SAME_WAYPOINT_M = 0.01
 MANUAL_CAMERAS = {"", "manual (no camera specs)", "custom camera", "manual"}
 
 
@@ -475,7 +479,8 @@ def fly(src: MissionSource, georef: Georeference, home_xyz: NDArray, home: tuple
             pos = new
             airborne = True
             if cmd in WAYPOINTS:
-                waypoints.append(new)
+                if not waypoints or np.linalg.norm(new - waypoints[-1]) > SAME_WAYPOINT_M:
+                    waypoints.append(new)  # a waypoint repeated in place (one per heading) is one waypoint
                 if not shooting:
                     shoot(pos, target_after(k), c)
             if cmd in (NAV_RETURN_TO_LAUNCH, NAV_LAND):

@@ -6,7 +6,7 @@ import json
 import re
 import zipfile
 from pathlib import Path
-from typing import Annotated, Any
+from typing import Annotated, Any, Literal
 
 from fastapi import APIRouter, BackgroundTasks, Body, File, Form, HTTPException, Query, Response, UploadFile
 from fastapi.responses import FileResponse
@@ -186,6 +186,9 @@ def export_version(project_id: int, plan_id: int, number: int, session: SessionD
                                                                      "(default: the plan's model)")] = None,
                    speed: Annotated[float, Query(gt=0, description="Flight speed (m/s)")] = 5.0,
                    mission: Annotated[int | None, Query(ge=1, description="Only this mission (from 1)")] = None,
+                   autopilot: Annotated[Literal["px4", "ardupilot"] | None, Query(
+                       description="qgc and wpl: the flight controller the file is for (default px4 for qgc, "
+                                   "ardupilot for wpl)")] = None,
                    ) -> FileResponse:
     from ...export import EXTENSIONS
     from ...export.files import export_files, takeoff_point
@@ -211,7 +214,7 @@ def export_version(project_id: int, plan_id: int, number: int, session: SessionD
     stem = f"{_slug(plan_row.name)}_v{number}"
     try:
         paths = export_files(data, format, folder / (stem + EXTENSIONS[format]), geo, takeoff, speed_m_s=speed,
-                             mission=mission)
+                             mission=mission, autopilot=autopilot)
     except BaseException:
         state.storage.remove(folder)
         raise
