@@ -52,9 +52,11 @@ class Engine(ABC):
         self.threads = max(1, threads or min(32, os.cpu_count() or 1))
         self.chunk_rays = int(chunk_rays)
         self.n_elements = scene.n_elements
-        # engines work in a frame centred on the model so float32 rays keep millimetres
-        # even for georeferenced coordinates far from the origin
-        self.centre = scene.vertices.mean(axis=0) if len(scene.vertices) else np.zeros(3)
+        # engines work in a frame centred on the model so float32 rays keep millimetres even for
+        # georeferenced coordinates far from the origin: the centre of its box on a 0.5 m grid, which
+        # depends on the geometry only (not on how a loader shares or repeats vertices)
+        lo_hi = scene.vertices.min(axis=0) + scene.vertices.max(axis=0) if len(scene.vertices) else np.zeros(3)
+        self.centre = np.round(lo_hi) / 2
         self.local_vertices = scene.vertices - self.centre
         normals = scene.face_normals()
         self._face_normal = np.ascontiguousarray(normals, dtype=np.float64)
