@@ -3,8 +3,8 @@
 For each model, from the bundled Duplex to a ~3 M-triangle Revit-like building, in a fresh
 process each (so every peak memory is that model's alone), with the Embree engine on
 every core:
-- load: cached load of the scene (the first, uncached load is `benchmarks/load.py`'s);
-  feature sampling, first time and from the cache; BVH build;
+- load: the first load and feature sampling in a process of their own (its peak memory is
+  theirs), then the cached load and features in the measuring process; BVH build;
 - drone frames (DJI Phantom 4 Pro, 20 MP) at scale 1 and 0.25, on rings around the
   model: seconds per frame, of which the feature test; CPU seconds per frame too, since
   other work on the machine stretches wall time but not CPU time;
@@ -144,17 +144,28 @@ def raw_case(engine: EmbreeEngine, plan, scale: float, casts: dict, pool) -> dic
     return {name: (s / len(plan), rays / s / 1e6) for name, s in total.items()}
 
 
-def model_case(args) -> dict:
+def prepare_case(args) -> dict:
+    """The first load and feature sampling of a model, in a process of their own (both go to the cache)."""
     cache_dir = Path(args.cache)
     t, c = time.perf_counter(), cpu_s()
     scene = load(args.model, cache_dir)
-    res = {"model": args.model, "triangles": int(len(scene.faces)), "elements": int(scene.n_elements),
-           "load_s": time.perf_counter() - t, "load_cpu_s": cpu_s() - c}
+    res = {"load_s": time.perf_counter() - t, "load_cpu_s": cpu_s() - c}
     t = time.perf_counter()
     features = cached_features(scene, 1.0, 0, cache_dir=cache_dir)
-    res.update(features=len(features), features_s=time.perf_counter() - t)
+    res.update(features=len(features), features_s=time.perf_counter() - t, prepare_peak_rss_mb=peak_rss_mb())
+    return res
+
+
+def model_case(args) -> dict:
+    """The frames of one model, its scene and features read from the cache: the peak memory is the
+    evaluation's (scene, features, BVH, one frame's buffers), not the one-time sampling's."""
+    cache_dir = Path(args.cache)
     t = time.perf_counter()
-    cached_features(scene, 1.0, 0, cache_dir=cache_dir)
+    scene = load(args.model, cache_dir)
+    res = {"model": args.model, "triangles": int(len(scene.faces)), "elements": int(scene.n_elements),
+           "cached_load_s": time.perf_counter() - t}
+    t = time.perf_counter()
+    features = cached_features(scene, 1.0, 0, cache_dir=cache_dir)
     res["features_cached_s"] = time.perf_counter() - t
     t = time.perf_counter()
     engine = EmbreeEngine(scene, features)
@@ -201,13 +212,15 @@ def plan_case(args) -> dict:
 def child(argv: list[str]) -> int:
     p = argparse.ArgumentParser()
     p.add_argument("--model")
+    p.add_argument("--prepare", action="store_true")
     p.add_argument("--plan-frames", type=int)
     p.add_argument("--frames", type=int, default=24)
     p.add_argument("--frames-full", type=int, default=6)
     p.add_argument("--frames-360", type=int, default=3)
     p.add_argument("--cache", required=True)
     args = p.parse_args(argv)
-    emit(RESULT_PREFIX, plan_case(args) if args.plan_frames else model_case(args))
+    emit(RESULT_PREFIX, plan_case(args) if args.plan_frames else prepare_case(args) if args.prepare
+         else model_case(args))
     return 0
 
 
@@ -237,11 +250,12 @@ def print_tables(models: list[dict], plans: list[dict]) -> None:
                       fmt(c["ratio_to_raw"], 2), fmt(c["packets_s_per_frame"]), fmt(c["ratio_to_packets"], 2),
                       fmt(c["s_per_frame"] / PAPER_S_PER_FRAME_P1, 3), f"{c['peak_rss_mb']:.0f}")
     console.print(t)
-    t = numeric_table(("model", "load (cached) s", "features s", "from cache s", "BVH s", "features"),
-                      left=("model",), title="Preparing a model")
+    t = numeric_table(("model", "first load s", "cached s", "features s", "from cache s", "BVH s", "features",
+                       "peak MB"), left=("model",), title="Preparing a model (first load and sampling: peak MB)")
     for m in models:
-        t.add_row(m["model"], fmt(m["load_s"], 2), fmt(m["features_s"], 2), fmt(m["features_cached_s"], 2),
-                  fmt(m["build_s"], 2), f"{m['features']:,}")
+        t.add_row(m["model"], fmt(m["load_s"], 2), fmt(m["cached_load_s"], 2), fmt(m["features_s"], 2),
+                  fmt(m["features_cached_s"], 2), fmt(m["build_s"], 2), f"{m['features']:,}",
+                  f"{m['prepare_peak_rss_mb']:.0f}")
     console.print(t)
     if plans:
         t = numeric_table(("frames", "s", "s/frame", "CPU s", "peak MB"), left=(),
@@ -277,9 +291,10 @@ def main(argv: list[str] | None = None) -> int:
                 console.print(f"{name}: not available here, skipped")
                 continue
             console.print(f"[bold]{name}[/bold] …")
-            res = run_child(["--model", name, "--cache", cache, *frames])
+            first = run_child(["--model", name, "--cache", cache, "--prepare"])
+            res = run_child(["--model", name, "--cache", cache, *frames]) if first else None
             if res:
-                results.append(res)
+                results.append({**res, **first})
         for n in sizes:
             console.print(f"[bold]Duplex, {n} frames[/bold] …")
             res = run_child(["--plan-frames", str(n), "--cache", cache])
