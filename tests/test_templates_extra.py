@@ -45,33 +45,36 @@ def bridge_scene(pier_under_axis: bool = False) -> Scene:
 def test_bridge_straight_axis_by_hand():
     plan = bridge(bridge_scene(), P4P, [[0, 0], [60, 0]], offset_m=15, clearance_below_m=2.5)
     # side passes: s_h = 2·15·0.75·0.2 = 4.5 m → ceil(60/4.5) + 1 = 15 frames per pass;
-    # s_v = 2·15·0.5·0.2 = 3 m over the model's 10 m height → ceil(10/3) + 1 = 5 layers, 2.5 m apart
+    # s_v = 2·15·0.5·0.2 = 3 m from the minimum height (2 m above the ground, the piers' base) to the model's 10 m
+    # top → ceil(8/3) + 1 = 4 layers, 8/3 m apart; each sees the deck (a level view from 2 m reaches 2 + 7.5 m at 15 m)
     # under the deck: 2·2.5·0.5·0.2 = 0.5 m → 60/0.5 + 1 = 121 frames at 8 − 2.5 = 5.5 m
     sizes = [m.stop - m.start for m in plan.missions]
-    assert sizes == [15] * 10 + [121]
-    assert len(plan) == 271
+    assert sizes == [15] * 8 + [121]
+    assert len(plan) == 241
     assert plan.parameters["template"] == "bridge"
-    assert plan.parameters["heights_m"] == pytest.approx([0, 2.5, 5, 7.5, 10])
+    layers = [2, 2 + 8 / 3, 2 + 16 / 3, 10]
+    assert plan.parameters["heights_m"] == pytest.approx(layers)
     assert plan.parameters["deck_z"] == pytest.approx(8.0)
     assert plan.parameters["under_deck_z"] == pytest.approx(5.5)
+    assert plan.parameters["dropped_frames"] == 0
     C = plan.C_world
     # left (y = +15) bottom → top, then right (y = −15) top → bottom, then under the deck; a snake along x
-    expect_z = [0, 2.5, 5, 7.5, 10, 10, 7.5, 5, 2.5, 0, 5.5]
-    expect_y = [15] * 5 + [-15] * 5 + [0]
+    expect_z = layers + layers[::-1] + [5.5]
+    expect_y = [15] * 4 + [-15] * 4 + [0]
     for j, m in enumerate(plan.missions):
         part = C[m.start:m.stop]
         np.testing.assert_allclose(part[:, 1], expect_y[j])
         np.testing.assert_allclose(part[:, 2], expect_z[j])
         np.testing.assert_allclose([part[0, 0], part[-1, 0]], [0, 60] if j % 2 == 0 else [60, 0], atol=1e-9)
-        assert np.abs(np.diff(part[:, 0])).max() <= (4.5 if j < 10 else 0.5) + 1e-9
+        assert np.abs(np.diff(part[:, 0])).max() <= (4.5 if j < 8 else 0.5) + 1e-9
     fwd = plan.R_world_camera[:, :, 2]
-    np.testing.assert_allclose(fwd[:75], np.tile([0, -1, 0], (75, 1)), atol=1e-12)  # left side looks south at the axis
-    np.testing.assert_allclose(fwd[75:150], np.tile([0, 1, 0], (75, 1)), atol=1e-12)  # right side looks north
-    np.testing.assert_allclose(fwd[150:], np.tile([0, 0, 1], (121, 1)), atol=1e-12)  # under the deck: straight up
+    np.testing.assert_allclose(fwd[:60], np.tile([0, -1, 0], (60, 1)), atol=1e-12)  # left side looks south at the axis
+    np.testing.assert_allclose(fwd[60:120], np.tile([0, 1, 0], (60, 1)), atol=1e-12)  # right side looks north
+    np.testing.assert_allclose(fwd[120:], np.tile([0, 0, 1], (121, 1)), atol=1e-12)  # under the deck: straight up
     # heading east (90°) tilted up by 90°: the camera's +Y (image down) is forward × right = (1, 0, 0), ahead
-    np.testing.assert_allclose(plan.R_world_camera[150:, :, 1], np.tile([1, 0, 0], (121, 1)), atol=1e-12)
+    np.testing.assert_allclose(plan.R_world_camera[120:, :, 1], np.tile([1, 0, 0], (121, 1)), atol=1e-12)
     # the under-deck pass keeps exactly the clearance: 2.5 m to the deck's underside, 3 m to the piers at |y| ≥ 3
-    under = C[150:]
+    under = C[120:]
     assert segment_distances(bridge_scene(), under[:-1], under[1:]).min() == pytest.approx(2.5)
 
 
@@ -79,7 +82,9 @@ def test_bridge_bent_axis_mitres_the_passes():
     # axis east 40 m then north 30 m; offset 10 m: the left (inside) pass runs (0,10)→(30,10)→(30,30): 30 + 20 = 50 m,
     # the right (outside) one (0,−10)→(50,−10)→(50,30): 50 + 40 = 90 m. s_h = 2·10·0.75·0.2 = 3 m:
     # ceil(50/3) + 1 = 18 and 90/3 + 1 = 31 frames
-    plan = bridge(bridge_scene(), P4P, [[0, 0, 3], [40, 0, 3], [40, 30, 3]], offset_m=10, heights_m=[5], under_deck=False)
+    # (the deck runs east only: frames on the northward piece that see none of it are kept here, drop_blind=False)
+    plan = bridge(bridge_scene(), P4P, [[0, 0, 3], [40, 0, 3], [40, 30, 3]], offset_m=10, heights_m=[5], under_deck=False,
+                  drop_blind=False)
     assert [m.stop - m.start for m in plan.missions] == [18, 31]
     left, right = (plan.C_world[m.start:m.stop] for m in plan.missions)
     on_first = np.isclose(left[:, 1], 10) & (left[:, 0] < 30 - 1e-9)
@@ -120,7 +125,8 @@ def test_bridge_under_deck_refused_where_it_cannot_be_placed():
     # the given underside is used as is; without the under-deck pass the pier is no obstacle
     assert bridge(bridge_scene(), P4P, [[0, 0], [60, 0]], 15, clearance_below_m=2.5, deck_z=8.0).parameters[
         "under_deck_z"] == pytest.approx(5.5)
-    assert len(bridge(bridge_scene(pier_under_axis=True), P4P, [[0, 0], [60, 0]], 15, under_deck=False)) == 150
+    # 8 side passes (4 layers from the 2 m minimum height to the 10 m top, both sides) of 15 frames
+    assert len(bridge(bridge_scene(pier_under_axis=True), P4P, [[0, 0], [60, 0]], 15, under_deck=False)) == 120
 
 
 @pytest.mark.parametrize(("axis", "offset", "match"), [
@@ -170,10 +176,11 @@ def test_facade_outline_keeps_g_to_the_walls_of_a_rotated_box():
     box_plan = facade_grid(scene, P4P, g, footprint="box")
     out_plan = facade_grid(scene, P4P, g, footprint="outline")
     # box mode: the bounding box is 20·cos30 + 10·sin30 = 22.32 by 20·sin30 + 10·cos30 = 18.66 m;
-    # s_h = 3 m: ceil(22.32/3) + 1 = 9 and ceil(18.66/3) + 1 = 8 columns; 5 layers + top row = 6 per column
-    assert [m.stop - m.start for m in box_plan.missions] == [54, 48, 54, 48]
+    # s_h = 3 m: ceil(22.32/3) + 1 = 9 and ceil(18.66/3) + 1 = 8 columns; layers from the 2 m minimum height to the
+    # 8 m top: ceil(6/2) + 1 = 4, + the top row = 5 per column
+    assert [m.stop - m.start for m in box_plan.missions] == [45, 40, 45, 40]
     # outline mode: the real 20 and 10 m walls: ceil(20/3) + 1 = 8 and ceil(10/3) + 1 = 5 columns
-    assert [m.stop - m.start for m in out_plan.missions] == [48, 30, 48, 30]
+    assert [m.stop - m.start for m in out_plan.missions] == [40, 25, 40, 25]
     assert out_plan.parameters["footprint"] == "outline"
     level = out_plan.C_world[:, 2] <= top + 1e-9
     np.testing.assert_allclose(point_distances(scene, out_plan.C_world[level]), g, rtol=1e-9)
@@ -198,12 +205,13 @@ def test_facade_outline_trims_the_inside_corner_of_an_l():
     scene = scene_of(box((30, 10, 6)), box((10, 20, 6), (0, 10, 0)))
     plan = facade_grid(scene, P4P, g, footprint="outline")
     # edges anticlockwise from the south: 30, 10, inner 20 → 15 (offsets y = 15 and x = 15 meet at (15, 15)),
-    # inner 20 → 15, 10, 30 m: 21, 8, 11, 11, 8, 21 columns; 6 m high: 6/1 + 1 = 7 layers + top row = 8 per column
-    assert [m.stop - m.start for m in plan.missions] == [c * 8 for c in (21, 8, 11, 11, 8, 21)]
+    # inner 20 → 15, 10, 30 m: 21, 8, 11, 11, 8, 21 columns; 6 m high, layers from the 2 m minimum height:
+    # 4/1 + 1 = 5 layers + top row = 6 per column
+    assert [m.stop - m.start for m in plan.missions] == [c * 6 for c in (21, 8, 11, 11, 8, 21)]
     level = plan.C_world[:, 2] <= 6 + 1e-9
     np.testing.assert_allclose(point_distances(scene, plan.C_world[level]), g, rtol=1e-9)
     corner = np.isclose(plan.C_world[:, 0], 15) & np.isclose(plan.C_world[:, 1], 15)
-    assert corner.sum() == 2 * 8  # the inside corner ends both inner edges' passes
+    assert corner.sum() == 2 * 6  # the inside corner ends both inner edges' passes
     inner_north = plan.missions[2]
     np.testing.assert_allclose(plan.C_world[inner_north.start:inner_north.stop, 1], 15.0)
     rows = np.arange(inner_north.start, inner_north.stop)
@@ -217,8 +225,8 @@ def test_facade_outline_skips_a_notch_narrower_than_twice_g():
     scene = scene_of(box((30, 10, 6)), box((12, 15, 6), (0, 10, 0)), box((12, 15, 6), (18, 10, 0)))
     plan = facade_grid(scene, P4P, g, footprint="outline")
     # the notch's three walls are never 5 m from the opposite wall: only 30, 25, 12, 12, 25 m edges are flown:
-    # 21, ceil(25/1.5) + 1 = 18, ceil(12/1.5) + 1 = 9, 9, 18 columns of 8 frames
-    assert sorted(m.stop - m.start for m in plan.missions) == sorted(c * 8 for c in (21, 18, 9, 9, 18))
+    # 21, ceil(25/1.5) + 1 = 18, ceil(12/1.5) + 1 = 9, 9, 18 columns of 6 frames (5 layers from 2 m, the top row)
+    assert sorted(m.stop - m.start for m in plan.missions) == sorted(c * 6 for c in (21, 18, 9, 9, 18))
     level = plan.C_world[:, 2] <= 6 + 1e-9
     assert point_distances(scene, plan.C_world[level]).min() == pytest.approx(g)
     for m in plan.missions:  # nothing flown within a mission comes nearer than g (the top row's hop included)
@@ -230,9 +238,10 @@ def test_facade_outline_closes_a_gap_too_narrow_to_fly():
     g = 5.0  # gaps narrower than 2·g/20 = 0.5 m are closed
     scene = scene_of(box((10, 10, 6)), box((10, 10, 6), (10.2, 0, 0)))
     plan = facade_grid(scene, P4P, g, footprint="outline")
-    # one 20.2 × 10 m outline: ceil(20.2/1.5) + 1 = 15 and ceil(10/1.5) + 1 = 8 columns of 7 layers + the top row
+    # one 20.2 × 10 m outline: ceil(20.2/1.5) + 1 = 15 and ceil(10/1.5) + 1 = 8 columns of 5 layers (2 to 6 m) + the
+    # top row
     assert [(m.name, m.stop - m.start) for m in plan.missions] == [
-        ("facade edge 1", 120), ("facade edge 2", 64), ("facade edge 3", 120), ("facade edge 4", 64)]
+        ("facade edge 1", 90), ("facade edge 2", 48), ("facade edge 3", 90), ("facade edge 4", 48)]
     level = plan.C_world[:, 2] <= 6 + 1e-9
     d = point_distances(scene, plan.C_world[level])
     assert d.min() == pytest.approx(g) and d.max() <= math.hypot(g, 0.1) + 1e-9  # √(g² + 0.1²) across the gap
@@ -247,8 +256,9 @@ def test_facade_outline_goes_around_a_fin_seen_edge_on():
     level = plan.C_world[:, 2] <= 8 + 1e-9
     assert point_distances(scene, plan.C_world[level]).min() >= 10.0 - 1e-9
     # the east wall's offset (x = 30, y 0–10) lies within √(7² + 5²) = 8.6 m of the fin's tip: not flown. South and
-    # north (8 columns of 6) and west (5 columns) are, 10 m out (10.1 m: the thin fin was simplified, g/100 added)
-    assert [m.stop - m.start for m in plan.missions] == [48, 48, 30]
+    # north (8 columns of 5: 4 layers from 2 m and the top row) and west (5 columns) are, 10 m out (10.1 m: the thin
+    # fin was simplified, g/100 added)
+    assert [m.stop - m.start for m in plan.missions] == [40, 40, 25]
     assert plan.C_world[level, 0].max() <= 20.0 + 1e-9
     np.testing.assert_allclose(plan.C_world[level, 1].min(), -10.1)
 
@@ -265,17 +275,20 @@ def test_lawnmower_double_grid_by_hand():
     plain = lawnmower(scene, P4P, altitude_m=38.0)
     plan = lawnmower(scene, P4P, altitude_m=38.0, oblique_pitch_deg=-60)
     # nadir part as before: 3 lines × 3 frames. Crossed lines: 13.5 m apart over 10 m of y → 2 lines (y = 0, 10);
-    # frames 6 m apart over 20 m of x → ceil(20/6) + 1 = 5 (x = 0, 5, 10, 15, 20)
-    assert [(m.name, m.stop - m.start) for m in plan.missions] == [("lawn-mower", 9), ("lawn-mower crossed", 10)]
+    # frames 6 m apart over 20 m of x → ceil(20/6) + 1 = 5 (x = 0, 5, 10, 15, 20). The last frame of each line looks
+    # out past the box's end (from x = 20 east, from x = 0 west: the view's steepest ray, 86.6° down, meets the roof
+    # 1.8 m ahead): it sees nothing and is dropped
+    assert [(m.name, m.stop - m.start) for m in plan.missions] == [("lawn-mower", 9), ("lawn-mower crossed", 8)]
+    assert plan.parameters["dropped_frames"] == 2
     np.testing.assert_array_equal(plan.C_world[:9], plain.C_world)
     np.testing.assert_array_equal(plan.R_world_camera[:9], plain.R_world_camera)
     crossed = plan.C_world[9:]
-    np.testing.assert_allclose(crossed[:5], [[x, 0, 38] for x in (0, 5, 10, 15, 20)])  # east along y = 0…
-    np.testing.assert_allclose(crossed[5:], [[x, 10, 38] for x in (20, 15, 10, 5, 0)])  # …then west along y = 10
+    np.testing.assert_allclose(crossed[:4], [[x, 0, 38] for x in (0, 5, 10, 15)])  # east along y = 0…
+    np.testing.assert_allclose(crossed[4:], [[x, 10, 38] for x in (20, 15, 10, 5)])  # …then west along y = 10
     c, s = math.cos(math.radians(60)), math.sin(math.radians(60))
     fwd = plan.R_world_camera[9:, :, 2]
-    np.testing.assert_allclose(fwd[:5], np.tile([c, 0, -s], (5, 1)), atol=1e-12)  # looking ahead, 60° down
-    np.testing.assert_allclose(fwd[5:], np.tile([-c, 0, -s], (5, 1)), atol=1e-12)
+    np.testing.assert_allclose(fwd[:4], np.tile([c, 0, -s], (4, 1)), atol=1e-12)  # looking ahead, 60° down
+    np.testing.assert_allclose(fwd[4:], np.tile([-c, 0, -s], (4, 1)), atol=1e-12)
     assert plan.parameters["oblique_pitch_deg"] == -60.0
     assert "oblique_pitch_deg" not in plain.parameters
     with pytest.raises(PlanError, match="oblique pitch"):

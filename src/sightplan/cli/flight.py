@@ -15,6 +15,9 @@ StationOpt = Annotated[list[str] | None, typer.Option(
     "--ground-station", help="Pilot position 'x,y,z' in the model frame (m); repeat for candidates. "
                              "Default: the four corners of the plan's region")]
 AltitudeOpt = Annotated[float, typer.Option("--altitude-limit", help="FAA §107.51 altitude limit (m); 0: no check")]
+MinHeightOpt = Annotated[float | None, typer.Option(
+    "--min-height", help="Least height of a waypoint above the ground under it (the terrain, else the model's base), "
+                         "in m. Default 2; none for a walked route")]
 
 
 def parse_point(text: str, what: str):
@@ -62,29 +65,36 @@ def aircraft_from_option(name: str):
 
 
 def flight_settings(safety_distance: float, vlos_radius: float, ground_station: list[str] | None, aircraft: str,
-                    altitude_limit: float):
+                    altitude_limit: float, min_height: float | None = None):
     import numpy as np
 
     from ..plan.checks.feasibility import FlightSettings
 
     stations = np.array([parse_point(s, "ground station") for s in ground_station]) if ground_station else None
     return FlightSettings(safety_distance_m=safety_distance, vlos_radius_m=vlos_radius or None, ground_stations=stations,
-                          altitude_limit_m=altitude_limit or None, aircraft=aircraft_from_option(aircraft))
+                          altitude_limit_m=altitude_limit or None, aircraft=aircraft_from_option(aircraft),
+                          min_height_m=min_height)
 
 
 def default_flight_settings(walked: bool, safety_distance: float | None, vlos_radius: float | None,
                             ground_station: list[str] | None, aircraft: str | None, altitude_limit: float | None,
-                            drone_safety_m: float):
+                            drone_safety_m: float, min_height: float | None = None):
     """:func:`flight_settings` with the defaults of a drone flight, or of a walked or driven route (no line of sight,
-    no altitude limit, 0.3 m clearance, a walker's battery), for the options not given (None)."""
-    defaults = (0.3, 0.0, "walker-360", 0.0) if walked else (drone_safety_m, 500.0, "p4p", 120.0)
-    given = (safety_distance, vlos_radius, aircraft, altitude_limit)
-    safety, vlos, craft, limit = (d if v is None else v for v, d in zip(given, defaults))
-    return flight_settings(safety, vlos, ground_station, craft, limit)  # type: ignore[arg-type]
+    no altitude limit, no minimum height, 0.3 m clearance, a walker's battery), for the options not given (None)."""
+    from ..plan.ground import MIN_HEIGHT_M
+
+    defaults = (0.3, 0.0, "walker-360", 0.0, None) if walked else (drone_safety_m, 500.0, "p4p", 120.0, MIN_HEIGHT_M)
+    given = (safety_distance, vlos_radius, aircraft, altitude_limit, min_height)
+    safety, vlos, craft, limit, low = (d if v is None else v for v, d in zip(given, defaults))
+    return flight_settings(safety, vlos, ground_station, craft, limit, low)  # type: ignore[arg-type]
 
 
 def _minutes(t: float | None) -> str:
     return "—" if t is None else f"{t / 60:.1f}"
+
+
+def _both(a: bool | None, b: bool | None) -> bool | None:
+    return None if a is None and b is None else (a is not False and b is not False)
 
 
 def _flag(v: bool | None) -> str:
@@ -96,18 +106,21 @@ def print_feasibility(console: Console, report, title: str, max_violations: int 
     plan = report.plan
     t = Table("mission", "frames", "from", "pilot x,y", "min", "km", "batt.", "sight", "clear", "alt.",
               title=title, title_justify="left", caption="from: resume waypoint; pilot: ground station (m); "
-              "min/km: flight from and back to the pilot", caption_justify="left")
+              "min/km: flight from and back to the pilot; alt.: altitude limit and minimum height", caption_justify="left")
     for m in report.missions:
         gs = "—" if m.line_of_sight_ok is None else ",".join(f"{v:.0f}" for v in m.ground_station[:2])
         t.add_row(m.name, str(m.stop - m.start), str(m.start), gs, _minutes(m.time_s),
                   "—" if m.distance_m is None else f"{m.distance_m / 1000:.2f}", _flag(m.battery_ok), _flag(m.line_of_sight_ok),
-                  _flag(m.safety_ok), _flag(m.altitude_ok))
+                  _flag(m.safety_ok), _flag(_both(m.altitude_ok, getattr(m, "height_ok", None))))
     console.print(t)
     n_wp = len(plan.waypoints) if len(plan.waypoints) else len(plan)
-    batteries = sum(m.battery_ok is not None for m in report.missions)
+    batteries = getattr(report, "batteries", None)
+    if batteries is None:
+        batteries = sum(m.battery_ok is not None for m in report.missions)
     total = report.total_time_s
     console.print(f"{n_wp} waypoints, {len(plan)} frames, {len(report.missions)} missions"
-                  + (f" ({batteries} batteries), {total / 60:.1f} min of flight" if total is not None else "")
+                  + (f" ({batteries} {'battery' if batteries == 1 else 'batteries'}), {total / 60:.1f} min of flight"
+                     if total is not None else "")
                   + f"; least clearance {report.safety.waypoint_m.min():.2f} m")
     if report.violations:
         console.print(f"[bold red]{len(report.violations)} violation(s):")
@@ -116,4 +129,4 @@ def print_feasibility(console: Console, report, title: str, max_violations: int 
         if len(report.violations) > max_violations:
             console.print(f"  … and {len(report.violations) - max_violations} more (see --json)")
     else:
-        console.print("[green]no violations: every mission keeps its distance, sight line, altitude and battery")
+        console.print("[green]no violations: every mission keeps its distance, sight line, altitude, height and battery")

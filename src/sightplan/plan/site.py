@@ -11,7 +11,7 @@ from .types import Plan
 
 def with_site(plan: Plan, scene: Scene, *, replace_takeoff: bool = False) -> Plan:
     """The plan with the model's georeference (unless it records its own) and its take-off point: the first
-    mission's ground station, on the model's base.
+    mission's ground station, on the ground under it (the terrain's surface, else the model's base).
 
     A take-off point the plan records already (from a flight app's file) is kept unless ``replace_takeoff``: after
     the plan was split again, its first mission's ground station is the take-off point."""
@@ -23,5 +23,8 @@ def with_site(plan: Plan, scene: Scene, *, replace_takeoff: bool = False) -> Pla
         params["georeference"] = geo.to_dict()
     station = plan.missions[0].ground_station if plan.missions and plan.missions[0].ground_station else None
     if station is not None and (replace_takeoff or "takeoff_m" not in params):
-        params["takeoff_m"] = [float(station[0]), float(station[1]), float(scene.bounds()[0][2])]
+        from .ground import ground_z
+
+        ground = float(ground_z(scene, [station[:2]])[0])
+        params["takeoff_m"] = [float(station[0]), float(station[1]), ground]
     return replace(plan, parameters=params)

@@ -31,9 +31,12 @@ class LineOfSightReport:
 
 
 def default_ground_station(scene: Scene, plan: Plan, height_m: float = 1.5) -> NDArray[np.float64]:
-    """The south-west corner of the plan's region (waypoints and model), ``height_m`` above the model's base."""
-    lo = np.minimum(plan.C_world.min(axis=0), scene.bounds()[0])
-    return np.array([lo[0], lo[1], scene.bounds()[0][2] + height_m])
+    """The south-west corner of the plan's region (waypoints and the model's targets), ``height_m`` above the ground
+    there (the terrain, else the model's base)."""
+    from ..ground import ground_z, targets_only
+
+    lo = np.minimum(plan.C_world.min(axis=0), targets_only(scene).bounds()[0])
+    return np.array([lo[0], lo[1], float(ground_z(scene, lo[:2])[0]) + height_m])
 
 
 def sight_lines(scene: Scene, points: NDArray, stations: NDArray, radius_m: float,
@@ -84,14 +87,16 @@ class AltitudeReport:
     violations: tuple[str, ...]
 
 
-def check_altitude(scene: Scene, plan: Plan, limit_m: float = FAA_LIMIT_M, ground_z: float | None = None) -> AltitudeReport:
+def check_altitude(scene: Scene, plan: Plan, limit_m: float = FAA_LIMIT_M,
+                   ground_z: float | NDArray | None = None) -> AltitudeReport:
     """FAA §107.51: at most ``limit_m`` above the ground, or above the structure's highest point within
-    ``limit_m`` horizontally. The ground is the model's base unless ``ground_z`` says otherwise."""
+    ``limit_m`` horizontally. The ground is the model's base unless ``ground_z`` says otherwise (one height, or
+    one per waypoint)."""
     from scipy.spatial import cKDTree
 
     if not limit_m > 0:
         raise PlanError(f"the altitude limit must be positive, got {limit_m}")
-    ground = scene.bounds()[0][2] if ground_z is None else float(ground_z)
+    ground = scene.bounds()[0][2] if ground_z is None else np.asarray(ground_z, float)
     used = scene.vertices[np.unique(scene.faces)] if len(scene.faces) else np.zeros((0, 3))
     limit = np.full(len(plan), ground + limit_m)
     if len(used):

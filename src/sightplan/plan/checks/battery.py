@@ -87,7 +87,9 @@ def split_by_battery(plan: Plan, ground_station: NDArray, ac: Aircraft) -> tuple
     """The plan with each mission cut, in flight order, into battery-sized missions; their times.
 
     A new mission starts (the resume waypoint) where adding the next waypoint would exceed
-    the usable flight time. Frames are neither reordered nor dropped.
+    the usable flight time. A last part of one frame takes frames from the part before it,
+    so no battery flies out for a single photo where two balanced parts fit. Frames are
+    neither reordered nor dropped.
     """
     gs = np.asarray(ground_station, float).reshape(3)[None]
     missions, times = [], []
@@ -96,7 +98,7 @@ def split_by_battery(plan: Plan, ground_station: NDArray, ac: Aircraft) -> tuple
         out = legs_time(gs, C, ac)  # ground station → each waypoint
         back = legs_time(C, gs, ac)  # each waypoint → ground station
         along = np.concatenate([[0.0], np.cumsum(legs_time(C[:-1], C[1:], ac))])  # first waypoint → each, in order
-        a, part = 0, 1
+        a, parts = 0, []
         while a < len(C):
             # flight time of the part a..b for every b ≥ a; it ends before the first b that no longer fits
             t = out[a] + (along[a:] - along[a]) + back[a:] + ac.capture_s * np.arange(1, len(C) - a + 1)
@@ -105,11 +107,21 @@ def split_by_battery(plan: Plan, ground_station: NDArray, ac: Aircraft) -> tuple
                                 f"battery ({ac.usable_s / 60:.1f} min usable)")
             over = np.flatnonzero(t > ac.usable_s)
             b = a + (int(over[0]) if len(over) else len(C) - a)  # exclusive
-            name = m.name if (a == 0 and b == len(C)) else f"{m.name} ({part})"
+            parts.append((a, b))
+            a = b
+        if len(parts) > 1 and parts[-1][1] - parts[-1][0] == 1:
+            a0, end = parts[-2][0], parts[-1][1]
+            for cut in range((a0 + end + 1) // 2, end - 1):  # the most even cut that both halves fit
+                times_ = [out[a] + along[b - 1] - along[a] + back[b - 1] + ac.capture_s * (b - a)
+                          for a, b in ((a0, cut), (cut, end))]
+                if max(times_) <= ac.usable_s:
+                    parts[-2:] = [(a0, cut), (cut, end)]
+                    break
+        for part, (a, b) in enumerate(parts, start=1):
+            name = m.name if len(parts) == 1 else f"{m.name} ({part})"
             missions.append(Mission(name, m.start + a, m.start + b))
             t_part, dist = mission_time(C[a:b], gs[0], ac)
             times.append(MissionTime(name, m.start + a, m.start + b, t_part, dist))
-            a, part = b, part + 1
     return replace(plan, missions=tuple(missions)), times
 
 

@@ -17,6 +17,7 @@ from numpy.typing import NDArray
 
 from ...errors import PlanError
 from ...model.scene import Scene
+from ..ground import MIN_HEIGHT_M, ground_z, has_terrain, targets_only, without_terrain
 from ..types import Mission, Plan
 from .airspace import FAA_LIMIT_M, AltitudeReport, check_altitude, sight_lines
 from .battery import AIRCRAFT, Aircraft, Rover, mission_time, split_by_battery, split_by_rover
@@ -31,13 +32,17 @@ class FlightSettings:
     aircraft (None: no line-of-sight check, e.g. indoors); ground_stations: (k, 3) candidate pilot
     positions (None: the four corners of the plan's region, the first being the south-west one);
     altitude_limit_m: FAA §107.51 limit (None: no check); aircraft: battery model of a drone, or of a
-    ground rover or walker (:class:`Rover`: no return leg, it resumes where it stopped), None: no battery check."""
+    ground rover or walker (:class:`Rover`: no return leg, it resumes where it stopped), None: no battery check;
+    min_height_m: least height of every waypoint and leg above the ground under it (the terrain, else the
+    model's base; None: no check, and none for a rover). The safety distance applies to everything but the
+    terrain, which has the minimum height instead."""
 
     safety_distance_m: float = 5.0
     vlos_radius_m: float | None = 500.0
     ground_stations: NDArray[np.float64] | None = None
     altitude_limit_m: float | None = FAA_LIMIT_M
     aircraft: Aircraft | Rover | None = field(default_factory=lambda: AIRCRAFT["p4p"])
+    min_height_m: float | None = MIN_HEIGHT_M
 
     def __post_init__(self) -> None:
         if not self.safety_distance_m > 0:
@@ -55,6 +60,8 @@ class FlightSettings:
                 raise PlanError("ground stations must be finite (x, y, z) points")
         if self.altitude_limit_m is not None and not self.altitude_limit_m > 0:
             raise PlanError(f"the altitude limit must be positive, got {self.altitude_limit_m}")
+        if self.min_height_m is not None and not (self.min_height_m >= 0 and np.isfinite(self.min_height_m)):
+            raise PlanError(f"the minimum height must be a number of metres ≥ 0, got {self.min_height_m}")
 
 
 @dataclass(frozen=True)
@@ -72,16 +79,22 @@ class MissionReport:
     line_of_sight_ok: bool | None
     safety_ok: bool
     altitude_ok: bool | None
+    height_ok: bool | None = None
 
     @property
     def ok(self) -> bool:
-        return self.safety_ok and all(v is not False for v in (self.battery_ok, self.line_of_sight_ok, self.altitude_ok))
+        return self.safety_ok and all(v is not False for v in (self.battery_ok, self.line_of_sight_ok, self.altitude_ok,
+                                                               self.height_ok))
 
 
 @dataclass(frozen=True)
 class FeasibilityReport:
     """The plan (split when made by :func:`plan_flights`), one :class:`MissionReport` per mission,
-    per-waypoint results ((n,) arrays, NaN/True where a check did not run) and every violation."""
+    per-waypoint results ((n,) arrays, NaN/True where a check did not run) and every violation.
+    height_above_ground_m: (n,) each waypoint's height above the ground under it (None without the check).
+    batteries: how many charges the missions take, flown in order: short flights (from different ground
+    stations) share a battery while their times add up to one battery's usable time; one per part for a rover;
+    None without an aircraft."""
 
     plan: Plan
     missions: tuple[MissionReport, ...]
@@ -90,6 +103,8 @@ class FeasibilityReport:
     in_sight: NDArray[np.bool_]
     altitude: AltitudeReport | None
     violations: tuple[str, ...]
+    height_above_ground_m: NDArray[np.float64] | None = None
+    batteries: int | None = None
 
     @property
     def ok(self) -> bool:
@@ -109,26 +124,30 @@ class FeasibilityReport:
             "ok": self.ok,
             "frames": len(self.plan),
             "total_time_s": num(self.total_time_s),
+            "batteries": self.batteries,
             "missions": [{"name": m.name, "frames": [m.start, m.stop], "resume_waypoint": m.start,
                           "ground_station": [round(float(v), 3) for v in m.ground_station], "time_s": num(m.time_s),
                           "distance_m": num(m.distance_m), "battery_ok": m.battery_ok,
                           "line_of_sight_ok": m.line_of_sight_ok, "safety_ok": m.safety_ok,
-                          "altitude_ok": m.altitude_ok} for m in self.missions],
+                          "altitude_ok": m.altitude_ok, "height_ok": m.height_ok} for m in self.missions],
             "waypoints": [{"frame": i, "name": str(self.plan.frame_names[i]), "clearance_m": num(self.safety.waypoint_m[i]),
                            "station_distance_m": num(self.station_distance_m[i]), "in_sight": bool(self.in_sight[i]),
-                           "over_altitude_limit_m": num(self.altitude.over_m[i]) if self.altitude else None}
+                           "over_altitude_limit_m": num(self.altitude.over_m[i]) if self.altitude else None,
+                           "height_above_ground_m": None if self.height_above_ground_m is None
+                           else num(self.height_above_ground_m[i])}
                           for i in range(len(self.plan))],
             "violations": list(self.violations),
         }
 
 
 def corner_stations(scene: Scene, plan: Plan, height_m: float = GROUND_STATION_HEIGHT_M) -> NDArray[np.float64]:
-    """(4, 3) the corners of the plan's region (its waypoints and the model), south-west first, then
-    south-east, north-east, north-west, ``height_m`` above the model's base."""
-    lo = np.minimum(plan.C_world.min(axis=0), scene.bounds()[0])
-    hi = np.maximum(plan.C_world.max(axis=0), scene.bounds()[1])
-    z = scene.bounds()[0][2] + height_m
-    return np.array([[lo[0], lo[1], z], [hi[0], lo[1], z], [hi[0], hi[1], z], [lo[0], hi[1], z]])
+    """(4, 3) the corners of the plan's region (its waypoints and the model's targets), south-west first, then
+    south-east, north-east, north-west, ``height_m`` above the ground at each (the terrain, else the model's base)."""
+    box = targets_only(scene).bounds()
+    lo = np.minimum(plan.C_world.min(axis=0), box[0])
+    hi = np.maximum(plan.C_world.max(axis=0), box[1])
+    xy = np.array([[lo[0], lo[1]], [hi[0], lo[1]], [hi[0], hi[1]], [lo[0], hi[1]]])
+    return np.column_stack([xy, ground_z(scene, xy) + height_m])
 
 
 def _stations(scene: Scene, plan: Plan, settings: FlightSettings) -> NDArray[np.float64]:
@@ -170,6 +189,28 @@ def split_by_line_of_sight(scene: Scene, plan: Plan, radius_m: float, stations: 
     return replace(plan, missions=tuple(missions))
 
 
+def merge_single_frames(plan: Plan) -> Plan:
+    """Each one-frame mission joined to the mission before it (else after it) when that one has the same ground
+    station: flying on to one more waypoint needs no flight of its own. The joined mission keeps the other's name."""
+    missions = list(plan.missions)
+    k = 0
+    while k < len(missions):
+        m = missions[k]
+        if m.stop - m.start == 1 and m.ground_station is not None:
+            for j in (k - 1, k + 1):
+                if 0 <= j < len(missions) and missions[j].ground_station == m.ground_station:
+                    o = missions[j]
+                    missions[min(j, k)] = Mission(o.name, min(o.start, m.start), max(o.stop, m.stop), o.ground_station)
+                    del missions[max(j, k)]
+                    k = max(min(j, k) - 1, 0)
+                    break
+            else:
+                k += 1
+        else:
+            k += 1
+    return plan if len(missions) == len(plan.missions) else replace(plan, missions=tuple(missions))
+
+
 def _split_battery(plan: Plan, default_station: NDArray, aircraft: Aircraft) -> Plan:
     """Battery split of each mission from its own ground station (the default one where it has none)."""
     out = []
@@ -201,7 +242,7 @@ def plan_flights(scene: Scene, plan: Plan, settings: FlightSettings) -> Feasibil
     """Split ``plan`` into missions that keep line of sight and fit a battery, then check it."""
     stations = _stations(scene, plan, settings)
     if settings.vlos_radius_m is not None:
-        plan = split_by_line_of_sight(scene, plan, settings.vlos_radius_m, stations)
+        plan = merge_single_frames(split_by_line_of_sight(scene, plan, settings.vlos_radius_m, stations))
     if isinstance(settings.aircraft, Rover):
         plan = split_by_rover(plan, settings.aircraft)[0]
     elif settings.aircraft is not None:
@@ -215,7 +256,7 @@ def check_plan(scene: Scene, plan: Plan, settings: FlightSettings) -> Feasibilit
         raise PlanError("the plan has no frames to check")
     default = _stations(scene, plan, settings)[0]
     station_of = [np.asarray(m.ground_station if m.ground_station is not None else default, float) for m in plan.missions]
-    safety = check_safety(scene, plan, settings.safety_distance_m)
+    safety = check_safety(without_terrain(scene), plan, settings.safety_distance_m)
     violations = list(safety.violations)
     dist = np.full(len(plan), np.nan)
     in_sight = np.ones(len(plan), bool)
@@ -237,8 +278,13 @@ def check_plan(scene: Scene, plan: Plan, settings: FlightSettings) -> Feasibilit
             violations.append(f"{_span(a, b)} hidden from the ground station by the model")
     altitude = None
     if settings.altitude_limit_m is not None:
-        altitude = check_altitude(scene, plan, settings.altitude_limit_m)
+        ground = ground_z(scene, plan.C_world) if has_terrain(scene) else None  # over terrain, the ground under each
+        altitude = check_altitude(scene, plan, settings.altitude_limit_m, ground_z=ground)
         violations += altitude.violations
+    above, low_wp, low_leg = None, np.zeros(len(plan), bool), np.zeros(max(len(plan) - 1, 0), bool)
+    if settings.min_height_m is not None and not isinstance(settings.aircraft, Rover):
+        above, low_wp, low_leg, found = check_min_height(scene, plan, settings.min_height_m)
+        violations += found
     reports = []
     for k, m in enumerate(plan.missions):
         sl = slice(m.start, m.stop)
@@ -265,5 +311,58 @@ def check_plan(scene: Scene, plan: Plan, settings: FlightSettings) -> Feasibilit
         safety_ok = bool((safety.waypoint_m[sl] >= settings.safety_distance_m).all()
                          and not (seg < settings.safety_distance_m).any())
         alt_ok = None if altitude is None else bool((altitude.over_m[sl] <= 0).all())
-        reports.append(MissionReport(m.name, m.start, m.stop, station_of[k], t, d, ok_battery, los_ok[k], safety_ok, alt_ok))
-    return FeasibilityReport(plan, tuple(reports), safety, dist, in_sight, altitude, tuple(violations))
+        height_ok = None if above is None else bool(not low_wp[sl].any() and not low_leg[m.start:max(m.stop - 1, m.start)].any())
+        reports.append(MissionReport(m.name, m.start, m.stop, station_of[k], t, d, ok_battery, los_ok[k], safety_ok, alt_ok,
+                                     height_ok))
+    return FeasibilityReport(plan, tuple(reports), safety, dist, in_sight, altitude, tuple(violations), above,
+                             battery_count(reports, settings.aircraft))
+
+
+def battery_count(missions, aircraft) -> int | None:
+    """Charges for the missions flown in order: a battery takes consecutive flights while their times add up to its
+    usable time (a rover's parts are one battery each)."""
+    if aircraft is None:
+        return None
+    if isinstance(aircraft, Rover):
+        return sum(m.stop > m.start for m in missions)
+    count, left = 0, 0.0
+    for m in missions:
+        if m.time_s is None:
+            continue
+        if count == 0 or m.time_s > left:
+            count, left = count + 1, aircraft.usable_s
+        left -= m.time_s
+    return count
+
+
+LEG_SAMPLE_M = 0.5  # legs are checked against uneven terrain at points this far apart
+
+
+def check_min_height(scene: Scene, plan: Plan, min_height_m: float
+                     ) -> tuple[NDArray[np.float64], NDArray[np.bool_], NDArray[np.bool_], list[str]]:
+    """Each waypoint's height above the ground under it, which waypoints and which legs within a mission come lower
+    than ``min_height_m``, and the violations. Over flat ground a leg is as high as its lower end; over terrain
+    it is sampled every ``LEG_SAMPLE_M``."""
+    C = plan.C_world
+    above = C[:, 2] - ground_z(scene, C[:, :2])
+    tol = 1e-6
+    low_wp = above < min_height_m - tol
+    violations = [f"{_span(a, b)} less than {min_height_m:g} m above the ground (lowest {above[a:b].min():+.2f} m)"
+                  for a, b in _runs(low_wp)]
+    low_leg = np.zeros(max(len(C) - 1, 0), bool)
+    if has_terrain(scene):
+        legs = [i for m in plan.missions for i in range(m.start, max(m.stop - 1, m.start))]
+        if legs:
+            legs = np.asarray(legs)
+            n = np.maximum(2, np.ceil(np.linalg.norm(C[legs + 1] - C[legs], axis=1) / LEG_SAMPLE_M).astype(int) + 1)
+            owner = np.repeat(np.arange(len(legs)), n)
+            t = np.concatenate([np.linspace(0.0, 1.0, k) for k in n])
+            P = C[legs[owner]] + t[:, None] * (C[legs[owner] + 1] - C[legs[owner]])
+            clear = np.full(len(legs), np.inf)
+            np.minimum.at(clear, owner, P[:, 2] - ground_z(scene, P[:, :2]))
+            bad = clear < min_height_m - tol
+            bad &= ~(low_wp[legs] | low_wp[legs + 1])  # a low end is reported already
+            low_leg[legs[bad]] = True
+            violations += [f"leg {legs[j]}→{legs[j] + 1} comes down to {clear[j]:+.2f} m above the ground "
+                           f"(minimum {min_height_m:g} m)" for j in np.flatnonzero(bad)]
+    return above, low_wp, low_leg, violations

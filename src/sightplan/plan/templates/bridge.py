@@ -6,8 +6,11 @@ every point of a piece is ``offset_m`` from its axis segment), the camera level 
 looking perpendicular at the axis; frames are spread evenly along the pass no more than
 s_h apart (eq. 11 with the horizontal field of view at distance ``offset_m``, measured
 from the axis: the structure's near edge is closer, where the overlap is lower). The side
-passes are at ``heights_m``, by default layers from the model's base to its top no more
-than s_v apart (eq. 11, vertical field of view, distance ``offset_m``).
+passes are at ``heights_m``, by default layers no more than s_v apart (eq. 11, vertical
+field of view, distance ``offset_m``) from ``min_height_m`` above the highest ground under
+the passes (or the targets' base, if higher) to the targets' top. A pass lower than
+``min_height_m`` above the ground is refused, the under-deck pass included. Frames that
+see no target are dropped unless ``drop_blind`` is False.
 
 The under-deck pass runs along the axis itself at ``deck_z − clearance_below_m``, the
 camera looking straight up (pitch +90°, heading the flight direction: tilted up from
@@ -35,10 +38,12 @@ from numpy.typing import ArrayLike, NDArray
 from ...camera.models import Camera, PinholeCamera
 from ...errors import PlanError
 from ...model.scene import Scene
+from ..aim import drop_blind_frames
 from ..checks.safety import point_distances, segment_distances
+from ..ground import MIN_HEIGHT_M, ground_z, targets_only
 from ..poses import R_from_gimbal
 from ..types import Mission, Plan
-from .facade import _positions
+from .facade import _positions, _valid_min_height, layer_heights
 from .spacing import waypoint_spacing
 
 CLEARANCE_BELOW_M = 3.0
@@ -132,7 +137,8 @@ def deck_underside(scene: Scene, xy: NDArray, clearance_m: float) -> NDArray[np.
 
 def bridge(scene: Scene, camera: Camera, axis_xy: ArrayLike, offset_m: float, heights_m: list[float] | None = None,
            under_deck: bool = True, overlap: float = 0.8, deck_z: float | None = None,
-           clearance_below_m: float = CLEARANCE_BELOW_M) -> Plan:
+           clearance_below_m: float = CLEARANCE_BELOW_M, min_height_m: float = MIN_HEIGHT_M,
+           drop_blind: bool = True) -> Plan:
     """Side passes along ``axis_xy`` at ``offset_m`` and ``heights_m``, plus an under-deck pass; see the module docstring."""
     if not isinstance(camera, PinholeCamera):
         raise PlanError("a bridge plan needs a perspective (pinhole) camera")
@@ -140,26 +146,38 @@ def bridge(scene: Scene, camera: Camera, axis_xy: ArrayLike, offset_m: float, he
         raise PlanError(f"the offset from the bridge axis must be a positive number of metres, got {offset_m}")
     P, u = _axis(axis_xy)
     d = float(offset_m)
-    lo, hi = scene.bounds()
+    min_h = _valid_min_height(min_height_m)
+    lo, hi = targets_only(scene).bounds()
     s_h = waypoint_spacing(d, camera.hfov_deg, overlap)
     s_v = waypoint_spacing(d, camera.vfov_deg, overlap)
+    sides = [(side, sign, *_sample(_offset(P, u, sign * d), s_h)) for side, sign in (("left", 1.0), ("right", -1.0))]
+    floor = float(ground_z(scene, np.concatenate([xy for _, _, xy, _, _ in sides])).max()) + min_h
     if heights_m is None:
-        heights = lo[2] + _positions(hi[2] - lo[2], s_v)
+        heights = layer_heights(max(float(lo[2]), floor), float(hi[2]), s_v)
     else:
         heights = np.asarray(heights_m, float).reshape(-1)
         if not len(heights) or not np.isfinite(heights).all():
             raise PlanError("give at least one finite height for the bridge's side passes")
+        if heights.min() < floor - 1e-6:
+            raise PlanError(f"bridge pass height {heights.min():g} m is below the minimum height, {min_h:g} m above "
+                            f"the ground (z = {floor:.2f} m); raise it")
     passes = []  # (name, (n, 3) centres in the axis's direction, (n,) heading, (n,) pitch, (n,) heading if reversed)
-    for side, sign, zs in (("left", 1.0, heights), ("right", -1.0, heights[::-1])):
-        xy, k, _ = _sample(_offset(P, u, sign * d), s_h)
+    for side, sign, xy, k, _ in sides:
+        zs = heights if sign > 0 else heights[::-1]
         look = -sign * np.stack([-u[k, 1], u[k, 0]], axis=1)
         h = np.degrees(np.arctan2(look[:, 0], look[:, 1])) % 360.0
         for z in zs:
             passes.append((f"bridge {side} {z:.1f} m", np.column_stack([xy, np.full(len(xy), z)]), h, np.zeros(len(xy)), h))
     params = {"template": "bridge", "axis_xy": P.tolist(), "offset_m": d, "heights_m": [float(z) for z in heights],
-              "under_deck": bool(under_deck), "overlap": overlap, "spacing_along_m": s_h, "spacing_vertical_m": s_v}
+              "under_deck": bool(under_deck), "overlap": overlap, "spacing_along_m": s_h, "spacing_vertical_m": s_v,
+              "min_height_m": min_h}
     if under_deck:
         passes.append(_under_deck(scene, camera, P, u, overlap, deck_z, clearance_below_m, params))
+        under = passes[-1][1]
+        low = float(ground_z(scene, under).max()) + min_h
+        if under[0, 2] < low - 1e-6:
+            raise PlanError(f"the under-deck pass at z = {under[0, 2]:.2f} m is below the minimum height, {min_h:g} m "
+                            f"above the ground (z = {low:.2f} m); give another deck_z, or under_deck=False")
     C, heading, pitch, missions = [], [], [], []
     for j, (name, c, h, p, h_back) in enumerate(passes):
         if j % 2:  # snake: every other pass flown from the axis's last point back to its first
@@ -169,8 +187,9 @@ def bridge(scene: Scene, camera: Camera, axis_xy: ArrayLike, offset_m: float, he
         heading.extend(h.tolist())
         pitch.extend(p.tolist())
     C = np.asarray(C)
-    return Plan.build(camera, R_from_gimbal(np.asarray(heading), np.asarray(pitch), 0.0), C, missions=tuple(missions),
+    plan = Plan.build(camera, R_from_gimbal(np.asarray(heading), np.asarray(pitch), 0.0), C, missions=tuple(missions),
                       waypoints=C, parameters=params)
+    return drop_blind_frames(scene, plan, "bridge plan") if drop_blind else plan
 
 
 def _under_deck(scene: Scene, camera: PinholeCamera, P: NDArray, u: NDArray, overlap: float, deck_z: float | None,

@@ -3,13 +3,18 @@
 ``footprint="box"``: each side of the model's bounding box gets a vertical grid of
 waypoints at g, with columns every s_h and layers every s_v (eq. 11 with the horizontal
 and vertical fields of view). Columns are spread evenly over the side's length and layers
-from the box's bottom to its top, so neither spacing exceeds eq. 11. A top row at g above
-the roof looks down at 45°; the first and last column of each side turn 45° toward their
-corner. The other views are canonical (perpendicular to the facade). Each side is flown
-as a snake, column by column, one mission per side, sides anticlockwise from the south.
+from the bottom row to the box's top, so neither spacing exceeds eq. 11. The box is that
+of the model's targets: occluders (terrain, furniture, site objects) do not widen it. The
+bottom row stands ``min_height_m`` above the highest ground under the side's columns (the
+terrain, else the model's base), or at the targets' base where that is higher. A top row at
+g above the roof looks down at 45°; the first and last column of each side turn 45° inward,
+toward the middle of their side. The other views are canonical (perpendicular to the
+facade). Each side is flown as a snake, column by column, one mission per side, sides
+anticlockwise from the south. Frames that see no target are dropped
+(:func:`~sightplan.plan.aim.drop_blind_frames`) unless ``drop_blind`` is False.
 
 ``footprint="outline"``: the same grid on the model's real outline instead of its box. The
-outline is the exterior of the union of all triangles projected to XY (shapely, which
+outline is the exterior of the union of the targets' triangles projected to XY (shapely, which
 ifcopenshell depends on), with gaps narrower than g/10 closed and details within g/100
 simplified away. Each edge's parallel offset at g is trimmed where it comes closer than g
 to another edge (inside corners, narrow notches), so every waypoint is g from its own
@@ -18,7 +23,8 @@ grows by g/100 so that this still holds. Columns are spread evenly along each tr
 offset, the cameras look perpendicular to their edge, the top row and the turned end
 columns are as for the box. One mission per edge, edges anticlockwise from the one whose
 offset lies farthest south; a footprint in several parts is flown part by part
-(southernmost first), parts lying in another part's courtyard are skipped.
+(southernmost first), parts lying in another part's courtyard are skipped. Each edge's
+bottom row stands ``min_height_m`` above the highest ground under its columns.
 """
 
 from __future__ import annotations
@@ -32,6 +38,8 @@ from numpy.typing import NDArray
 from ...camera.models import Camera, PinholeCamera
 from ...errors import PlanError
 from ...model.scene import Scene
+from ..aim import drop_blind_frames
+from ..ground import MIN_HEIGHT_M, height_floor, targets_only
 from ..poses import R_from_gimbal
 from ..types import Mission, Plan
 from .spacing import waypoint_spacing
@@ -169,23 +177,36 @@ def _outline_sides(scene: Scene, g: float, s_h: float) -> list[tuple]:
     return sides
 
 
+def _valid_min_height(min_height_m: float) -> float:
+    if not (min_height_m >= 0 and math.isfinite(min_height_m)):
+        raise PlanError(f"the minimum height must be a number of metres ≥ 0, got {min_height_m}")
+    return float(min_height_m)
+
+
+def layer_heights(floor: float, top: float, spacing: float) -> NDArray[np.float64]:
+    """Heights from ``floor`` to ``top`` no more than ``spacing`` apart (just ``floor`` when it is not below ``top``)."""
+    return floor + _positions(top - floor, spacing) if top > floor else np.array([floor])
+
+
 def facade_grid(scene: Scene, camera: Camera, safety_distance_m: float, overlap: float = 0.8,
-                top_row: bool = True, oblique_edges: bool = True, footprint: Literal["box", "outline"] = "box") -> Plan:
-    """A facade-grid plan around ``scene``'s bounding box or real outline; see the module docstring."""
+                top_row: bool = True, oblique_edges: bool = True, footprint: Literal["box", "outline"] = "box",
+                min_height_m: float = MIN_HEIGHT_M, drop_blind: bool = True) -> Plan:
+    """A facade-grid plan around the bounding box or real outline of ``scene``'s targets; see the module docstring."""
     if not isinstance(camera, PinholeCamera):
         raise PlanError("a facade grid needs a perspective (pinhole) camera")
     if footprint not in ("box", "outline"):
         raise PlanError(f"the footprint must be 'box' or 'outline', got {footprint!r}")
-    lo, hi = scene.bounds()
+    min_h = _valid_min_height(min_height_m)
+    structure = targets_only(scene)
+    lo, hi = structure.bounds()
     size = hi - lo
     if not (size > 1e-3).all():  # a model thinner than a millimetre in any direction has no facade to fly
         raise PlanError(f"the model's box has no extent to plan around ({size.round(3).tolist()} m)")
     g = float(safety_distance_m)
     s_h = waypoint_spacing(g, camera.hfov_deg, overlap)
     s_v = waypoint_spacing(g, camera.vfov_deg, overlap)
-    layers = lo[2] + _positions(size[2], s_v)
     if footprint == "outline":
-        sides = _outline_sides(scene, g, s_h)
+        sides = _outline_sides(structure, g, s_h)
     else:
         # sides anticlockwise from the south: (name, start corner, along-side unit vector, columns, outward normal)
         sides = [
@@ -196,21 +217,25 @@ def facade_grid(scene: Scene, camera: Camera, safety_distance_m: float, overlap:
         ]
         sides = [(f"facade {name}", *rest) for name, *rest in sides]
     C, heading, pitch, missions = [], [], [], []
+    floors = []
     for name, start, along, cols, normal in sides:
         look = -normal
         base_heading = math.degrees(math.atan2(look[0], look[1]))
+        column_xy = start + cols[:, None] * along + g * normal
+        floor = max(float(lo[2]), height_floor(scene, column_xy, min_h))
+        floors.append(floor)
+        layers = layer_heights(floor, float(hi[2]), s_v)
         first = len(C)
-        for j, u in enumerate(cols):
-            xy = start + u * along + g * normal
+        for j, xy in enumerate(column_xy):
             turn = 0.0
             if oblique_edges and len(cols) > 1 and j in (0, len(cols) - 1):
-                # turn toward the corner: toward −along at the start, +along at the end (heading is clockwise)
-                toward = -along if j == 0 else along
+                # turn inward, toward the side's middle: +along at the start, −along at the end (heading is clockwise)
+                toward = along if j == 0 else -along
                 turn = OBLIQUE_DEG if (look[0] * toward[1] - look[1] * toward[0]) < 0 else -OBLIQUE_DEG
             zs = list(layers) if j % 2 == 0 else list(layers[::-1])  # snake: up one column, down the next
             rows = [(z, 0.0) for z in zs]
             if top_row:
-                top = (hi[2] + g, -OBLIQUE_DEG)
+                top = (max(hi[2] + g, floor), -OBLIQUE_DEG)
                 rows = rows + [top] if j % 2 == 0 else [top] + rows
             for z, p in rows:
                 C.append([xy[0], xy[1], z])
@@ -219,7 +244,9 @@ def facade_grid(scene: Scene, camera: Camera, safety_distance_m: float, overlap:
         missions.append(Mission(name, first, len(C)))
     C = np.asarray(C)
     R = R_from_gimbal(np.asarray(heading), np.asarray(pitch), 0.0)
-    return Plan.build(camera, R, C, missions=tuple(missions), waypoints=C,
+    plan = Plan.build(camera, R, C, missions=tuple(missions), waypoints=C,
                       parameters={"template": "facade_grid", "safety_distance_m": g, "overlap": overlap,
                                   "spacing_horizontal_m": s_h, "spacing_vertical_m": s_v, "top_row": top_row,
-                                  "oblique_edges": oblique_edges, "footprint": footprint})
+                                  "oblique_edges": oblique_edges, "footprint": footprint, "min_height_m": min_h,
+                                  "bottom_row_z_m": float(min(floors))})
+    return drop_blind_frames(scene, plan, "facade grid") if drop_blind else plan

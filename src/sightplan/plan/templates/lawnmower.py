@@ -7,19 +7,24 @@ import numpy as np
 from ...camera.models import Camera, PinholeCamera
 from ...errors import PlanError
 from ...model.scene import Scene
+from ..aim import drop_blind_frames
+from ..ground import MIN_HEIGHT_M, ground_z, targets_only
 from ..poses import R_from_gimbal
 from ..types import Mission, Plan
-from .facade import _positions
+from .facade import _positions, _valid_min_height
 from .spacing import waypoint_spacing
 
 
 def lawnmower(scene: Scene, camera: Camera, altitude_m: float | None = None, gsd_m: float | None = None,
               front_overlap: float = 0.8, side_overlap: float = 0.7, margin_m: float = 0.0,
-              oblique_pitch_deg: float | None = None) -> Plan:
-    """Nadir frames on north–south lines over the footprint (plus ``margin_m``), flown as a snake.
+              oblique_pitch_deg: float | None = None, min_height_m: float = MIN_HEIGHT_M,
+              drop_blind: bool = True) -> Plan:
+    """Nadir frames on north–south lines over the targets' footprint (plus ``margin_m``), flown as a snake.
 
-    altitude_m: height of the camera above the model's lowest point; or ``gsd_m``, the
-    ground sampling distance wanted on the model's top (m/px), which sets the altitude.
+    altitude_m: height of the camera above the targets' base (their lowest point); or
+    ``gsd_m``, the ground sampling distance wanted on the targets' top (m/px), which sets
+    the altitude. A grid less than ``min_height_m`` above the ground under it is refused.
+    Frames that see no target are dropped unless ``drop_blind`` is False.
     Spacing follows eq. 11 at the distance to the model's top, where overlap is least:
     along a line with the vertical field of view (the image's height lies along the line),
     between lines with the horizontal one. The image's top points north.
@@ -37,8 +42,11 @@ def lawnmower(scene: Scene, camera: Camera, altitude_m: float | None = None, gsd
         raise PlanError(f"the oblique pitch must look down, between -90° and 0°, got {oblique_pitch_deg}")
     if (altitude_m is None) == (gsd_m is None):
         raise PlanError("give either an altitude or a ground sampling distance")
-    lo, hi = scene.bounds()
+    min_h = _valid_min_height(min_height_m)
+    structure = targets_only(scene)
+    lo, hi = structure.bounds()
     lo, hi = lo.copy(), hi.copy()
+    base = float(lo[2])
     lo[:2] -= margin_m
     hi[:2] += margin_m
     if altitude_m is None:
@@ -46,21 +54,25 @@ def lawnmower(scene: Scene, camera: Camera, altitude_m: float | None = None, gsd
             raise PlanError(f"the ground sampling distance must be positive, got {gsd_m}")
         clearance = gsd_m * camera.sampling_focal_px
         altitude_m = hi[2] - lo[2] + clearance
-    clearance = altitude_m - (hi[2] - scene.bounds()[0][2])
+    clearance = altitude_m - (hi[2] - base)
     if not clearance > 0:
         raise PlanError(f"altitude {altitude_m:.1f} m does not clear the model's top "
-                        f"({hi[2] - scene.bounds()[0][2]:.1f} m above its base)")
+                        f"({hi[2] - base:.1f} m above its base)")
     along = waypoint_spacing(clearance, camera.vfov_deg, front_overlap)
     across = waypoint_spacing(clearance, camera.hfov_deg, side_overlap)
     xs = lo[0] + _positions(hi[0] - lo[0], across)
     ys = lo[1] + _positions(hi[1] - lo[1], along)
-    z = scene.bounds()[0][2] + altitude_m
+    z = base + altitude_m
     C = np.array([[x, y, z] for j, x in enumerate(xs) for y in (ys if j % 2 == 0 else ys[::-1])])
+    floor = float(ground_z(scene, np.array([[x, y] for x in (lo[0], hi[0]) for y in (lo[1], hi[1])] + list(C[:, :2]))).max())
+    if z < floor + min_h - 1e-6:
+        raise PlanError(f"altitude {altitude_m:.1f} m is below the minimum height, {min_h:g} m above the ground "
+                        f"(z = {floor + min_h:.2f} m); raise it")
     R = R_from_gimbal(np.zeros(len(C)), np.full(len(C), -90.0), 0.0)
     missions = [Mission("lawn-mower", 0, len(C))]
     parameters = {"template": "lawnmower", "altitude_m": float(altitude_m), "clearance_m": float(clearance),
                   "gsd_on_top_m": clearance / camera.sampling_focal_px, "spacing_along_m": along, "spacing_across_m": across,
-                  "front_overlap": front_overlap, "side_overlap": side_overlap}
+                  "front_overlap": front_overlap, "side_overlap": side_overlap, "min_height_m": min_h}
     if oblique_pitch_deg is not None:
         # crossed lines: east–west, ``across`` apart in y; frames ``along`` apart in x, looking along the flight
         cross_y = lo[1] + _positions(hi[1] - lo[1], across)
@@ -71,4 +83,5 @@ def lawnmower(scene: Scene, camera: Camera, altitude_m: float | None = None, gsd
         C = np.concatenate([C, Cx])
         R = np.concatenate([R, R_from_gimbal(heading, np.full(len(Cx), float(oblique_pitch_deg)), 0.0)])
         parameters["oblique_pitch_deg"] = float(oblique_pitch_deg)
-    return Plan.build(camera, R, C, missions=tuple(missions), waypoints=C, parameters=parameters)
+    plan = Plan.build(camera, R, C, missions=tuple(missions), waypoints=C, parameters=parameters)
+    return drop_blind_frames(scene, plan, "lawn-mower grid") if drop_blind else plan
