@@ -11,7 +11,8 @@ PORT ?= 8000
 # - EGL: the OpenGL engine renders headless, on a GPU's driver or on Mesa's llvmpipe;
 # - chromium: the browser the tests open the HTML report in;
 # - npm: three.js for the report's 3D view;
-# - postgresql: the tests run the web server on a throw-away PostgreSQL cluster too.
+# - postgresql: the tests run the web server on a throw-away PostgreSQL cluster too;
+# - proj-data: the EGM96 geoid grid, for the WGS84 ellipsoidal heights of WPML and GeoJSON exports.
 
 $(STAMP): pyproject.toml web/package.json
 	@missing=""; \
@@ -19,6 +20,7 @@ $(STAMP): pyproject.toml web/package.json
 	command -v chromium >/dev/null || missing="$$missing chromium"; \
 	command -v npm >/dev/null || missing="$$missing npm"; \
 	ls /usr/lib/postgresql/*/bin/initdb >/dev/null 2>&1 || missing="$$missing postgresql"; \
+	ls /usr/share/proj/egm96_15.gtx >/dev/null 2>&1 || ls /usr/share/proj/us_nga_egm96_15.tif >/dev/null 2>&1 || missing="$$missing proj-data"; \
 	if [ -n "$$missing" ]; then \
 	  if [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null; then \
 	    apt-get update -q && DEBIAN_FRONTEND=noninteractive apt-get install -y -q --no-install-recommends $$missing; \

@@ -60,7 +60,10 @@ def main(argv=None) -> int:
     takeoff = corner_stations(scene, report.plan)[0]
     with tempfile.TemporaryDirectory() as tmp:
         for fmt in EXPORT_FORMATS:
-            timed(res, f"export {fmt}", lambda fmt=fmt: export_plan(report.plan, fmt, Path(tmp) / f"p.{fmt}", geo, takeoff))
+            # the facade grid is a Phantom 4 Pro plan, which no WPML aircraft carries: flown by a Mavic 3 Enterprise
+            aircraft = "m3e" if fmt == "wpml" else None
+            timed(res, f"export {fmt}", lambda fmt=fmt, a=aircraft: export_plan(report.plan, fmt, Path(tmp) / f"p.{fmt}",
+                                                                                geo, takeoff, aircraft=a))
     Path(args.out).write_text(json.dumps(res, indent=2))
     return 0
 

@@ -6,6 +6,9 @@ is compared photo by photo with numbers known without the exporter: the plan's c
 converting the file's latitude/longitude/height back with the georeference), the model headings
 plus the georeference's north offset (+30° for the topocentric one, −30° for the projected one,
 whose model +X is 30° left of grid east on the UTM central meridian) and the gimbal pitches.
+WPML's take-off reference and GeoJSON's heights are WGS84 ellipsoidal: the EGM96 undulation is
+subtracted before the georeference takes them back (tests/test_exports_spec.py checks it against
+NGA's published values).
 """
 
 from __future__ import annotations
@@ -20,6 +23,8 @@ from xml.etree import ElementTree as ET
 import numpy as np
 import pytest
 
+from geoid_support import require_geoid
+from sightplan import geoid
 from sightplan.camera import get_camera
 from sightplan.errors import PlanError
 from sightplan.export import EXPORT_FORMATS, export_plan
@@ -63,11 +68,16 @@ def angle_diff(a: float, b: float) -> float:
     return abs((a - b + 180.0) % 360.0 - 180.0)
 
 
-def check_photos(plan: Plan, georef: Georeference, offset: float, got: list[tuple[float, float, float, float, float]]):
-    """``got``: (lat, lon, height, heading, pitch) per photo in file order, compared with the plan's frames in order."""
+def check_photos(plan: Plan, georef: Georeference, offset: float, got: list[tuple[float, float, float, float, float]],
+                 ellipsoidal: bool = False):
+    """``got``: (lat, lon, height, heading, pitch) per photo in file order, compared with the plan's frames in order;
+    ``ellipsoidal``: the heights are WGS84 ellipsoidal (the EGM96 undulation is taken off)."""
     want = expected_photos(plan, offset)
     assert len(got) == len(want)
-    xyz = georef.from_geodetic([g[0] for g in got], [g[1] for g in got], [g[2] for g in got])
+    lat, lon, h = (np.array([g[k] for g in got], float) for k in range(3))
+    if ellipsoidal:
+        h = geoid.to_orthometric(lat, lon, h)
+    xyz = georef.from_geodetic(lat, lon, h)
     np.testing.assert_allclose(xyz, plan.C_world, atol=0.1)
     for (i, heading, pitch), g in zip(want, got):
         assert angle_diff(g[3], heading) < 0.01, (plan.frame_names[i], g[3], heading)
@@ -201,9 +211,22 @@ NS = {"kml": "http://www.opengis.net/kml/2.2", "wpml": "http://www.dji.com/wpmz/
 
 @pytest.mark.parametrize("kind", GEOREFS)
 def test_wpml_read_with_zipfile_and_elementtree(tmp_path, kind):
+    require_geoid()
     georef, offset = GEOREFS[kind]
     plan = facade_plan()
-    (path,) = export_plan(plan, "wpml", tmp_path / "facade.kmz", georef, TAKEOFF, speed_m_s=3.0)
+    paths = export_plan(plan, "wpml", tmp_path / "facade.kmz", georef, TAKEOFF, speed_m_s=3.0)
+    assert [p.name for p in paths] == ["facade_m01.kmz", "facade_m02.kmz"]  # a file per mission
+    photos, suffixes = [], []
+    for path in paths:
+        photos_of, suffixes_of = wpml_photos(path, georef)
+        photos += photos_of
+        suffixes += suffixes_of
+    check_photos(plan, georef, offset, photos)
+    assert suffixes == plan.frame_names.tolist()
+
+
+def wpml_photos(path: Path, georef: Georeference) -> tuple[list[tuple], list[str]]:
+    """(lat, lon, height in the georeference's datum, heading, pitch) and file suffix of every photo of one .kmz."""
     with zipfile.ZipFile(path) as z:
         assert set(z.namelist()) == {"wpmz/template.kml", "wpmz/waylines.wpml"}
         waylines = ET.fromstring(z.read("wpmz/waylines.wpml"))
@@ -216,9 +239,10 @@ def test_wpml_read_with_zipfile_and_elementtree(tmp_path, kind):
     assert cfg.findtext("wpml:droneInfo/wpml:droneEnumValue", namespaces=NS) == "77"  # the M3E camera's aircraft
     ref = template.findtext("kml:Document/wpml:missionConfig/wpml:takeOffRefPoint", namespaces=NS)
     lat0, lon0, h0 = map(float, ref.split(","))
+    h0 = float(geoid.to_orthometric(lat0, lon0, h0)[0])  # DJI's take-off reference height is ellipsoidal
     assert georef.from_geodetic(lat0, lon0, h0)[0] == pytest.approx(TAKEOFF, abs=0.01)
     folders = waylines.findall("kml:Document/kml:Folder", NS)
-    assert [f.findtext("wpml:waylineId", namespaces=NS) for f in folders] == ["0", "1"]
+    assert [f.findtext("wpml:waylineId", namespaces=NS) for f in folders] == ["0"]
     photos, suffixes = [], []
     for folder in folders:
         assert folder.findtext("wpml:executeHeightMode", namespaces=NS) == "relativeToStartPoint"
@@ -246,8 +270,7 @@ def test_wpml_read_with_zipfile_and_elementtree(tmp_path, kind):
                 elif func == "takePhoto":
                     photos.append((lat, lon, height, heading, pitch))
                     suffixes.append(param.findtext("wpml:fileSuffix", namespaces=NS))
-    check_photos(plan, georef, offset, photos)
-    assert suffixes == plan.frame_names.tolist()
+    return photos, suffixes
 
 
 # -- Litchi CSV --------------------------------------------------------------------------------
@@ -335,11 +358,13 @@ def test_litchi_keeps_15_actions_per_row(tmp_path):
 KML = {"k": "http://www.opengis.net/kml/2.2"}
 
 
-def nadir_footprint_check(georef: Georeference, plan: Plan, ring_lonlat: list) -> None:
+def nadir_footprint_check(georef: Georeference, plan: Plan, ring_lonlat: list, ellipsoidal: bool = False) -> None:
     """The nadir frame's footprint on the take-off plane: a W·H/f by Himg·H/f rectangle centred under the camera."""
     cam = plan.camera_of(19)
     height = plan.C_world[19, 2] - TAKEOFF[2]
     ring = np.array(ring_lonlat, float)
+    if ellipsoidal:
+        ring[:, 2] = geoid.to_orthometric(ring[:, 1], ring[:, 0], ring[:, 2])
     xyz = georef.from_geodetic(ring[:, 1], ring[:, 0], ring[:, 2])
     assert xyz[0] == pytest.approx(xyz[-1])
     np.testing.assert_allclose(xyz[:, 2], TAKEOFF[2], atol=0.01)
@@ -395,6 +420,7 @@ def test_kml_read_with_elementtree(tmp_path, kind):
 
 @pytest.mark.parametrize("kind", GEOREFS)
 def test_geojson_read_with_json(tmp_path, kind):
+    require_geoid()
     georef, offset = GEOREFS[kind]
     plan = facade_plan()
     (path,) = export_plan(plan, "geojson", tmp_path / "facade.geojson", georef, TAKEOFF)
@@ -407,11 +433,11 @@ def test_geojson_read_with_json(tmp_path, kind):
     assert [f["properties"]["mission"] for f in by_kind["path"]] == ["west", "east"]
     photos = []
     for f in by_kind["waypoint"]:
-        lon, lat, h = f["geometry"]["coordinates"]  # RFC 7946: longitude first
+        lon, lat, h = f["geometry"]["coordinates"]  # RFC 7946: longitude first, the height ellipsoidal
         props = f["properties"]
         assert len(props["frames"]) == len(props["heading_deg"]) == len(props["pitch_deg"])
         photos += [(lat, lon, h, hd, p) for hd, p in zip(props["heading_deg"], props["pitch_deg"])]
-    check_photos(plan, georef, offset, photos)
+    check_photos(plan, georef, offset, photos, ellipsoidal=True)
     path_coords = [c for f in by_kind["path"] for c in f["geometry"]["coordinates"]]
     assert path_coords == [f["geometry"]["coordinates"] for f in by_kind["waypoint"]]
     prints = {f["properties"]["frame"]: f for f in by_kind["footprint"]}
@@ -419,7 +445,7 @@ def test_geojson_read_with_json(tmp_path, kind):
     ring = prints["frame_00019"]["geometry"]["coordinates"][0]
     x, y = np.array(ring)[:-1, 0], np.array(ring)[:-1, 1]
     assert np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y) > 0  # counter-clockwise exterior ring
-    nadir_footprint_check(georef, plan, ring)
+    nadir_footprint_check(georef, plan, ring, ellipsoidal=True)
 
 
 # -- refusals ----------------------------------------------------------------------------------
@@ -429,8 +455,8 @@ def test_pitch_out_of_range_names_the_frame(tmp_path):
     georef, _ = GEOREFS["topocentric"]
     plan = Plan.build(get_camera("m3e"), R_from_gimbal([0.0, 0.0], [-10.0, 45.0]), [[0, -5, 3], [1, -5, 3]],
                       frame_names=["low", "up45"])
-    for fmt in ("wpml", "litchi"):
-        with pytest.raises(PlanError, match=r"up45 have a gimbal pitch of \+45\.0°, outside .*-90° to \+30°"):
+    for fmt, top in (("wpml", 35), ("litchi", 30)):  # DJI WPML: the Mavic 3 Enterprise's gimbal, up to +35°
+        with pytest.raises(PlanError, match=rf"up45 have a gimbal pitch of \+45\.0°, outside .*-90° to \+{top}°"):
             export_plan(plan, fmt, tmp_path / f"x.{fmt}", georef, TAKEOFF)
     assert export_plan(plan, "qgc", tmp_path / "ok.plan", georef, TAKEOFF)  # QGroundControl: −90..+90
     items = json.loads((tmp_path / "ok.plan").read_text())["mission"]["items"]
@@ -439,6 +465,7 @@ def test_pitch_out_of_range_names_the_frame(tmp_path):
 
 
 def test_rolled_camera_is_refused_but_mapped(tmp_path):
+    require_geoid()  # GeoJSON's heights are ellipsoidal
     georef, _ = GEOREFS["topocentric"]
     plan = Plan.build(get_camera("m3e"), R_from_gimbal([0.0, 0.0], [-10.0, -10.0], [0.0, 5.0]), [[0, -5, 3], [1, -5, 3]],
                       frame_names=["level", "tilted"])
@@ -450,9 +477,11 @@ def test_rolled_camera_is_refused_but_mapped(tmp_path):
 
 
 def test_360_camera_exports_heading_only(tmp_path):
+    require_geoid()
     georef, offset = GEOREFS["topocentric"]
     plan = Plan.build(get_camera("theta-z1"), R_from_gimbal([40.0], [35.0]), [[0, -5, 3]])
-    (path,) = export_plan(plan, "wpml", tmp_path / "pano.kmz", georef, TAKEOFF)
+    # a 360° camera on a DJI aircraft: the aircraft is named (no DJI aircraft carries it)
+    (path,) = export_plan(plan, "wpml", tmp_path / "pano.kmz", georef, TAKEOFF, aircraft="m3e")
     with zipfile.ZipFile(path) as z:
         root = ET.fromstring(z.read("wpmz/waylines.wpml"))
     pitch = root.findtext(".//wpml:gimbalPitchRotateAngle", namespaces=NS)

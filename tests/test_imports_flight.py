@@ -17,6 +17,7 @@ import pytest
 from pyproj import Geod
 
 from conftest import shared_file
+from geoid_support import require_geoid
 from sightplan.errors import PlanError
 from sightplan.export import export_plan
 from sightplan.geo import Georeference
@@ -191,6 +192,8 @@ def test_wpl_real_file_with_pymavlink():
 @pytest.mark.parametrize("fmt, ext", [("qgc", "plan"), ("wpml", "kmz"), ("wpl", "waypoints")])
 @pytest.mark.parametrize("kind", GEOREFS)
 def test_export_import_round_trip(tmp_path, fmt, ext, kind):
+    if fmt == "wpml":
+        require_geoid()  # DJI's take-off reference height is ellipsoidal
     georef, _ = GEOREFS[kind]
     plan = facade_plan()
     paths = export_plan(plan, fmt, tmp_path / f"facade.{ext}", georef, TAKEOFF)
@@ -211,26 +214,34 @@ def test_export_import_round_trip(tmp_path, fmt, ext, kind):
 
 
 def test_wpml_import_without_georeference_uses_the_take_off_point(tmp_path):
+    require_geoid()
     georef, _ = GEOREFS["projected"]
     plan = facade_plan()
-    (path,) = export_plan(plan, "wpml", tmp_path / "facade.kmz", georef, TAKEOFF)
-    back = load_plan(path)  # camera from the payload (Mavic 3E), frame: topocentric at the take-off point
-    assert back.camera_of(0) == plan.camera_of(0)
-    own = plan_georef(back)
-    assert own.kind == "topocentric" and own.north_deg == 0.0
-    np.testing.assert_allclose(back.parameters["takeoff_m"], 0.0, atol=1e-6)
-    lat, lon, h = georef.to_geodetic(plan.C_world)
-    np.testing.assert_allclose(back.C_world, own.from_geodetic(lat, lon, h), atol=0.1)
-    # the same true headings in both frames
+    paths = export_plan(plan, "wpml", tmp_path / "facade.kmz", georef, TAKEOFF)  # a .kmz per mission
     h0, _, _ = gimbal_from_R(plan.R_world_camera)
-    want = georef.true_heading(plan.C_world, h0)
-    assert max(angle_diff(a, b) for a, b in zip(true_headings(back), want)) < 0.01
+    start = 0
+    for path in paths:
+        back = load_plan(path)  # camera from the payload (Mavic 3E), frame: topocentric at the take-off point
+        assert back.camera_of(0) == plan.camera_of(0)
+        own = plan_georef(back)
+        assert own.kind == "topocentric" and own.north_deg == 0.0
+        np.testing.assert_allclose(back.parameters["takeoff_m"], 0.0, atol=1e-6)
+        part = slice(start, start + len(back))
+        start += len(back)
+        lat, lon, h = georef.to_geodetic(plan.C_world[part])
+        np.testing.assert_allclose(back.C_world, own.from_geodetic(lat, lon, h), atol=0.1)
+        # the same true headings in both frames
+        want = georef.true_heading(plan.C_world[part], h0[part])
+        assert max(angle_diff(a, b) for a, b in zip(true_headings(back), want)) < 0.01
+    assert start == len(plan)
 
 
 def test_wpml_template_only(tmp_path):
+    require_geoid()
     georef, _ = GEOREFS["projected"]
     plan = facade_plan()
-    (path,) = export_plan(plan, "wpml", tmp_path / "facade.kmz", georef, TAKEOFF)
+    (path,) = export_plan(plan, "wpml", tmp_path / "facade.kmz", georef, TAKEOFF, mission=1)  # one .kmz: "east"
+    plan = plan.subset(np.arange(plan.missions[1].start, plan.missions[1].stop))
     only = tmp_path / "template_only.kmz"
     with zipfile.ZipFile(path) as z, zipfile.ZipFile(only, "w") as out:
         out.writestr("wpmz/template.kml", z.read("wpmz/template.kml"))

@@ -1,5 +1,5 @@
 """The sample project of ``sightplan serve --sample`` (the quick start's main job): the bundled Duplex, the README's
-facade grid (288 frames at g = 8 m, 80 % overlap) and its evaluation, made once per data folder."""
+facade grid (216 frames at g = 8 m, 80 % overlap) and its evaluation, made once per data folder."""
 
 from __future__ import annotations
 
@@ -40,7 +40,7 @@ def test_sample_project_is_made_once_and_evaluated(tmp_path):
         model = c.get(f"/api/projects/{pid}/models").json()[0]
         assert model["status"] == "ready" and model["targets"] == 154
         plan = c.get(f"/api/projects/{pid}/plans").json()[0]
-        assert plan["versions"][0]["frames"] == 288 and plan["versions"][0]["missions"] == 4
+        assert plan["versions"][0]["frames"] == 216 and plan["versions"][0]["missions"] == 4
         ev = c.get(f"/api/projects/{pid}/evaluations").json()[0]
         data = c.get(f"/api/projects/{pid}/plans/{plan['id']}/versions/1").json()
     scene, _ = load_model("sample")
@@ -75,7 +75,7 @@ def test_serve_sample_starts_with_the_project_ready(tmp_path):
 
 def test_cancelling_a_running_evaluation_stops_it_and_leaves_no_result(tmp_path):
     with TestClient(create_app(ServerConfig(data_dir=tmp_path / "d"))) as c:
-        job_id = ensure_sample_project(c.app.state.sightplan, scale=0.5)  # 288 frames of about 0.15 s each
+        job_id = ensure_sample_project(c.app.state.sightplan, scale=0.5)  # 216 frames of about 0.15 s each
         deadline = time.monotonic() + 60
         while (job := c.get(f"/api/jobs/{job_id}").json())["progress_done"] < 1:
             assert job["status"] in ("queued", "running") and time.monotonic() < deadline
@@ -86,7 +86,7 @@ def test_cancelling_a_running_evaluation_stops_it_and_leaves_no_result(tmp_path)
         while (job := c.get(f"/api/jobs/{job_id}").json())["status"] not in ("done", "failed"):
             assert time.monotonic() - t0 < 10, "the evaluation did not stop"
             time.sleep(0.05)
-        assert job["status"] == "failed" and job["error"] == "cancelled" and job["progress_done"] < 288
+        assert job["status"] == "failed" and job["error"] == "cancelled" and job["progress_done"] < 216
         pid = c.get("/api/projects").json()[0]["id"]
         ev = c.get(f"/api/projects/{pid}/evaluations").json()[0]
         assert ev["status"] == "failed" and ev["metrics"] is None

@@ -38,8 +38,9 @@ def client(tmp_path_factory):
 
 def test_bridge_template_gives_the_hand_counted_frames(client):
     """A 60 × 10 m deck with its underside at 8 m on two piers; passes 15 m off the axis. Side passes: frames
-    2·15·0.75·0.2 = 4.5 m apart → 15 per pass, 5 layers per side → 150 frames. Under the deck, 3 m below it (the
-    default clearance): 2·3·0.5·0.2 = 0.6 m apart → 60 / 0.6 + 1 = 101 frames. 251 in all."""
+    2·15·0.75·0.2 = 4.5 m apart → 15 per pass, 4 layers per side (2·15·0.5·0.2 = 3 m apart from the 2 m minimum
+    height to the 10 m top) → 120 frames. Under the deck, 3 m below it (the default clearance): 2·3·0.5·0.2 = 0.6 m
+    apart → 60 / 0.6 + 1 = 101 frames. 221 in all."""
     pid = client.post("/api/projects", json={"name": "bridge"}).json()["id"]
     mesh = trimesh.util.concatenate([box((60, 10, 2), (0, -5, 8)), box((4, 2, 8), (28, 3, 0)),
                                      box((4, 2, 8), (28, -5, 0))])
@@ -51,7 +52,7 @@ def test_bridge_template_gives_the_hand_counted_frames(client):
         "aircraft": "m300", "vlos_radius": 0, "altitude_limit": 0})
     assert r.status_code == 201, r.text
     plan = client.get(f"/api/projects/{pid}/plans/{r.json()['id']}/versions/1").json()
-    assert len(plan["frames"]) == 251 and plan["parameters"]["template"] == "bridge"
+    assert len(plan["frames"]) == 221 and plan["parameters"]["template"] == "bridge"
     assert plan["parameters"]["deck_z"] == pytest.approx(8.0) and plan["parameters"]["under_deck_z"] == pytest.approx(5.0)
     bad = client.post(f"/api/projects/{pid}/plans", json={"model_id": mid, "template": "bridge", "axis": [[0, 0]]})
     assert bad.status_code == 422 and "axis" in bad.json()["detail"]

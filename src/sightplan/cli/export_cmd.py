@@ -7,6 +7,7 @@ from typing import Annotated, Literal
 
 import typer
 
+from .camera_opts import CAMERA_FORMS, FocalOpt, cli_camera
 from .errors import friendly_errors
 from .flight import parse_point
 from .main import app, console
@@ -44,26 +45,30 @@ def export_command(
     origin_point: Annotated[str, typer.Option(help="Model point 'x,y,z' that --origin gives the position of")] = "0,0,0",
     north: Annotated[float, typer.Option(
         help="With --origin: true heading of the model's +Y axis (° clockwise from north)")] = 0.0,
-    takeoff: Annotated[str | None, typer.Option(help="Take-off point 'x,y,z' on the ground (model frame), the zero of "
-                                                "relative altitudes. Default: the plan's first ground station")] = None,
+    takeoff: Annotated[str | None, typer.Option(help="Take-off point 'x,y,z' on the ground (model frame) of every "
+                                                "mission, the zero of relative altitudes. Default: each mission's own "
+                                                "ground station")] = None,
     speed: Annotated[float, typer.Option(help="Flight speed between waypoints (m/s)")] = 5.0,
     mission: Annotated[int | None, typer.Option(help="Export only this mission (1 = the first)")] = None,
     autopilot: Annotated[Autopilot | None, typer.Option(
         help="qgc and wpl: the flight controller the file is for (they accept different commands). "
              "Default: px4 for qgc, ardupilot for wpl")] = None,
-    camera: Annotated[str | None, typer.Option(help="Camera of a poses CSV")] = None,
+    aircraft: Annotated[str | None, typer.Option(
+        help="wpml: the DJI aircraft the file is for: m3e, m350-h20, m350-p1, m300-h20, m300-p1. "
+             "Default: the one that carries the plan's camera (others are refused)")] = None,
+    camera: Annotated[str | None, typer.Option(help="Camera of a poses CSV: " + CAMERA_FORMS)] = None,
+    focal_mm: FocalOpt = None,
     cache: Annotated[bool, typer.Option(help="Reuse the model cache")] = True,
+    force: Annotated[bool, typer.Option(help="Export a plan that fails its flight checks (they are printed)")] = False,
 ) -> None:
     """Export a plan to a flight app (QGroundControl, Mission Planner, DJI Pilot 2, Litchi) or to KML/GeoJSON."""
-    import numpy as np
-
     from ..export import EXTENSIONS, MAVLINK_FORMATS, file_summary
     from ..export.files import export_files, takeoff_point
     from ..geo import Georeference, resolve_georeference
     from ..plan.load import load_plan
     from .loading import load_with_progress
 
-    plan = load_plan(plan_file, camera=camera)
+    plan = load_plan(plan_file, camera=cli_camera(camera, focal_mm))
     scene = load_with_progress(console, model, cache)[0] if model else None
     user = None
     if origin:
@@ -78,14 +83,29 @@ def export_command(
     if autopilot is not None and fmt not in MAVLINK_FORMATS:
         console.print(f"[yellow]warning:[/] --autopilot is for the qgc and wpl formats; a {fmt} export ignores it",
                       highlight=False)
+    from ..errors import PlanError
+    from ..plan.checks.gate import export_violations
+
+    failed = export_violations(plan, takeoff_m, scene, per_mission=takeoff is None)  # against --model, else recorded
+    if failed and not force:
+        more = f" (and {len(failed) - 1} more)" if len(failed) > 1 else ""
+        raise PlanError(f"the plan fails its flight checks: {failed[0]}{more}; fix the plan, or export it anyway "
+                        "with --force")
+    for v in failed:
+        console.print(f"[yellow]warning:[/] exported with --force despite: {v}", highlight=False)
     out = output or Path(plan_file).with_suffix(EXTENSIONS[fmt])
+    if aircraft is not None and fmt != "wpml":
+        console.print(f"[yellow]warning:[/] --aircraft is for the wpml format; a {fmt} export ignores it", highlight=False)
+    written: list = []
     paths = export_files(plan, fmt, out, geo, takeoff_m, speed_m_s=speed, mission=mission, mission_label="--mission",
-                         autopilot=autopilot)
+                         autopilot=autopilot, aircraft=aircraft if fmt == "wpml" else None,
+                         per_mission_takeoff=takeoff is None, report=written)
     console.print(f"georeference: {geo.describe()}", highlight=False)
-    low = np.flatnonzero(plan.C_world[:, 2] - takeoff_m[2] < MIN_ALTITUDE_M)
-    if len(low):
-        console.print(f"[yellow]warning:[/] {len(low)} waypoint(s) lie less than {MIN_ALTITUDE_M:g} m above the take-off "
-                      f"point (lowest {plan.C_world[:, 2].min() - takeoff_m[2]:+.1f} m, e.g. frame {low[0]}): raise them "
-                      "before flying, or check --takeoff", highlight=False)
+    low = [f for f in written if f.lowest_altitude_m < MIN_ALTITUDE_M - 1e-6]
+    if low:
+        console.print(f"[yellow]warning:[/] {len(low)} file(s) have waypoints less than {MIN_ALTITUDE_M:g} m above the "
+                      f"take-off point (lowest {min(f.lowest_altitude_m for f in low):+.1f} m, in {low[0].path.name}): "
+                      "raise them before flying, or check --takeoff", highlight=False)
+    summaries = {f.path: f.summary() for f in written}
     for p in paths:
-        console.print(f"wrote {p} ({file_summary(fmt, autopilot)})", highlight=False)
+        console.print(f"wrote {p} {summaries.get(Path(p)) or '(' + file_summary(fmt, autopilot) + ')'}", highlight=False)

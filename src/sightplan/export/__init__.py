@@ -4,16 +4,18 @@ Formats (:data:`EXPORT_FORMATS`):
 
 - ``qgc``: QGroundControl ``.plan`` (:mod:`.qgc`), one file per mission, for PX4 or ArduPilot;
 - ``wpl``: ``QGC WPL 110`` waypoints text (:mod:`.wpl`), one file per mission, for ArduPilot or PX4;
-- ``wpml``: DJI WPML ``.kmz`` (:mod:`.wpml`), one wayline per mission;
+- ``wpml``: DJI WPML ``.kmz`` (:mod:`.wpml`), one file per mission, for a DJI aircraft (``aircraft=``);
 - ``litchi``: Litchi mission CSV (:mod:`.litchi`), one file per mission and per 99 waypoints;
 - ``kml`` and ``geojson``: paths, waypoints and footprints of all missions (:mod:`.kml`).
 
 All share :func:`~sightplan.export.common.build_flight`: frames at one place become one waypoint
-with several photo actions, headings are true headings, altitudes are above the take-off point.
+with several photo actions, headings are true headings, altitudes are above the mission's take-off
+point: its own ground station (or the take-off point given for all).
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Literal, get_args
 
@@ -22,12 +24,12 @@ from numpy.typing import ArrayLike
 from ..errors import PlanError
 from ..geo import Georeference
 from ..plan.types import Plan
-from .common import Flight, Photo, Waypoint, build_flight
+from .common import Flight, Photo, Takeoff, Waypoint, build_flight, mission_paths
 from .kml import write_geojson, write_kml
-from .litchi import write_litchi
+from .litchi import litchi_aircraft, write_litchi
 from .qgc import AUTOPILOT_LABELS, AUTOPILOTS, DEFAULT_AUTOPILOT, Autopilot, resolve_autopilot, write_qgc
 from .wpl import write_wpl
-from .wpml import write_wpml
+from .wpml import AIRCRAFT, AircraftError, DjiAircraft, check_speed, resolve_aircraft, write_wpml
 
 ExportFormat = Literal["qgc", "wpl", "wpml", "litchi", "kml", "geojson"]
 EXPORT_FORMATS: tuple[str, ...] = get_args(ExportFormat)
@@ -35,31 +37,78 @@ EXTENSIONS = {"qgc": ".plan", "wpl": ".waypoints", "wpml": ".kmz", "litchi": ".c
 _WRITERS = {"qgc": write_qgc, "wpl": write_wpl, "wpml": write_wpml, "litchi": write_litchi, "kml": write_kml,
             "geojson": write_geojson}
 MAVLINK_FORMATS = ("qgc", "wpl")  # the formats written for one autopilot (``autopilot=``)
+PER_MISSION_FORMATS = ("qgc", "wpl", "wpml", "litchi")  # one file (or more) per mission, each from its own take-off
 
 
-def file_summary(fmt: str, autopilot: str | None = None) -> str:
-    """What a file of format ``fmt`` is for, e.g. "QGroundControl plan for PX4" (the autopilot for MAVLink formats)."""
+def file_summary(fmt: str, autopilot: str | None = None, aircraft: str | None = None) -> str:
+    """What a file of format ``fmt`` is for, e.g. "QGroundControl plan for PX4" (the autopilot for MAVLink formats,
+    the aircraft's name for DJI WPML and Litchi when given)."""
     from .common import FORMAT_LABELS
 
     what = {"qgc": "QGroundControl plan", "wpl": "QGC WPL 110 waypoints"}.get(fmt, FORMAT_LABELS.get(fmt, fmt))
     if fmt in MAVLINK_FORMATS:
         return f"{what} for {AUTOPILOT_LABELS[resolve_autopilot(fmt, autopilot)]}"
+    if aircraft:
+        return f"{what} for {aircraft}"
     return what
 
 
+@dataclass(frozen=True)
+class ExportedFile:
+    """A file :func:`export_plan` wrote, and what its user must know: the aircraft it is for (DJI WPML, Litchi), the
+    lowest waypoint above its take-off point, where to take off, and the app settings it needs."""
+
+    path: Path
+    fmt: str
+    aircraft: str | None
+    autopilot: str | None
+    lowest_altitude_m: float  # model metres (z) above the waypoint's take-off point
+    takeoff: Takeoff | None
+    settings: tuple[str, ...] = ()
+
+    def summary(self) -> str:
+        """'(what it is for): lowest waypoint …; settings' for the CLI's ``wrote PATH`` line."""
+        bits = [f"lowest waypoint {self.lowest_altitude_m:+.1f} m above take-off"]
+        if self.takeoff is not None:
+            bits.append(f"take off at {self.takeoff.latitude_deg:.6f},{self.takeoff.longitude_deg:.6f}")
+        bits += list(self.settings)
+        return f"({file_summary(self.fmt, self.autopilot, self.aircraft)}): " + "; ".join(bits)
+
+
+def _settings(fmt: str, note: str | None) -> tuple[str, ...]:
+    out = []
+    if fmt == "litchi":
+        out.append("in Litchi set the mission's Heading Mode = Custom (the CSV cannot carry it; "
+                   "Litchi ignores the headings otherwise)")
+    if fmt == "wpml":
+        out.append("heights are above the actual take-off point (relativeToStartPoint)")
+    if note:
+        out.append(note)
+    return tuple(out)
+
+
 def export_plan(plan: Plan, fmt: ExportFormat, path: str | Path, georef: Georeference, takeoff_m: ArrayLike,
-                speed_m_s: float = 5.0, mission: int | None = None, autopilot: Autopilot | None = None) -> list[Path]:
+                speed_m_s: float = 5.0, mission: int | None = None, autopilot: Autopilot | None = None,
+                aircraft: str | None = None, per_mission_takeoff: bool = True,
+                report: list[ExportedFile] | None = None) -> list[Path]:
     """Write ``plan`` for a flight app or a map; returns the files written.
 
     georef: where the model frame lies on the Earth. takeoff_m: (3,) model-frame take-off (home)
-    point on the ground; altitudes are measured from it. speed_m_s: flight speed between waypoints.
-    mission: index (from 0) into ``plan.missions`` of the only mission to write, to ``path`` itself;
-    all missions when None (file names number them from 1: ``stem_m01``…).
+    point on the ground; altitudes are measured from it. per_mission_takeoff: each mission takes off
+    from the ground under its own ground station instead (:func:`~sightplan.export.common.mission_takeoffs`;
+    missions without one from ``takeoff_m``): the default; False for a take-off point the user gave. speed_m_s: flight
+    speed between waypoints. mission: index (from 0) into ``plan.missions`` of the only mission to
+    write, to ``path`` itself; all missions when None (``qgc``, ``wpl``, ``wpml`` and ``litchi`` write
+    a file per mission, numbered from 1: ``stem_m01``…).
     autopilot: for ``qgc`` and ``wpl``, the flight controller the file is for, ``"px4"`` or
     ``"ardupilot"`` (they accept different commands and frames; see :mod:`.qgc`); None: PX4 for
     ``qgc``, ArduPilot for ``wpl`` (:data:`DEFAULT_AUTOPILOT`). Ignored by the other formats.
+    aircraft: for ``wpml``, a key of :data:`~sightplan.export.wpml.AIRCRAFT`; None: the aircraft that
+    carries the plan's camera (a camera none carries is refused, naming the choices).
+    report: a list to which an :class:`ExportedFile` is appended per file written.
     Raises :class:`~sightplan.errors.PlanError` naming the frames a drone cannot take in that
-    format (gimbal pitch out of range, a rolled camera).
+    format (gimbal pitch out of range, a rolled camera), and for ``wpml`` an aircraft, speed or pitch
+    DJI cannot fly (:class:`~sightplan.export.wpml.AircraftError`).
     """
     if fmt not in _WRITERS:
         raise PlanError(f"unknown export format {fmt!r}; expected one of {', '.join(EXPORT_FORMATS)}")
@@ -68,14 +117,43 @@ def export_plan(plan: Plan, fmt: ExportFormat, path: str | Path, georef: Georefe
     path = Path(path)
     if not path.parent.is_dir():
         raise PlanError(f"cannot write {path}: the folder {path.parent} does not exist")
-    flight = build_flight(plan, georef, takeoff_m, fmt=fmt, speed_m_s=speed_m_s, mission=mission)
+    dji: DjiAircraft | None = None
+    note = None
+    if fmt == "wpml":
+        dji, note = resolve_aircraft(plan, aircraft)
+        check_speed(dji, speed_m_s)
+
+    def build(m: int | None) -> Flight:
+        return build_flight(plan, georef, takeoff_m, fmt=fmt, speed_m_s=speed_m_s, mission=m,
+                            per_mission_takeoff=per_mission_takeoff, pitch_range=dji.pitch_range if dji else None)
+
+    whole = build(mission)
+    jobs = [(whole, path)]
+    if fmt in PER_MISSION_FORMATS:
+        numbers = [m for m, _ in whole.by_mission()]
+        if len(numbers) > 1:
+            paths = mission_paths(path, numbers, several=True)
+            jobs = [(build(m - 1), paths[m]) for m in numbers]
+    written: list[Path] = []
     try:
-        if fmt in MAVLINK_FORMATS:
-            return _WRITERS[fmt](flight, path, autopilot)
-        return _WRITERS[fmt](flight, path)
+        for flight, out in jobs:
+            if fmt in MAVLINK_FORMATS:
+                files = _WRITERS[fmt](flight, out, autopilot)
+            elif fmt == "wpml":
+                files = write_wpml(flight, out, dji)
+            else:
+                files = _WRITERS[fmt](flight, out)
+            written += files
+            if report is not None:
+                name = dji.name if dji else litchi_aircraft(plan) if fmt == "litchi" else None
+                start = flight.takeoff_of(flight.waypoints[0].mission) if fmt in PER_MISSION_FORMATS else None
+                lowest = min(w.position_m[2] - flight.takeoff_of(w.mission).position_m[2] for w in flight.waypoints)
+                report += [ExportedFile(Path(f), fmt, name, autopilot, lowest, start, _settings(fmt, note)) for f in files]
     except OSError as exc:
         raise PlanError(f"cannot write {path}: {exc.strerror or exc}") from None
+    return written
 
 
-__all__ = ["AUTOPILOTS", "DEFAULT_AUTOPILOT", "EXPORT_FORMATS", "EXTENSIONS", "MAVLINK_FORMATS", "Autopilot", "ExportFormat",
-           "Flight", "Photo", "Waypoint", "build_flight", "export_plan", "file_summary"]
+__all__ = ["AIRCRAFT", "AUTOPILOTS", "DEFAULT_AUTOPILOT", "EXPORT_FORMATS", "EXTENSIONS", "MAVLINK_FORMATS",
+           "PER_MISSION_FORMATS", "AircraftError", "Autopilot", "DjiAircraft", "ExportFormat", "ExportedFile", "Flight",
+           "Photo", "Takeoff", "Waypoint", "build_flight", "export_plan", "file_summary"]

@@ -8,13 +8,17 @@
   convergence are included); its pitch is the gimbal pitch (up positive, −90 nadir). Drone
   gimbals keep the horizon level, so the flight formats refuse a roll beyond 1° and a pitch
   outside the format's range. A 360° (non-pinhole) camera has no gimbal: heading only, pitch 0.
-- Heights: ``altitude_m`` is metres above the take-off point, the difference of the
-  georeference heights of the waypoint and the take-off point (exactly z − z_takeoff for a
+- Take-off: each mission takes off from the ground under its own ground station
+  (:attr:`Mission.ground_station`; see :func:`mission_takeoffs`); a mission without one, or every
+  mission when ``per_mission_takeoff`` is False (a take-off point the user gave), from ``takeoff_m``.
+- Heights: ``altitude_m`` is metres above the waypoint's mission's take-off point, the difference
+  of the georeference heights of the waypoint and the take-off point (exactly z − z_takeoff for a
   projected georeference, within millimetres of it over a building site for a topocentric
   one); ``height_m`` is the absolute height in the georeference's vertical datum (above mean
-  sea level for a national datum).
+  sea level: IfcSite's RefElevation or the map conversion's OrthogonalHeight). Writers that need
+  WGS84 ellipsoidal heights add the EGM96 geoid undulation (:mod:`sightplan.geoid`).
 - Footprints: the four image-corner rays of a pinhole frame intersected with the horizontal
-  plane at the take-off height; a frame with a corner ray that does not reach it has none.
+  plane at its mission's take-off height; a frame with a corner ray that does not reach it has none.
 """
 
 from __future__ import annotations
@@ -70,8 +74,22 @@ class Waypoint:
 
 
 @dataclass(frozen=True)
+class Takeoff:
+    """Where a mission takes off: model point, WGS84 latitude/longitude, height in the georeference's datum."""
+
+    position_m: tuple[float, float, float]
+    latitude_deg: float
+    longitude_deg: float
+    height_m: float
+
+
+@dataclass(frozen=True)
 class Flight:
-    """A plan as flight waypoints, ready for a writer."""
+    """A plan as flight waypoints, ready for a writer.
+
+    takeoffs: one per mission (same order as ``missions``). ``takeoff_*``: the take-off of the first
+    mission with waypoints (the only one where a flight holds a single mission).
+    """
 
     plan: Plan
     georef: Georeference
@@ -83,6 +101,13 @@ class Flight:
     takeoff_height_m: float
     speed_m_s: float
     fmt: str
+    takeoffs: tuple[Takeoff, ...] = ()
+
+    def takeoff_of(self, mission: int) -> Takeoff:
+        """The take-off of mission index ``mission`` (the flight's own when none was recorded per mission)."""
+        if 0 <= mission < len(self.takeoffs):
+            return self.takeoffs[mission]
+        return Takeoff(self.takeoff_m, self.takeoff_latitude_deg, self.takeoff_longitude_deg, self.takeoff_height_m)
 
     def by_mission(self) -> list[tuple[int, list[Waypoint]]]:
         """(mission number, 1-based as in the file names; its waypoints) for every mission with waypoints."""
@@ -113,12 +138,40 @@ def number_text(v: float, digits: int = 6) -> str:
     return "0" if text in ("", "-0") else text
 
 
+def mission_takeoffs(plan: Plan, takeoff_m: ArrayLike, per_mission: bool = True) -> list[NDArray[np.float64]]:
+    """(3,) model-frame take-off point of each mission (``plan.missions``, or the whole plan as one): under its ground
+    station when ``per_mission`` and it has one, else ``takeoff_m``.
+
+    ``takeoff_m`` is the ground under the first mission's station (:func:`~sightplan.plan.site.with_site`), and
+    stations stand at one height above the ground, so a station's take-off height is ``takeoff_m``'s plus its
+    height above the first station's (0 on flat ground)."""
+    T = np.asarray(takeoff_m, float).reshape(3)
+    missions = plan.missions or (Mission("mission 1", 0, len(plan)),)
+
+    def station(m: Mission) -> NDArray[np.float64] | None:
+        gs = None if m.ground_station is None else np.asarray(m.ground_station, float).reshape(-1)
+        return gs if gs is not None and gs.shape == (3,) and np.isfinite(gs).all() else None
+
+    first = station(missions[0])
+    out = []
+    for m in missions:
+        gs = station(m)
+        if per_mission and gs is not None:
+            out.append(np.array([gs[0], gs[1], T[2] + (gs[2] - first[2] if first is not None else 0.0)]))
+        else:
+            out.append(T.copy())
+    return out
+
+
 def build_flight(plan: Plan, georef: Georeference, takeoff_m: ArrayLike, *, fmt: str, speed_m_s: float = 5.0,
-                 mission: int | None = None) -> Flight:
+                 mission: int | None = None, per_mission_takeoff: bool = True,
+                 pitch_range: tuple[float, float] | None = None) -> Flight:
     """The plan's frames grouped into waypoints with photo actions; see the module docstring.
 
     mission: index (from 0) into ``plan.missions`` of the only mission to keep; file names number
-    missions from 1 (``stem_m01``…).
+    missions from 1 (``stem_m01``…). per_mission_takeoff: each mission takes off from its ground
+    station (see :func:`mission_takeoffs`); False: all from ``takeoff_m``. pitch_range: the gimbal's
+    (lowest, highest) pitch instead of the format's (:data:`PITCH_RANGES`), e.g. a DJI aircraft's.
     Raises :class:`PlanError` naming the frames a drone cannot take in format ``fmt``.
     """
     if not isinstance(georef, Georeference):
@@ -148,7 +201,7 @@ def build_flight(plan: Plan, georef: Georeference, takeoff_m: ArrayLike, *, fmt:
     pitch = np.where(pinhole, pitch, 0.0)
     roll = np.where(pinhole, roll, 0.0)
     label = FORMAT_LABELS.get(fmt, fmt)
-    limits = PITCH_RANGES.get(fmt)
+    limits = pitch_range if pitch_range is not None else PITCH_RANGES.get(fmt)
     if limits is not None:
         bad = np.flatnonzero(keep & (np.abs(roll) > ROLL_TOLERANCE_DEG))
         if len(bad):
@@ -162,7 +215,10 @@ def build_flight(plan: Plan, georef: Georeference, takeoff_m: ArrayLike, *, fmt:
     C = np.asarray(plan.C_world, float)
     true_heading = georef.true_heading(C, heading_m)
     lat, lon, h = georef.to_geodetic(C)
-    t_lat, t_lon, t_h = (float(v[0]) for v in georef.to_geodetic(T))
+    starts = mission_takeoffs(plan, T, per_mission_takeoff)
+    s_lat, s_lon, s_h = georef.to_geodetic(np.array(starts))
+    takeoffs = tuple(Takeoff(tuple(float(v) for v in p), float(a), float(b), float(c))
+                     for p, a, b, c in zip(starts, s_lat, s_lon, s_h))
 
     waypoints: list[Waypoint] = []
     current: list[int] = []
@@ -174,7 +230,7 @@ def build_flight(plan: Plan, georef: Georeference, takeoff_m: ArrayLike, *, fmt:
         photos = tuple(Photo(j, str(plan.frame_names[j]), float(true_heading[j]), float(pitch[j]), float(roll[j]))
                        for j in current)
         waypoints.append(Waypoint(int(mission_of[i]), tuple(float(v) for v in C[i]), float(lat[i]), float(lon[i]),
-                                  float(h[i]), float(h[i] - t_h), photos))
+                                  float(h[i]), float(h[i] - takeoffs[mission_of[i]].height_m), photos))
         current.clear()
 
     for i in range(n):
@@ -186,9 +242,12 @@ def build_flight(plan: Plan, georef: Georeference, takeoff_m: ArrayLike, *, fmt:
             close()
         current.append(i)
     close()
+    first = takeoffs[waypoints[0].mission] if waypoints else Takeoff((float(T[0]), float(T[1]), float(T[2])),
+                                                                     *(float(v[0]) for v in georef.to_geodetic(T)))
     return Flight(plan=plan, georef=georef, missions=tuple(missions), waypoints=tuple(waypoints),
-                  takeoff_m=(float(T[0]), float(T[1]), float(T[2])), takeoff_latitude_deg=t_lat, takeoff_longitude_deg=t_lon,
-                  takeoff_height_m=t_h, speed_m_s=float(speed_m_s), fmt=fmt)
+                  takeoff_m=first.position_m, takeoff_latitude_deg=first.latitude_deg,
+                  takeoff_longitude_deg=first.longitude_deg, takeoff_height_m=first.height_m, speed_m_s=float(speed_m_s),
+                  fmt=fmt, takeoffs=takeoffs)
 
 
 def mission_paths(path: Path, numbers: list[int], *, several: bool) -> dict[int, Path]:

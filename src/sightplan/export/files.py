@@ -12,7 +12,7 @@ from ..errors import PlanError
 from ..geo import Georeference
 from ..model.scene import Scene
 from ..plan.types import Plan
-from . import Autopilot, ExportFormat, export_plan
+from . import Autopilot, ExportedFile, ExportFormat, export_plan
 
 
 def takeoff_point(plan: Plan, scene: Scene | None, *, hint: str) -> NDArray[np.float64]:
@@ -31,10 +31,13 @@ def takeoff_point(plan: Plan, scene: Scene | None, *, hint: str) -> NDArray[np.f
 
 def export_files(plan: Plan, fmt: ExportFormat, path: str | Path, georef: Georeference, takeoff_m: NDArray,
                  *, speed_m_s: float = 5.0, mission: int | None = None, mission_label: str = "mission",
-                 autopilot: Autopilot | None = None) -> list[Path]:
+                 autopilot: Autopilot | None = None, aircraft: str | None = None, per_mission_takeoff: bool = True,
+                 report: list[ExportedFile] | None = None) -> list[Path]:
     """:func:`export_plan` with ``mission`` numbered from 1 (None: all), refused with a PlanError naming it as
-    ``mission_label`` when the plan has no such mission. ``autopilot``: for ``qgc`` and ``wpl`` (see :func:`export_plan`)."""
+    ``mission_label`` when the plan has no such mission. ``autopilot``: for ``qgc`` and ``wpl``; ``aircraft``: for
+    ``wpml``; ``per_mission_takeoff`` (each mission from its own ground station) and ``report``: see :func:`export_plan`."""
     if mission is not None and not 1 <= mission <= len(plan.missions):
         raise PlanError(f"{mission_label} {mission}: the plan has {len(plan.missions)} mission(s), numbered from 1")
     return export_plan(plan, fmt, path, georef, takeoff_m, speed_m_s=speed_m_s,
-                       mission=None if mission is None else mission - 1, autopilot=autopilot)
+                       mission=None if mission is None else mission - 1, autopilot=autopilot, aircraft=aircraft,
+                       per_mission_takeoff=per_mission_takeoff, report=report)

@@ -1,18 +1,22 @@
 """KML and GeoJSON exports: every mission in one file, for viewing in a map or GIS.
 
 - KML 2.2 (``http://www.opengis.net/kml/2.2``): a ``Document`` with one ``Folder`` per mission holding
-  the flight path (``LineString``, ``altitudeMode`` absolute with the waypoints' absolute heights), one
-  ``Placemark`` per waypoint (``Point``; ``ExtendedData`` ``mission``, ``waypoint``, ``altitude_m``
-  above take-off, ``height_m`` and the photos' ``frames``, ``heading_deg`` and ``pitch_deg``, lists
-  joined by ";") and a ``footprints`` folder of ``Polygon`` placemarks, one per frame.
-- GeoJSON (RFC 7946): a ``FeatureCollection`` of a ``LineString`` per mission (``kind`` "path"), a
-  ``Point`` per waypoint (``kind`` "waypoint", the same properties with lists) and a ``Polygon`` per
-  frame footprint (``kind`` "footprint"). Positions are [longitude, latitude, height].
+  the flight path (``LineString``, ``altitudeMode`` absolute; ``ExtendedData`` ``takeoff``, the mission's
+  take-off point "lon,lat,height"), one ``Placemark`` per waypoint (``Point``; ``ExtendedData``
+  ``mission``, ``waypoint``, ``altitude_m`` above the mission's take-off, ``height_m`` and the photos'
+  ``frames``, ``heading_deg`` and ``pitch_deg``, lists joined by ";") and a ``footprints`` folder of
+  ``Polygon`` placemarks, one per frame. Heights: KML's absolute altitude is above the EGM96 geoid
+  (OGC KML 2.2), so the model's sea-level heights are written as they are.
+- GeoJSON (RFC 7946): a ``FeatureCollection`` of a ``LineString`` per mission (``kind`` "path", with its
+  ``takeoff`` position), a ``Point`` per waypoint (``kind`` "waypoint", the same properties with lists)
+  and a ``Polygon`` per frame footprint (``kind`` "footprint"). Positions are [longitude, latitude,
+  height] with the height above the WGS84 ellipsoid (RFC 7946 §4): the sea-level height + the EGM96
+  geoid undulation (:mod:`sightplan.geoid`); ``height_m`` keeps the sea-level height.
 
-A footprint is where the four image-corner rays meet the horizontal plane at the take-off height
-(:func:`~sightplan.export.common.footprint`); frames whose rays do not all reach it (or 360° frames)
-have none, and their waypoint lists them in ``footprint_skipped`` with the reason in ``footprint_note``.
-Headings are true headings, pitches gimbal pitches (see :mod:`sightplan.export.common`).
+A footprint is where the four image-corner rays meet the horizontal plane at its mission's take-off
+height (:func:`~sightplan.export.common.footprint`); frames whose rays do not all reach it (or 360°
+frames) have none, and their waypoint lists them in ``footprint_skipped`` with the reason in
+``footprint_note``. Headings are true headings, pitches gimbal pitches (see :mod:`sightplan.export.common`).
 """
 
 from __future__ import annotations
@@ -31,10 +35,12 @@ FOOTPRINT_NOTE = ("no footprint for these frames: an image-corner ray does not r
 
 
 def _footprints(flight: Flight, wp: Waypoint) -> tuple[list[tuple[str, np.ndarray]], list[str]]:
-    """([(frame name, (5, 3) closed lon/lat/height ring, counter-clockwise)], [frame names without one])."""
+    """([(frame name, (5, 3) closed lon/lat/height ring, counter-clockwise)], [frame names without one]); heights in
+    the georeference's datum."""
     rings, skipped = [], []
+    plane_z = flight.takeoff_of(wp.mission).position_m[2]
     for photo in wp.photos:
-        corners = footprint(flight.plan, photo.frame, flight.takeoff_m[2])
+        corners = footprint(flight.plan, photo.frame, plane_z)
         if corners is None:
             skipped.append(photo.name)
             continue
@@ -62,23 +68,36 @@ def _waypoint(flight: Flight, number: int, index: int, wp: Waypoint) -> tuple[di
 # ---- GeoJSON ---------------------------------------------------------------------------------
 
 
+def _ellipsoidal(points: np.ndarray) -> list[list[float]]:
+    """(n, 3) lon, lat, sea-level height → [[lon, lat, WGS84 ellipsoidal height]…] (RFC 7946 §4)."""
+    from ..geoid import to_ellipsoidal
+
+    p = np.array(points, float).reshape(-1, 3)
+    p[:, 2] = to_ellipsoidal(p[:, 1], p[:, 0], p[:, 2])
+    return p.tolist()
+
+
 def geojson_document(flight: Flight) -> dict:
     features: list[dict] = []
-    plane = flight.takeoff_height_m
     for number, wps in flight.by_mission():
         name = flight.missions[wps[0].mission].name
-        features.append({"type": "Feature", "properties": {"kind": "path", "mission": name, "mission_number": number},
-                         "geometry": {"type": "LineString",
-                                      "coordinates": [[w.longitude_deg, w.latitude_deg, w.height_m] for w in wps]}})
+        start = flight.takeoff_of(wps[0].mission)
+        plane = start.height_m
+        coords = _ellipsoidal([[w.longitude_deg, w.latitude_deg, w.height_m] for w in wps])
+        features.append({"type": "Feature",
+                         "properties": {"kind": "path", "mission": name, "mission_number": number,
+                                        "takeoff": _ellipsoidal([start.longitude_deg, start.latitude_deg, plane])[0],
+                                        "takeoff_height_m": plane},
+                         "geometry": {"type": "LineString", "coordinates": coords}})
         for index, wp in enumerate(wps):
             props, rings = _waypoint(flight, number, index, wp)
             features.append({"type": "Feature", "properties": props,
-                             "geometry": {"type": "Point", "coordinates": [wp.longitude_deg, wp.latitude_deg, wp.height_m]}})
+                             "geometry": {"type": "Point", "coordinates": coords[index]}})
             for frame, ring in rings:
                 features.append({"type": "Feature",
                                  "properties": {"kind": "footprint", "frame": frame, "mission": name, "mission_number": number,
                                                 "waypoint": index, "plane_height_m": plane},
-                                 "geometry": {"type": "Polygon", "coordinates": [ring.tolist()]}})
+                                 "geometry": {"type": "Polygon", "coordinates": [_ellipsoidal(ring)]}})
     return {"type": "FeatureCollection", "features": features}
 
 
@@ -122,9 +141,11 @@ def kml_bytes(flight: Flight, title: str) -> bytes:
         name = flight.missions[wps[0].mission].name
         folder = _el(doc, "Folder")
         _el(folder, "name", name)
+        start = flight.takeoff_of(wps[0].mission)
         path = _el(folder, "Placemark")
         _el(path, "name", f"{name} path")
-        _data(path, {"kind": "path", "mission": name, "mission_number": number})
+        _data(path, {"kind": "path", "mission": name, "mission_number": number,
+                     "takeoff": _coords([(start.longitude_deg, start.latitude_deg, start.height_m)])})
         line = _el(path, "LineString")
         _el(line, "altitudeMode", "absolute")
         _el(line, "coordinates", _coords((w.longitude_deg, w.latitude_deg, w.height_m) for w in wps))
@@ -144,7 +165,7 @@ def kml_bytes(flight: Flight, title: str) -> bytes:
                 fp = _el(prints, "Placemark")
                 _el(fp, "name", frame)
                 _data(fp, {"kind": "footprint", "frame": frame, "mission": name, "waypoint": index,
-                           "plane_height_m": flight.takeoff_height_m})
+                           "plane_height_m": start.height_m})
                 poly = _el(fp, "Polygon")
                 _el(poly, "altitudeMode", "absolute")
                 ring_el = _el(_el(poly, "outerBoundaryIs"), "LinearRing")

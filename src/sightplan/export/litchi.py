@@ -11,6 +11,10 @@ camera (pitch) before each further photo whose heading or pitch differs; −1 (0
 needing more than 15 actions becomes several rows at the same place; Litchi takes at most 99
 waypoints per mission, so longer missions are split into files ``stem_p1.csv``, ``stem_p2.csv``… (and
 ``stem_m01_p1.csv``… when the plan has several missions).
+
+Litchi flies the waypoint headings only when the mission's Heading Mode is Custom, a mission
+setting the CSV cannot carry: the export's summary says to set it. The file is for the DJI aircraft
+that carries the plan's camera (:func:`litchi_aircraft`); its altitudes are above the take-off point.
 """
 
 from __future__ import annotations
@@ -18,6 +22,7 @@ from __future__ import annotations
 import csv
 from pathlib import Path
 
+from ..plan.types import Plan
 from .common import Flight, Waypoint, mission_paths, number_text, same_angle
 
 MAX_ACTIONS = 15
@@ -28,6 +33,22 @@ HEADER = (["latitude", "longitude", "altitude(m)", "heading(deg)", "curvesize(m)
           + [f"action{kind}{k}" for k in range(1, MAX_ACTIONS + 1) for kind in ("type", "param")]
           + ["altitudemode", "speed(m/s)", "poi_latitude", "poi_longitude", "poi_altitude(m)", "poi_altitudemode",
              "photo_timeinterval", "photo_distinterval"])
+
+
+# catalogue camera id → the DJI aircraft that carries it
+AIRCRAFT_OF_CAMERA = {"p4p": "DJI Phantom 4 Pro", "m3e": "DJI Mavic 3 Enterprise"}
+
+
+def litchi_aircraft(plan: Plan) -> str:
+    """The aircraft a Litchi file of ``plan`` is for: the one carrying the plan's camera."""
+    from ..camera.catalogue import list_cameras
+
+    by_name = {e.name: e.id for e in list_cameras()}
+    names = []
+    for cam in plan.cameras.values():
+        name = str(getattr(cam, "name", "") or "")
+        names.append(AIRCRAFT_OF_CAMERA.get(by_name.get(name, ""), f"the DJI aircraft carrying {name or 'the camera'}"))
+    return ", ".join(dict.fromkeys(names))
 
 
 def rows_of(waypoint: Waypoint) -> list[tuple[float, float, list[tuple[int, float]]]]:

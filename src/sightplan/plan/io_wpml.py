@@ -5,10 +5,13 @@ Each ``Folder`` (wayline) becomes one :class:`~sightplan.plan.types.Mission`; it
 waypoints, in ``index`` order, are flown as follows:
 
 - position: ``Point`` coordinates "lon,lat"; height ``executeHeight`` (waylines; the Folder's
-  ``executeHeightMode``: relativeToStartPoint, or WGS84 used as the georeference's heights) or
-  ``height``/``globalHeight`` (template, ``waylineCoordinateSysParam/heightMode``). Heights relative
-  to the start point are added to the take-off point's height: the template's ``takeOffRefPoint``
-  ("lat,lon,height"), else the model's height 0 under the first waypoint (with a warning).
+  ``executeHeightMode``: relativeToStartPoint, or WGS84 ellipsoidal heights) or
+  ``height``/``globalHeight`` (template, ``waylineCoordinateSysParam/heightMode``: relativeToStartPoint,
+  or EGM96 heights above sea level). Heights relative to the start point are added to the take-off
+  point's height: the template's ``takeOffRefPoint`` ("lat,lon,height", the height ellipsoidal),
+  else the model's height 0 under the first waypoint (with a warning). Ellipsoidal heights become
+  heights above sea level, the georeference's datum, by subtracting the EGM96 geoid undulation
+  (:mod:`sightplan.geoid`; without the geoid grid they are read as they are, with a warning).
 - aircraft heading on arrival: ``waypointHeadingParam`` (or the Folder's global one):
   ``waypointHeadingAngle`` (smoothTransition, fixed, manually), toward the next waypoint
   (followWayline) or toward ``waypointPoiPoint`` (towardPOI).
@@ -20,6 +23,13 @@ waypoints, in ``index`` order, are flown as follows:
   ``autoFlightSpeed``) from their first to their last waypoint, in flight order. The gimbal pitch is
   kept from one waypoint to the next; before any is set, ``waypointGimbalPitchAngle`` or
   ``gimbalPitchAngle``, else −90° (with a warning).
+
+DJI's area templates (``templateType`` mapping2d, mapping3d — the oblique, five-wayline survey —
+and mappingStrip) hold in ``template.kml`` the survey polygon (or strip line) and its overlaps, not
+waypoints: DJI Pilot 2 generates the flight into ``waylines.wpml``. With ``waylines.wpml`` in the
+``.kmz`` those generated waylines are read as above (the template type is kept in
+``plan.parameters["source"]["template_type"]``); a template alone is refused with a message naming
+its type.
 
 A frame's name is its ``takePhoto`` ``fileSuffix`` when the file gives one. Without a georeference
 the model frame is topocentric at the take-off point (model +Y north), stored in
@@ -48,6 +58,7 @@ from .poses import R_from_gimbal
 from .types import Mission, Plan
 
 PAYLOADS = {66: "m3e", 42: "h20", 50: "p1"}
+AREA_TEMPLATES = {"mapping2d": "area", "mapping3d": "area", "mappingStrip": "strip"}
 DRONES = {(77, 0): "m3e"}
 DEFAULT_PITCH_DEG = -90.0
 ABSOLUTE_HEIGHT_MODES = {"WGS84", "EGM96"}
@@ -105,6 +116,7 @@ class _Waypoint:
     relative: bool
     pm: ET.Element
     where: str
+    ellipsoidal: bool = False  # an absolute WGS84 height (executeHeightMode WGS84)
 
 
 @dataclass
@@ -132,6 +144,53 @@ def _parse(z: zipfile.ZipFile, name: str, path: Path) -> ET.Element:
     if doc is None:
         raise PlanError(f"{path.name}, {name}: not a KML document (<kml><Document>…)")
     return doc
+
+
+def _template_type(doc: ET.Element | None) -> str | None:
+    """The template type of a template.kml (``waypoint``, ``mapping2d``, …): the first Folder's
+    ``templateType``, else ``"polygon"``/``"line"`` when a Placemark holds an area instead of a Point."""
+    folders = _kids(doc, "Folder")
+    for folder in folders:
+        kind = _text(folder, "templateType")
+        if kind:
+            return kind
+    for folder in folders:
+        for pm in _kids(folder, "Placemark"):
+            if _kid(pm, "Point") is None:
+                if _kid(pm, "Polygon") is not None:
+                    return "polygon"
+                if _kid(pm, "LineString") is not None:
+                    return "line"
+    return None
+
+
+def _refuse_area_template(kind: str, path: Path, name: str) -> None:
+    """A template.kml without waylines that describes an area (or strip), not waypoints: one clear error."""
+    if kind in AREA_TEMPLATES:
+        what = f"a DJI {kind} ({AREA_TEMPLATES[kind]}) template"
+    elif kind in ("polygon", "line"):
+        what = f"a DJI area template (a {'Polygon' if kind == 'polygon' else 'LineString'} instead of waypoints)"
+    else:
+        return
+    how = "export the waylines from DJI Pilot 2 (a .kmz with wpmz/waylines.wpml)"
+    if kind != "mappingStrip" and kind != "line":
+        how += ", or plan it with `sightplan plan lawnmower`" + (" (--oblique-pitch for the oblique passes)"
+                                                                  if kind == "mapping3d" else "")
+    raise PlanError(f"{path.name}, {name}: {what}: it holds the survey area, not the flight; {how}")
+
+
+def _undulation(lat: list[float], lon: list[float], warnings: list[str]) -> NDArray:
+    """EGM96 geoid undulations at the points (ellipsoidal − sea-level height); zeros, with a warning, without the
+    geoid grid."""
+    from ..geoid import INSTALL_HINT, GeoidError, undulation
+
+    try:
+        return undulation(lat, lon)
+    except GeoidError:
+        note = f"WGS84 ellipsoidal heights read as heights above sea level, without the geoid: {INSTALL_HINT}"
+        if note not in warnings:
+            warnings.append(note)
+        return np.zeros(len(lat))
 
 
 def _camera(config: ET.Element | None, camera, where: str, warnings: list[str]) -> Camera:
@@ -183,7 +242,7 @@ def _waypoints(folder: ET.Element, template: bool, where: str) -> list[_Waypoint
             height = _num(pm, "executeHeight", w)
         if height is None:
             raise PlanError(f"{w}: no height ({'height' if template else 'executeHeight'})")
-        out.append(_Waypoint(int(index), lat, lon, height, relative, pm, w))
+        out.append(_Waypoint(int(index), lat, lon, height, relative, pm, w, mode == "WGS84"))
     out.sort(key=lambda wp: wp.index)
     return out
 
@@ -319,7 +378,7 @@ def _fly_wayline(wayline: int, folder: ET.Element, wps: list[_Waypoint], P: NDAr
             for span in spans:
                 if not (span["start"] <= wp.index and wps[n + 1].index <= span["end"]) or length == 0:
                     continue
-                while span["next"] <= span["travelled"] + length + 1e-9:
+                while span["next"] <= span["travelled"] + length + 1e-3:  # within 1 mm of the leg's end: at its end
                     s_leg = span["next"] - span["travelled"]
                     photos.append(_Photo(wayline, P[n] + s_leg / length * leg, None, bearing(P[n], P[n + 1]) or 0.0,
                                          gimbal.current(), f"w{wayline}_wp{wp.index:03d}_d{len(photos) + 1}"))
@@ -345,9 +404,12 @@ def read_wpml(path: str | Path, georef: Georeference | None = None, camera: Came
         template_name = next((n for n in names if n.lower().endswith("wpmz/template.kml")), None)
         if waylines is None and template_name is None:
             raise PlanError(f"{path.name}: no wpmz/waylines.wpml or wpmz/template.kml inside: not a DJI WPML mission")
-        doc = _parse(z, waylines or template_name, path)
-        template_doc = _parse(z, template_name, path) if template_name and waylines else None
+        template_doc = _parse(z, template_name, path) if template_name else None
+        doc = template_doc if waylines is None else _parse(z, waylines, path)
     is_template = waylines is None
+    template_type = _template_type(template_doc)
+    if is_template and template_type is not None:
+        _refuse_area_template(template_type, path, str(template_name))
     where = f"{path.name}, {waylines or template_name}"
     warnings: list[str] = []
     config = _kid(doc, "missionConfig")
@@ -362,6 +424,8 @@ def read_wpml(path: str | Path, georef: Georeference | None = None, camera: Came
     if ref is not None:
         t_lat, t_lon = ref[0], ref[1]
         t_h = ref[2] if len(ref) > 2 else None
+        if t_h is not None:  # DJI: the take-off reference height is ellipsoidal
+            t_h = float(t_h - _undulation([t_lat], [t_lon], warnings)[0])
     else:
         t_lat, t_lon, t_h = first.lat, first.lon, None
     try:
@@ -376,12 +440,15 @@ def read_wpml(path: str | Path, georef: Georeference | None = None, camera: Came
                                 "point are taken from the model's height 0 under the first waypoint")
         takeoff_xyz = georef.from_geodetic(t_lat, t_lon, t_h)[0]
         all_wps = [wp for _, wps in folders for wp in wps]
+        absolute = np.array([w.height for w in all_wps], float)
+        ell = np.array([w.ellipsoidal for w in all_wps])
+        if ell.any():
+            absolute[ell] -= _undulation([w.lat for w in all_wps if w.ellipsoidal],
+                                         [w.lon for w in all_wps if w.ellipsoidal], warnings)
         xyz_all = georef.from_geodetic([w.lat for w in all_wps], [w.lon for w in all_wps],
-                                       [t_h + w.height if w.relative else w.height for w in all_wps])
+                                       [t_h + w.height if w.relative else a for w, a in zip(all_wps, absolute)])
     except GeoreferenceError as exc:
         raise PlanError(f"{where}: {exc}") from None
-    if any(not wp.relative for _, wps in folders for wp in wps):
-        warnings.append("WGS84 (ellipsoidal) heights read as heights in the georeference's datum, without a geoid correction")
     cam = _camera(config if config is not None else _kid(template_doc, "missionConfig"), camera, where, warnings)
 
     photos: list[_Photo] = []
@@ -415,7 +482,10 @@ def read_wpml(path: str | Path, georef: Georeference | None = None, camera: Came
             names[i] = f"{name}_{seen[name]}"
     R = R_from_gimbal(heading, [p.pitch for p in photos], 0.0)
     cid = cam.name or "camera"
-    params = {"source": {"format": "wpml", "path": str(path)}, "georeference": georef.to_dict(),
+    source = {"format": "wpml", "path": str(path)}
+    if template_type is not None:
+        source["template_type"] = template_type
+    params = {"source": source, "georeference": georef.to_dict(),
               "takeoff_m": [float(v) for v in takeoff_xyz],
               "home": {"latitude_deg": t_lat, "longitude_deg": t_lon, "height_m": t_h}, "warnings": warnings}
     return Plan.build({cid: cam}, R, C, frame_names=[re.sub(r"\s+", "_", n) for n in names],

@@ -113,9 +113,12 @@ class TemplatePlanIn(BaseModel):
                                                             "flight check's least distance. Default 10, 0.3 for a route")
     overlap: float = Field(0.8, description="Image overlap, 0 ≤ l < 1")
     footprint: Literal["box", "outline"] = "box"
-    radius: list[float] = Field(default_factory=list, description="orbit: ring radii (m), one per ring")
-    height: list[float] = Field(default_factory=list, description="orbit: ring heights (m), one per ring; bridge: "
-                                                                  "heights of the side passes (default: by overlap)")
+    radius: list[float] = Field(default_factory=list, description="orbit: ring radii (m), one per ring (default: the "
+                                                                  "targets' half-diagonal + the safety distance)")
+    height: list[float] = Field(default_factory=list, description="orbit: ring heights (m), one per ring (default: by "
+                                                                  "overlap from the minimum height to the safety "
+                                                                  "distance above the top); bridge: heights of the side "
+                                                                  "passes (default: by overlap)")
     step: float | None = Field(None, description="orbit: degrees between frames (default: by overlap); route: metres "
                                                  "between frames")
     aim: Literal["centre", "surface"] = "centre"
@@ -136,6 +139,8 @@ class TemplatePlanIn(BaseModel):
                                                                            "(default: the corners of the plan's region)")
     altitude_limit: float | None = Field(None, description="Altitude limit (m); 0: no check. Default 120, none for a "
                                                            "route")
+    min_height: float | None = Field(None, ge=0, description="Least height of a waypoint above the ground under it "
+                                                             "(m). Default 2, none for a route")
     split: bool = Field(True, description="Split into missions that keep line of sight and fit a battery")
 
 

@@ -177,7 +177,9 @@ def _slug(text: str) -> str:
             description="Placed with the plan's georeference, else the model's (IfcMapConversion or IfcSite), as "
                         "`sightplan export` does; several files (a QGC plan per mission, Litchi parts) come as a zip.",
             responses={200: {"description": "The exported file", "content": {m: {} for m in sorted(set(MEDIA.values()))}},
-                       **NOT_FOUND, **NOT_READY,
+                       **NOT_FOUND,
+                       409: {"model": ErrorOut, "description": "The model is not loaded (yet), or the plan fails its "
+                                                                "flight checks (named; force=true exports it anyway)"},
                        422: {"model": ErrorOut, "description": "No georeference, or a frame a drone cannot take"}})
 def export_version(project_id: int, plan_id: int, number: int, session: SessionDep, state: StateDep,
                    background: BackgroundTasks,
@@ -189,6 +191,10 @@ def export_version(project_id: int, plan_id: int, number: int, session: SessionD
                    autopilot: Annotated[Literal["px4", "ardupilot"] | None, Query(
                        description="qgc and wpl: the flight controller the file is for (default px4 for qgc, "
                                    "ardupilot for wpl)")] = None,
+                   aircraft: Annotated[str | None, Query(
+                       max_length=40, description="wpml: the DJI aircraft the file is for (m3e, m350-h20, m350-p1, "
+                                                  "m300-h20, m300-p1; default: the one carrying the plan's camera)")] = None,
+                   force: Annotated[bool, Query(description="Export a plan that fails its flight checks")] = False,
                    ) -> FileResponse:
     from ...export import EXTENSIONS
     from ...export.files import export_files, takeoff_point
@@ -208,13 +214,21 @@ def export_version(project_id: int, plan_id: int, number: int, session: SessionD
                                 f"none and {where}. Georeference the IFC, or upload a plan that records one")
     geo = resolve_georeference(data.parameters.get("georeference"), model_geo, what=f"a {format} export")
     takeoff = takeoff_point(data, scene, hint="give model_id to take the south-west corner of its region")
+    if not force:
+        from ...plan.checks.gate import export_violations
+
+        failed = export_violations(data, takeoff, scene)
+        if failed:
+            raise HTTPException(409, f"the plan fails its flight checks ({len(failed)} violation(s)): "
+                                     f"{'; '.join(failed[:20])}{' …' if len(failed) > 20 else ''}. "
+                                     "Fix the plan, or export it anyway with force=true")
     folder = state.storage.temp_path()
     folder.mkdir()
     background.add_task(state.storage.remove, folder)
     stem = f"{_slug(plan_row.name)}_v{number}"
     try:
         paths = export_files(data, format, folder / (stem + EXTENSIONS[format]), geo, takeoff, speed_m_s=speed,
-                             mission=mission, autopilot=autopilot)
+                             mission=mission, autopilot=autopilot, aircraft=aircraft if format == "wpml" else None)
     except BaseException:
         state.storage.remove(folder)
         raise

@@ -58,10 +58,14 @@ def export_shared_version(token: str, number: int, session: SessionDep, state: S
                                                                             "geojson")],
                           speed: Annotated[float, Query(gt=0, description="Flight speed (m/s)")] = 5.0,
                           mission: Annotated[int | None, Query(ge=1, description="Only this mission (from 1)")] = None,
+                          force: Annotated[bool, Query(description="Export a plan that fails its flight checks")] = False,
+                          aircraft: Annotated[str | None, Query(max_length=40, description="wpml: the DJI aircraft "
+                                                                "(m3e, m350-h20, m350-p1, m300-h20, m300-p1)")] = None,
                           ) -> FileResponse:
     plan = shared_plan(session, token)
     return plans.export_version(plan.project_id, plan.id, number, session, state, background, format=format,
-                                model_id=None, speed=speed, mission=mission)
+                                model_id=None, speed=speed, mission=mission, autopilot=None, force=force,
+                                aircraft=aircraft)
 
 
 @router.get("/evaluations/{evaluation_id}", response_model=EvaluationOut, summary="An evaluation of the shared plan",
