@@ -276,14 +276,15 @@ def test_plan_facade_then_evaluate(tmp_path):
     lo, hi = load_model("sample")[0].bounds()
     sx, sy, sz = hi - lo
     s_h, s_v = 2 * 8 * 0.75 * 0.2, 2 * 8 * 0.5 * 0.2  # eq. 11 with the Phantom 4 Pro: 2.4 m and 1.6 m
-    per_col = math.ceil(sz / s_v) + 1 + 1  # layers plus the top row
+    per_col = math.ceil((sz - 2) / s_v) + 1 + 1  # layers from 2 m above the base (the minimum height), plus the top row
     cols = [math.ceil(sx / s_h) + 1, math.ceil(sy / s_h) + 1] * 2
     assert [m["frames"][1] - m["frames"][0] for m in d["missions"]] == [c * per_col for c in cols]
     res = run_cli("evaluate", "sample", str(out), "--scale", "0.05", "--no-picture", "--out", str(tmp_path / "r"),
                   cwd=tmp_path)
     assert res.returncode == 0, res.stderr
     assert json.loads((tmp_path / "r" / "report.json").read_text())["metrics"]["frames"] == len(d["frames"])
-    assert_clean_error(run_cli("plan", "orbit", "sample", "-o", str(out), cwd=tmp_path), "--radius")
+    assert_clean_error(run_cli("plan", "orbit", "sample", "--radius", "30", "--height", "0", "-o", str(out), cwd=tmp_path),
+                       "minimum height")
     assert_clean_error(run_cli("plan", "facade", "sample", "--overlap", "1.0", cwd=tmp_path), "overlap")
 
 
@@ -361,17 +362,28 @@ def test_export_then_read_back_and_georeference_errors(tmp_path):
     plan = tmp_path / "facade.json"
     assert run_cli("plan", "facade", "sample", "--safety-distance", "8", "-o", str(plan), cwd=tmp_path).returncode == 0
     d = json.loads(plan.read_text())
-    res = run_cli("export", str(plan), "--format", "wpml", "-o", str(tmp_path / "f.kmz"), cwd=tmp_path)
+    # the plan's Phantom 4 Pro flies on no aircraft DJI Pilot 2 takes: refused, naming the choices
+    assert_clean_error(run_cli("export", str(plan), "--format", "wpml", cwd=tmp_path), "--aircraft")
+    res = run_cli("export", str(plan), "--format", "wpml", "-o", str(tmp_path / "f.kmz"), "--aircraft", "m3e",
+                  cwd=tmp_path)
     assert res.returncode == 0, res.stderr
-    assert "IfcSite" in res.stdout  # placed with the Duplex's site latitude/longitude, recorded in the plan
-    # the facade grid's bottom row stands on the model's base, level with the take-off point: pointed out
-    assert "less than 2 m above the take-off point" in " ".join(res.stdout.split())
-    with zipfile.ZipFile(tmp_path / "f.kmz") as z:
-        root = ET.fromstring(z.read("wpmz/waylines.wpml"))
+    out = " ".join(res.stdout.split())
+    assert "IfcSite" in out  # placed with the Duplex's site latitude/longitude, recorded in the plan
+    # the facade grid's bottom row stands 2 m above the model's base, where the take-off point is: nothing to point out
+    assert "less than 2 m above the take-off point" not in out
+    assert "(DJI WPML for DJI Mavic 3 Enterprise)" in out and "lowest waypoint" in out
     ns = {"kml": "http://www.opengis.net/kml/2.2", "wpml": "http://www.dji.com/wpmz/1.0.2"}
-    folders = root.findall(".//kml:Folder", ns)
-    assert len(folders) == len(d["missions"])  # one wayline per mission
-    assert len(root.findall(".//wpml:actionActuatorFunc[.='takePhoto']", ns)) == len(d["frames"])
+    photos = 0
+    for k in range(1, len(d["missions"]) + 1):  # a .kmz per mission, each from its own ground station
+        with zipfile.ZipFile(tmp_path / f"f_m{k:02d}.kmz") as z:
+            root = ET.fromstring(z.read("wpmz/waylines.wpml"))
+        assert len(root.findall(".//kml:Folder", ns)) == 1
+        photos += len(root.findall(".//wpml:actionActuatorFunc[.='takePhoto']", ns))
+    assert photos == len(d["frames"])
+    res = run_cli("export", str(plan), "--format", "litchi", "-o", str(tmp_path / "f.csv"), "--mission", "1",
+                  cwd=tmp_path)
+    assert res.returncode == 0, res.stderr
+    assert "Heading Mode = Custom" in " ".join(res.stdout.split())
     res = run_cli("export", str(plan), "--format", "qgc", "-o", str(tmp_path / "f.plan"), "--mission", "2", cwd=tmp_path)
     assert res.returncode == 0, res.stderr
     assert "(QGroundControl plan for PX4)" in " ".join(res.stdout.split())  # the default for a .plan

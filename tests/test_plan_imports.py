@@ -1,8 +1,10 @@
-"""Imports of flown captures: CSV, COLMAP (text and binary), OpenSfM; load_plan dispatch."""
+"""Imports of flown captures: CSV, COLMAP (text and binary, classic and 3.12 rigs/frames), OpenSfM; load_plan
+dispatch; DJI area templates."""
 
 from __future__ import annotations
 
 import json
+import zipfile
 from pathlib import Path
 
 import numpy as np
@@ -351,3 +353,184 @@ def test_csv_with_times_out_of_order_is_sorted_by_capture_time(tmp_path):
     assert list(plan.frame_names) == ["a", "b", "c"]
     np.testing.assert_allclose(plan.C_world[:, 0], [0, 1, 2])
     assert any("capture-time order" in w for w in plan.parameters["warnings"])
+
+
+
+# -- COLMAP 3.12: rigs and frames --------------------------------------------------------------
+
+
+def _rig_reconstruction(pycolmap, n_frames: int = 3):
+    """A two-camera rig in n frames, written as COLMAP ≥ 3.12 does, and each image's expected
+    (R_world_camera, C) worked out here from the rig and frame poses."""
+    rec = pycolmap.Reconstruction()
+    cams = [pycolmap.Camera(model="PINHOLE", width=640, height=480, params=[500.0, 510.0, 320.0, 240.0], camera_id=1),
+            pycolmap.Camera(model="SIMPLE_PINHOLE", width=800, height=600, params=[600.0, 400.0, 300.0], camera_id=2)]
+    for cam in cams:
+        rec.add_camera(cam)
+    # the second camera: 0.2 m to the right of the first, turned 30° about its y axis
+    R_sr = Rotation.from_euler("y", 30, degrees=True).as_matrix()
+    t_sr = np.array([-0.2, 0.0, 0.05])
+    rig = pycolmap.Rig(rig_id=1)
+    rig.add_ref_sensor(cams[0].sensor_id)
+    rig.add_sensor(cams[1].sensor_id, pycolmap.Rigid3d(pycolmap.Rotation3d(Rotation.from_matrix(R_sr).as_quat()), t_sr))
+    rec.add_rig(rig)
+    R_wr = Rotation.random(n_frames, random_state=7).as_matrix()
+    C_r = np.random.default_rng(2).uniform(-10, 10, size=(n_frames, 3))
+    expected = {}
+    for f in range(n_frames):
+        R_rw, fid = R_wr[f].T, f + 1
+        t_rw = -R_rw @ C_r[f]
+        frame = pycolmap.Frame(frame_id=fid, rig_id=1)
+        frame.rig_from_world = pycolmap.Rigid3d(pycolmap.Rotation3d(Rotation.from_matrix(R_rw).as_quat()), t_rw)
+        images = []
+        for k, cam in enumerate(cams):
+            image = pycolmap.Image(name=f"cam{cam.camera_id}/img_{f}.jpg", camera_id=cam.camera_id,
+                                   image_id=10 * fid + k, frame_id=fid)
+            frame.add_data_id(image.data_id)
+            images.append(image)
+            R_cw, t_cw = (R_rw, t_rw) if k == 0 else (R_sr @ R_rw, R_sr @ t_rw + t_sr)
+            expected[image.name] = (R_cw.T, -R_cw.T @ t_cw, str(cam.camera_id), fid)
+        rec.add_frame(frame)
+        for image in images:
+            rec.add_image(image)
+        rec.register_frame(fid)
+    return rec, expected
+
+
+@pytest.mark.parametrize("binary", [False, True])
+def test_colmap_312_rig_and_frames_written_by_pycolmap(tmp_path, binary):
+    pycolmap = pytest.importorskip("pycolmap")
+    rec, expected = _rig_reconstruction(pycolmap)
+    out = tmp_path / "sparse" / "0"
+    out.mkdir(parents=True)
+    (rec.write_binary if binary else rec.write_text)(str(out))
+    ext = ".bin" if binary else ".txt"
+    assert {f"{p}{ext}" for p in ("cameras", "images", "rigs", "frames")} <= {f.name for f in out.iterdir()}
+    plan = load_plan(tmp_path)
+    assert sorted(plan.frame_names.tolist()) == sorted(expected)  # every image of every frame
+    for i, name in enumerate(plan.frame_names):
+        R_wc, C, cid, _ = expected[name]
+        np.testing.assert_allclose(plan.R_world_camera[i], R_wc, atol=1e-12)
+        np.testing.assert_allclose(plan.C_world[i], C, atol=1e-9)
+        assert plan.frame_camera[i] == cid
+        # pycolmap's own pose of the image agrees
+        image = rec.find_image_with_name(name)
+        np.testing.assert_allclose(plan.C_world[i], image.projection_center(), atol=1e-9)
+    source = plan.parameters["source"]
+    assert (source["rigs"], source["frames"]) == (1, 3) and "3.12" in source["layout"]
+    assert plan.parameters["colmap_frames"] == {name: e[3] for name, e in expected.items()}
+    assert plan.parameters["warnings"] == []
+
+
+def test_colmap_312_frames_are_checked(tmp_path):
+    pycolmap = pytest.importorskip("pycolmap")
+    rec, expected = _rig_reconstruction(pycolmap, n_frames=2)
+    rec.write_text(str(tmp_path))
+    frames = (tmp_path / "frames.txt").read_text().splitlines()
+    data = [i for i, line in enumerate(frames) if line and not line.startswith("#")]
+    # move the first frame by 1 m: its images' own poses (images.txt) no longer agree with it
+    parts = frames[data[0]].split()
+    parts[6] = repr(float(parts[6]) + 1.0)
+    frames[data[0]] = " ".join(parts)
+    (tmp_path / "frames.txt").write_text("\n".join(frames) + "\n")
+    plan = load_plan(tmp_path)
+    assert len(plan) == len(expected)
+    (warning,) = plan.parameters["warnings"]
+    assert "2 COLMAP image(s) have a pose in images.txt that differs" in warning and "1 m" in warning
+    # a frame of an unknown rig
+    parts[1] = "9"
+    frames[data[0]] = " ".join(parts)
+    (tmp_path / "frames.txt").write_text("\n".join(frames) + "\n")
+    with pytest.raises(PlanError, match=r"COLMAP frame \d+ \(frames.txt\) belongs to rig 9, which rigs.txt lacks"):
+        load_plan(tmp_path)
+    (tmp_path / "frames.txt").write_text("1 1 1 0 0 0 0 0\n")
+    with pytest.raises(PlanError, match="frames.txt, line 1: expected FRAME_ID RIG_ID"):
+        load_plan(tmp_path)
+
+
+def test_colmap_312_model_without_images_names_what_is_missing(tmp_path):
+    pycolmap = pytest.importorskip("pycolmap")
+    rec, _ = _rig_reconstruction(pycolmap, n_frames=1)
+    out = tmp_path / "sparse" / "0"
+    out.mkdir(parents=True)
+    rec.write_binary(str(out))
+    (out / "images.bin").unlink()
+    with pytest.raises(PlanError, match=r"incomplete COLMAP model .*sparse/0 has cameras.bin, rigs.bin, "
+                                        r"frames.bin but no images.bin"):
+        load_plan(tmp_path)
+
+
+# -- DJI area templates (mapping2d, mapping3d, mappingStrip) ------------------------------------
+
+
+WPML_NS = "http://www.dji.com/wpmz/1.0.2"
+
+
+def _area_template(kind: str | None, geometry: str = "polygon") -> str:
+    ring = "8.0,47.0,0 8.0003,47.0,0 8.0003,47.0003,0 8.0,47.0003,0 8.0,47.0,0"
+    shape = (f"<Polygon><outerBoundaryIs><LinearRing><coordinates>{ring}</coordinates></LinearRing></outerBoundaryIs>"
+             "</Polygon>" if geometry == "polygon" else f"<LineString><coordinates>{ring}</coordinates></LineString>")
+    type_el = f"<wpml:templateType>{kind}</wpml:templateType>" if kind else ""
+    return (f"<kml xmlns='http://www.opengis.net/kml/2.2' xmlns:wpml='{WPML_NS}'><Document><wpml:missionConfig>"
+            "<wpml:takeOffRefPoint>47.0,8.0,500</wpml:takeOffRefPoint></wpml:missionConfig><Folder>"
+            f"{type_el}<wpml:templateId>0</wpml:templateId><wpml:autoFlightSpeed>5</wpml:autoFlightSpeed>"
+            f"<Placemark>{shape}<wpml:shootType>distance</wpml:shootType><wpml:direction>0</wpml:direction>"
+            "<wpml:margin>0</wpml:margin><wpml:height>50</wpml:height><wpml:ellipsoidHeight>50</wpml:ellipsoidHeight>"
+            "<wpml:inclinedGimbalPitch>-45</wpml:inclinedGimbalPitch></Placemark></Folder></Document></kml>")
+
+
+@pytest.mark.parametrize("kind, geometry, message", [
+    ("mapping3d", "polygon", r"a DJI mapping3d \(area\) template: .*export the waylines from DJI Pilot 2.*"
+                             r"`sightplan plan lawnmower` \(--oblique-pitch"),
+    ("mapping2d", "polygon", r"a DJI mapping2d \(area\) template: .*export the waylines.*`sightplan plan lawnmower`"),
+    ("mappingStrip", "line", r"a DJI mappingStrip \(strip\) template: .*export the waylines from DJI Pilot 2"),
+    (None, "polygon", r"a DJI area template \(a Polygon instead of waypoints\)"),
+])
+def test_dji_area_template_alone_is_refused_by_name(tmp_path, kind, geometry, message):
+    path = tmp_path / "survey.kmz"
+    with zipfile.ZipFile(path, "w") as z:
+        z.writestr("wpmz/template.kml", _area_template(kind, geometry))
+    with pytest.raises(PlanError, match=message) as info:
+        load_plan(path, camera="m3e")
+    assert "no Point coordinates" not in str(info.value)
+    assert str(info.value).startswith("survey.kmz, wpmz/template.kml: ")
+
+
+def test_dji_area_template_with_its_waylines_reads_the_generated_waypoints(tmp_path):
+    from sightplan.geo import Georeference
+
+    georef = Georeference.from_origin(47.0, 8.0, 500.0)  # the take-off point; model +Y north
+    corners = [[0, 0, 0], [0, 30, 0], [20, 30, 0], [20, 0, 0]]  # a lawnmower of two lines, as Pilot 2 writes it
+    lat, lon, _ = (v.tolist() for v in georef.to_geodetic(corners))
+    gimbal = ("<wpml:actionGroup><wpml:actionGroupId>0</wpml:actionGroupId><wpml:actionGroupStartIndex>0"
+              "</wpml:actionGroupStartIndex><wpml:actionGroupEndIndex>0</wpml:actionGroupEndIndex><wpml:actionTrigger>"
+              "<wpml:actionTriggerType>reachPoint</wpml:actionTriggerType></wpml:actionTrigger><wpml:action>"
+              "<wpml:actionId>0</wpml:actionId><wpml:actionActuatorFunc>gimbalRotate</wpml:actionActuatorFunc>"
+              "<wpml:actionActuatorFuncParam><wpml:gimbalPitchRotateEnable>1</wpml:gimbalPitchRotateEnable>"
+              "<wpml:gimbalPitchRotateAngle>-90</wpml:gimbalPitchRotateAngle></wpml:actionActuatorFuncParam>"
+              "</wpml:action></wpml:actionGroup>")
+    every_10m = ("<wpml:actionGroup><wpml:actionGroupId>1</wpml:actionGroupId><wpml:actionGroupStartIndex>0"
+                 "</wpml:actionGroupStartIndex><wpml:actionGroupEndIndex>3</wpml:actionGroupEndIndex><wpml:actionTrigger>"
+                 "<wpml:actionTriggerType>multipleDistance</wpml:actionTriggerType><wpml:actionTriggerParam>10"
+                 "</wpml:actionTriggerParam></wpml:actionTrigger><wpml:action><wpml:actionId>0</wpml:actionId>"
+                 "<wpml:actionActuatorFunc>takePhoto</wpml:actionActuatorFunc></wpml:action></wpml:actionGroup>")
+    marks = "".join(
+        f"<Placemark><Point><coordinates>{lon[k]!r},{lat[k]!r}</coordinates></Point><wpml:index>{k}</wpml:index>"
+        f"<wpml:executeHeight>50</wpml:executeHeight>{gimbal + every_10m if k == 0 else ''}</Placemark>"
+        for k in range(4))
+    waylines = (f"<kml xmlns='http://www.opengis.net/kml/2.2' xmlns:wpml='{WPML_NS}'><Document><wpml:missionConfig>"
+                "<wpml:takeOffRefPoint>47.0,8.0,500</wpml:takeOffRefPoint></wpml:missionConfig><Folder>"
+                "<wpml:templateId>0</wpml:templateId><wpml:waylineId>0</wpml:waylineId>"
+                "<wpml:executeHeightMode>relativeToStartPoint</wpml:executeHeightMode>"
+                f"<wpml:autoFlightSpeed>5</wpml:autoFlightSpeed>{marks}</Folder></Document></kml>")
+    path = tmp_path / "mapping.kmz"
+    with zipfile.ZipFile(path, "w") as z:
+        z.writestr("wpmz/template.kml", _area_template("mapping2d"))
+        z.writestr("wpmz/waylines.wpml", waylines)
+    plan = load_plan(path, camera="m3e")
+    assert plan.parameters["source"]["template_type"] == "mapping2d"
+    expected = [[0, 0], [0, 10], [0, 20], [0, 30], [10, 30], [20, 30], [20, 20], [20, 10], [20, 0]]
+    np.testing.assert_allclose(plan.C_world[:, :2], expected, atol=0.01)
+    np.testing.assert_allclose(plan.C_world[:, 2], 50.0, atol=0.01)
+    np.testing.assert_allclose(plan.R_world_camera[:, :, 2], np.tile([0, 0, -1.0], (9, 1)), atol=1e-9)  # nadir
+    assert not any("nadir" in w for w in plan.parameters["warnings"])

@@ -9,18 +9,22 @@
 - A name the catalogue lacks is looked up as EXIF ``"Make Model"`` (``"DJI FC6540"``) in
   OpenSfM's sensor tables (``data/sensor_data*.json``, BSD-2, see the licence note there),
   which give the sensor width in mm and often the resolution; the lens focal length must
-  then be given (``focal_mm=``).
+  then be given (``focal_mm=``; ``--focal-mm`` on the command line).
+- :func:`search_cameras` finds cameras in both by words in any order (``"sony 7r"``).
+- Cameras described by the user (a camera JSON file) are read by :mod:`.files`.
 """
 
 from __future__ import annotations
 
 import difflib
 import json
+import math
 import re
 from dataclasses import dataclass
 from functools import lru_cache
 from importlib import resources
-from typing import Any
+from pathlib import Path
+from typing import Any, Literal
 
 from ..errors import CameraError
 from .models import Camera, CameraKind, EquirectangularCamera, PinholeCamera, camera_from_dict
@@ -121,6 +125,78 @@ def lookup_sensor(make_model: str) -> SensorInfo | None:
     return _sensor_tables().get(_normalise(make_model))
 
 
+@dataclass(frozen=True)
+class CameraMatch:
+    """A camera found by :func:`search_cameras`.
+
+    source: ``"catalogue"`` (a built-in camera, ready to use) or ``"sensor table"`` (OpenSfM's
+    tables: the sensor is known, the lens is not). key: what to give ``get_camera`` or
+    ``--camera``. name: the display name. sensor_width_mm, sensor_height_mm, width, height,
+    focal_mm: None where unknown. needs: what must still be given before the camera can be
+    used, "" when nothing.
+    """
+
+    source: Literal["catalogue", "sensor table"]
+    key: str
+    name: str
+    kind: CameraKind
+    sensor_width_mm: float | None
+    sensor_height_mm: float | None
+    width: int | None
+    height: int | None
+    focal_mm: float | None
+    aliases: tuple[str, ...] = ()
+    needs: str = ""
+
+
+def _query_tokens(text: str) -> list[set[str]]:
+    """The search words of ``text``, each with its spellings: Sony's "a7r" is also "alpha7r" and "ilce7r"."""
+    out = []
+    for tok in re.split(r"[^a-z0-9]+", str(text).lower()):
+        if not tok:
+            continue
+        variants = {tok}
+        m = re.fullmatch(r"(?:a|alpha|ilce)(\d\w*)", tok)
+        if m:
+            variants |= {f"a{m[1]}", f"alpha{m[1]}", f"ilce{m[1]}"}
+        out.append(variants)
+    return out
+
+
+def _matches(tokens: list[set[str]], haystack: str) -> bool:
+    return all(any(v in haystack for v in variants) for variants in tokens)
+
+
+def _natural(name: str) -> list:
+    return [int(t) if t.isdigit() else t for t in re.split(r"(\d+)", name.lower())]
+
+
+def search_cameras(text: str = "", *, sensor_tables: bool = True) -> list[CameraMatch]:
+    """Cameras whose names contain every word of ``text``, in any order and case.
+
+    The built-in catalogue (id, name and aliases) comes first, in catalogue order; then, when
+    ``sensor_tables`` and ``text`` is not empty, the rows of OpenSfM's sensor tables ("Make
+    Model", natural order) that the catalogue does not already cover. An empty ``text`` gives
+    the catalogue alone. ``"sony 7r"`` finds "Sony Alpha 7R" and "SONY ILCE-7RM2"-like names.
+    """
+    tokens = _query_tokens(text)
+    entries, index = _catalogue()
+    found: list[CameraMatch] = []
+    for e in entries:
+        if tokens and not _matches(tokens, _normalise(" ".join((e.id, e.name, *e.aliases)))):
+            continue
+        found.append(CameraMatch("catalogue", e.id, e.name, e.kind, e.sensor_width_mm, e.sensor_height_mm,
+                                 e.width, e.height, e.focal_mm, e.aliases))
+    if not tokens or not sensor_tables:
+        return found
+    rows = [s for key, s in _sensor_tables().items() if key not in index and _matches(tokens, key)]
+    for s in sorted(rows, key=lambda s: _natural(s.key)):
+        needs = "--focal-mm" if s.width and s.height else "--focal-mm and the image size (a camera JSON file)"
+        found.append(CameraMatch("sensor table", s.key, s.key, "pinhole", s.sensor_width_mm, s.sensor_height_mm,
+                                 s.width, s.height, None, (), needs))
+    return found
+
+
 def _suggestions(name: str) -> list[str]:
     _, index = _catalogue()
     sensors = _sensor_tables()
@@ -146,15 +222,22 @@ def get_camera(name: str, *, focal_mm: float | None = None, width: int | None = 
     if sensor is None:
         hint = _suggestions(name)
         also = f"; did you mean {', '.join(map(repr, hint))}?" if hint else ""
-        raise CameraError(f"unknown camera {name!r}{also} (`sightplan cameras` lists the built-in ones)")
+        raise CameraError(f"unknown camera {name!r}{also} (`sightplan cameras WORDS` searches the catalogue and the "
+                          "sensor tables; any other camera can be given as a camera JSON file)")
     if focal_mm is None:
         raise CameraError(
             f"the sensor table knows {sensor.key!r} ({sensor.sensor_width_mm:g} mm wide sensor) but not its lens: "
-            "give its focal length in mm (focal_mm=)"
+            "give its focal length in mm (--focal-mm on the command line, focal_mm= in Python)"
         )
+    if not (isinstance(focal_mm, (int, float)) and not isinstance(focal_mm, bool) and math.isfinite(focal_mm)
+            and focal_mm > 0):
+        raise CameraError(f"the focal length must be a positive number of millimetres, got {focal_mm!r}")
     w, h = width or sensor.width, height or sensor.height
     if w is None or h is None:
-        raise CameraError(f"the sensor table does not know the resolution of {sensor.key!r}: give width= and height= in px")
+        raise CameraError(
+            f"the sensor table does not know the resolution of {sensor.key!r}: give width= and height= in px, or on "
+            "the command line a camera JSON file with sensor_width_mm, focal_mm, width and height"
+        )
     return PinholeCamera.from_sensor(sensor.sensor_width_mm, float(focal_mm), int(w), int(h),
                                      name=f"{sensor.key} ({float(focal_mm):g} mm)")
 
@@ -177,10 +260,11 @@ _SENSOR_KEYS = {"sensor_width_mm", "focal_mm", "width", "height"}
 _INTRINSIC_KEYS = {"fx", "fy", "cx", "cy", "width", "height"}
 
 
-def parse_camera_spec(spec: str | dict | Camera) -> Camera:
+def parse_camera_spec(spec: str | Path | dict | Camera) -> Camera:
     """A camera from any of the forms a user may write.
 
     - a catalogue (or sensor-table) name: ``"p4p"``;
+    - the path of a camera JSON file (a ``.json`` name, or with a folder): see :mod:`.files`;
     - ``{"catalogue": "p1", "focal_mm": 24}``;
     - a camera dict as written by ``Camera.to_dict``: ``{"model": "pinhole", ...}``;
     - a physical camera: ``{"sensor_width_mm", "focal_mm", "width", "height"}`` (+ optional
@@ -191,7 +275,11 @@ def parse_camera_spec(spec: str | dict | Camera) -> Camera:
     """
     if isinstance(spec, (PinholeCamera, EquirectangularCamera)):
         return spec
-    if isinstance(spec, str):
+    if isinstance(spec, str | Path):
+        from .files import is_camera_file, read_camera_file
+
+        if isinstance(spec, Path) or is_camera_file(spec):
+            return read_camera_file(spec)
         return get_camera(spec)
     if not isinstance(spec, dict):
         raise CameraError(f"a camera spec must be a name or an object, got {type(spec).__name__}")

@@ -9,8 +9,17 @@ from typing import Annotated, Literal
 import typer
 
 from ..plan.site import with_site
+from .camera_opts import CAMERA_FORMS, FocalOpt, cli_camera
 from .errors import friendly_errors
-from .flight import AltitudeOpt, StationOpt, VlosOpt, default_flight_settings, parse_point, print_feasibility
+from .flight import (
+    AltitudeOpt,
+    MinHeightOpt,
+    StationOpt,
+    VlosOpt,
+    default_flight_settings,
+    parse_point,
+    print_feasibility,
+)
 from .fourd import (
     ActualOpt,
     BasisOpt,
@@ -36,13 +45,16 @@ def plan_command(
              "or route (indoor polyline)")],
     model: Annotated[str, typer.Argument(help="IFC or mesh file; 'sample' for the bundled Duplex model")],
     output: Annotated[Path, typer.Option("-o", "--output", help="Plan file to write (sightplan JSON)")] = Path("plan.json"),
-    camera: Annotated[str, typer.Option(help="Camera (catalogue id, `sightplan cameras`)")] = "p4p",
+    camera: Annotated[str, typer.Option(help="Camera: " + CAMERA_FORMS)] = "p4p",
+    focal_mm: FocalOpt = None,
     safety_distance: Annotated[float | None, typer.Option(
         "--safety-distance", help="Least distance g to the model (m); default 10, 0.3 for a route")] = None,
     overlap: Annotated[float, typer.Option(help="Image overlap l, 0 ≤ l < 1")] = 0.8,
-    radius: Annotated[list[float] | None, typer.Option(help="orbit: ring radius (m), once per ring")] = None,
+    radius: Annotated[list[float] | None, typer.Option(
+        help="orbit: ring radius (m), once per ring; default: the targets' half-diagonal + the safety distance")] = None,
     height: Annotated[list[float] | None, typer.Option(
-        help="orbit: ring height (m), once per ring; bridge: height of a side pass (default: layers by overlap)")] = None,
+        help="orbit: ring height (m), once per ring (default: layers by overlap from the minimum height to the safety "
+             "distance above the top); bridge: height of a side pass (default: layers by overlap)")] = None,
     step: Annotated[float | None, typer.Option(
         help="orbit: degrees between frames (default: by overlap); route: metres between frames")] = None,
     altitude: Annotated[float | None, typer.Option(help="lawnmower: camera height above the model's base (m)")] = None,
@@ -65,6 +77,7 @@ def plan_command(
         help="Aircraft preset (p4p, m3e, m300), rover preset for a route (walker-360, spot, tracked), or a JSON file "
              "of its fields; 'none': no battery. Default p4p, walker-360 for a route")] = None,
     altitude_limit: AltitudeOpt = 120.0,
+    min_height: MinHeightOpt = None,
     split: Annotated[bool, typer.Option(help="Split missions to keep line of sight and fit the batteries")] = True,
     date: DateOpt = None,
     schedule: ScheduleOpt = None,
@@ -76,38 +89,38 @@ def plan_command(
     cache: Annotated[bool, typer.Option(help="Reuse the model cache")] = True,
 ) -> None:
     """Make a capture plan from a template around a model, check that it can be flown, and write it."""
-    from ..camera.catalogue import get_camera
     from ..errors import PlanError
     from ..plan.checks.feasibility import check_plan, plan_flights
+    from ..plan.checks.gate import record_checks
     from ..plan.format import write_plan
     from ..plan.templates import bridge, facade_grid, indoor_route, indoor_routes, lawnmower, orbit, read_routes
 
+    cam = cli_camera(camera, focal_mm)
     scene, _ = load_with_progress(console, model, cache)
     scene = dated_scene(console, scene, model, schedule, rules, prefer_actual, date, date_basis, unscheduled)
     obstacles = with_reality(console, scene, reality)  # templates go around the model; checks see everything
-    cam = get_camera(camera)
     walked = template == "route"  # walked or driven indoors: no line of sight to keep, no altitude limit
     settings = default_flight_settings(walked, safety_distance, None if walked else vlos_radius,
                                        None if walked else ground_station, aircraft, None if walked else altitude_limit,
-                                       drone_safety_m=10.0)
+                                       drone_safety_m=10.0, min_height=min_height)
     safety_distance = settings.safety_distance_m
+    low = settings.min_height_m if settings.min_height_m is not None else 0.0
     if template == "facade":
         if footprint not in ("box", "outline"):
             raise PlanError(f"--footprint must be 'box' or 'outline', got {footprint!r}")
-        plan = facade_grid(scene, cam, safety_distance, overlap, footprint=footprint)
+        plan = facade_grid(scene, cam, safety_distance, overlap, footprint=footprint, min_height_m=low)
     elif template == "orbit":
-        if not radius or not height:
-            raise PlanError("an orbit needs --radius and --height, once per ring")
-        plan = orbit(scene, cam, radius, height, step_deg=step, overlap=overlap, aim=aim)  # type: ignore[arg-type]
+        plan = orbit(scene, cam, radius or None, height or None, step_deg=step, overlap=overlap, aim=aim,  # type: ignore[arg-type]
+                     safety_distance_m=safety_distance, min_height_m=low)
     elif template == "lawnmower":
         plan = lawnmower(scene, cam, altitude_m=altitude, gsd_m=gsd, front_overlap=overlap, side_overlap=side_overlap,
-                         oblique_pitch_deg=oblique_pitch)
+                         oblique_pitch_deg=oblique_pitch, min_height_m=low)
     elif template == "bridge":
         if not point or len(point) < 2:
             raise PlanError("a bridge needs its axis: --point x,y at least twice, in order")
         axis = [parse_point(p if p.count(",") == 2 else p + ",0", "bridge axis point")[:2] for p in point]
         plan = bridge(scene, cam, axis, safety_distance, heights_m=height or None, under_deck=under_deck, overlap=overlap,
-                      deck_z=deck_z)
+                      deck_z=deck_z, min_height_m=low)
     else:
         if (not point and routes is None) or step is None:
             raise PlanError("a route needs --point x,y,z at least twice (or --routes FILE) and --step in metres")
@@ -117,9 +130,14 @@ def plan_command(
         else:
             plan = indoor_route(cam, [parse_point(p, "route point") for p in point], step)
     report = (plan_flights if split else check_plan)(obstacles, plan, settings)
-    plan = with_site(report.plan, scene, replace_takeoff=True)
+    plan = record_checks(with_site(report.plan, scene, replace_takeoff=True), report, settings)
     write_plan(plan, output)
     print_feasibility(console, report, f"{template} plan around {Path(str(model)).name} — {cam.name or camera}")
+    if "dropped_frames" in plan.parameters:
+        dropped = int(plan.parameters["dropped_frames"])
+        console.print(f"dropped {dropped} frame(s) of the template: {plan.parameters.get('dropped_reason')}" if dropped
+                      else "dropped no frame: every frame of the template has a target of the model in view",
+                      highlight=False)
     params = {k: v for k, v in plan.parameters.items() if k.endswith("_m") and isinstance(v, float)}
     if params:
         console.print(", ".join(f"{k.removesuffix('_m').replace('_', ' ')} {v:.3g} m" for k, v in params.items()))
@@ -140,11 +158,14 @@ def check_command(
         help="Aircraft or rover preset, a JSON file, or 'none'. Default p4p, walker-360 for a walked route")] = None,
     altitude_limit: Annotated[float | None, typer.Option(
         "--altitude-limit", help="FAA §107.51 limit (m); 0: no check. Default 120, none for a walked route")] = None,
+    min_height: MinHeightOpt = None,
     split: Annotated[bool, typer.Option(help="Split the missions to keep line of sight and fit the batteries "
                                              "(write the result with -o)")] = False,
     output: Annotated[Path | None, typer.Option("-o", "--output", help="Write the (split) plan here")] = None,
     json_out: Annotated[Path | None, typer.Option("--json", help="Write every waypoint's and mission's result as JSON")] = None,
-    camera: Annotated[str | None, typer.Option(help="Camera of a poses CSV or a flight-app mission")] = None,
+    camera: Annotated[str | None, typer.Option(
+        help="Camera of a poses CSV or a flight-app mission: " + CAMERA_FORMS)] = None,
+    focal_mm: FocalOpt = None,
     date: DateOpt = None,
     schedule: ScheduleOpt = None,
     rules: RulesOpt = None,
@@ -154,7 +175,7 @@ def check_command(
     unscheduled: UnscheduledOpt = "present",
     cache: Annotated[bool, typer.Option(help="Reuse the model cache")] = True,
 ) -> None:
-    """Check that a plan can be flown: safety distance, line of sight, altitude limit and batteries.
+    """Check that a plan can be flown: safety distance, line of sight, altitude limit, minimum height and batteries.
 
     Exits with status 1 when a check fails, so scripts can stop on it."""
     from ..plan.checks.feasibility import check_plan, plan_flights
@@ -164,15 +185,17 @@ def check_command(
     scene, _ = load_with_progress(console, model, cache)
     scene = dated_scene(console, scene, model, schedule, rules, prefer_actual, date, date_basis, unscheduled)
     scene = with_reality(console, scene, reality)
-    plan = load_plan(plan_file, camera=camera, **georef_kwargs(scene))
+    plan = load_plan(plan_file, camera=cli_camera(camera, focal_mm), **georef_kwargs(scene))
     warn_if_far(console, scene, plan)
     walked = plan.parameters.get("template") == "indoor_route"  # a rover or a walker: no sight line, no altitude limit
     settings = default_flight_settings(walked, safety_distance, vlos_radius, ground_station, aircraft, altitude_limit,
-                                       drone_safety_m=5.0)
+                                       drone_safety_m=5.0, min_height=min_height)
     report = (plan_flights if split else check_plan)(scene, plan, settings)
     print_feasibility(console, report, f"{Path(plan_file).name} against {Path(str(model)).name}")
     if output is not None:
-        write_plan(with_site(report.plan, scene, replace_takeoff=True), output)
+        from ..plan.checks.gate import record_checks
+
+        write_plan(record_checks(with_site(report.plan, scene, replace_takeoff=True), report, settings), output)
         console.print(f"wrote {output}")
     if json_out is not None:
         json_out.write_text(json.dumps(report.to_dict(), indent=1), encoding="utf-8")

@@ -10,6 +10,7 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 from rich.table import Column, Table
 
 from ..engines.base import EngineName
+from .camera_opts import CAMERA_FORMS, FocalOpt, cli_camera
 from .errors import friendly_errors
 from .evaluate_cmd import cell
 from .fourd import (
@@ -40,7 +41,9 @@ def progress_command(
     every_task: Annotated[bool, typer.Option(help="Evaluate at every day on which an element comes to stand")] = False,
     date_basis: BasisOpt = "finish",
     unscheduled: UnscheduledOpt = "present",
-    camera: Annotated[str | None, typer.Option(help="Camera of a poses CSV or a flight-app mission")] = None,
+    camera: Annotated[str | None, typer.Option(
+        help="Camera of a poses CSV or a flight-app mission: " + CAMERA_FORMS)] = None,
+    focal_mm: FocalOpt = None,
     engine: Annotated[EngineName, typer.Option(help=ENGINE_HELP)] = "auto",
     scale: Annotated[float, typer.Option(help="Resolution scale s")] = 0.5,
     feature_density: Annotated[float, typer.Option(help="Surface features per m²")] = 1.0,
@@ -59,7 +62,7 @@ def progress_command(
     scene, _ = load_with_progress(console, model, cache)
     scene = link_with_schedule(console, scene, model, schedule, rules, prefer_actual)
     scene = with_reality(console, scene, reality)
-    the_plan = load_plan(plan, camera=camera, **georef_kwargs(scene))
+    the_plan = load_plan(plan, camera=cli_camera(camera, focal_mm), **georef_kwargs(scene))
     days = list(date or []) + (schedule_days(scene, date_basis) if every_task else [])  # type: ignore[arg-type]
     settings = EvaluationSettings(engine=engine, scale=scale, feature_density=feature_density)
     with Progress(TextColumn("[bold]capture dates"), BarColumn(), MofNCompleteColumn(), TextColumn("{task.description}"),

@@ -11,6 +11,7 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 from rich.table import Table
 
 from ..engines.base import EngineName
+from .camera_opts import CAMERA_FORMS, FocalOpt, cli_camera
 from .errors import friendly_errors
 from .evaluate_cmd import cell
 from .fourd import (
@@ -79,7 +80,8 @@ def validate_command(
     date_basis: BasisOpt = "finish",
     unscheduled: UnscheduledOpt = "present",
     camera: Annotated[str | None, typer.Option(
-        help="Camera (catalogue id) of a poses CSV or flight-app mission; replaces the plan's own")] = None,
+        help="Camera of a poses CSV or flight-app mission (" + CAMERA_FORMS + "); replaces the plan's own")] = None,
+    focal_mm: FocalOpt = None,
     transform: Annotated[Path | None, typer.Option(help="JSON 4×4 similarity from the poses' frame to the model's")] = None,
     reality_scale: Annotated[float, typer.Option(help="Metres per reality file unit (0.001 for millimetres)")] = 1.0,
     point_spacing: Annotated[float | None, typer.Option(
@@ -95,7 +97,6 @@ def validate_command(
     threads: Annotated[int | None, typer.Option(help="Worker threads (default: all cores)")] = None,
 ) -> None:
     """Validate a plan against the reality model reconstructed from it: A, Ce, Cv, Ct, precision, recall, F."""
-    from ..camera.catalogue import get_camera
     from ..evaluate import EvaluationSettings, evaluate
     from ..metrics import MetricParams
     from ..plan.load import load_plan
@@ -105,7 +106,7 @@ def validate_command(
     settings = EvaluationSettings(engine=engine, scale=scale, d_max=d_max, threads=threads, metric=MetricParams(omega=omega))
     scene, _ = load_with_progress(console, model, cache)
     scene = dated_scene(console, scene, model, schedule, rules, prefer_actual, date, date_basis, unscheduled)
-    the_plan = load_plan(plan, camera=get_camera(camera) if camera else None, transform=transform, **georef_kwargs(scene))
+    the_plan = load_plan(plan, camera=cli_camera(camera, focal_mm), transform=transform, **georef_kwargs(scene))
     print_warnings(console, the_plan.parameters.get("warnings", []))
     with console.status(f"loading {reality.name}…"):
         psi = load_reality_input(reality, reality_scale, cache)

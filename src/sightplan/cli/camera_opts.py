@@ -1,0 +1,28 @@
+"""The ``--camera`` and ``--focal-mm`` options that every command taking a camera shares."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Annotated
+
+import typer
+
+if TYPE_CHECKING:
+    from ..camera.models import Camera
+
+CAMERA_FORMS = ("a catalogue id or name (`sightplan cameras`), a sensor-table camera with --focal-mm, "
+                "or a camera JSON file")
+FocalOpt = Annotated[float | None, typer.Option(
+    "--focal-mm", help="Lens focal length in mm: needed with a sensor-table --camera, and replaces a catalogue "
+                       "camera's lens")]
+
+
+def cli_camera(camera: str | None, focal_mm: float | None = None) -> Camera | None:
+    """The camera ``--camera`` and ``--focal-mm`` name, or None when no --camera is given."""
+    from ..camera.files import camera_from_option
+    from ..errors import CameraError
+
+    if camera is None:
+        if focal_mm is not None:
+            raise CameraError("--focal-mm needs --camera: the camera (catalogue or sensor table) whose lens it gives")
+        return None
+    return camera_from_option(camera, focal_mm)
