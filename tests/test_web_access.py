@@ -33,8 +33,13 @@ def add_user(data: Path, name: str) -> None:
     assert result.exit_code == 0, result.output
 
 
+PAGE = {"X-Sightplan-Request": "1"}  # the header sightplan's page sends with every request
+
+
 def login(client: TestClient, name: str) -> TestClient:
+    """Log ``client`` in as ``name``; its later changes carry the page's header, as the page's do."""
     client.cookies.clear()
+    client.headers.update(PAGE)
     r = client.post("/api/auth/login", json={"username": name, "password": PASSWORDS[name]})
     assert r.status_code == 200, r.text
     return client
@@ -53,7 +58,7 @@ def data(tmp_path_factory) -> Path:
 @pytest.fixture(scope="module")
 def server(data):
     """A team server; the client logs in as whoever a test needs."""
-    with TestClient(create_app(ServerConfig(data_dir=data, team=True))) as c:
+    with TestClient(create_app(ServerConfig(data_dir=data, team=True)), headers=PAGE) as c:
         yield c
 
 
@@ -240,7 +245,7 @@ def test_share_link_reads_the_plan_until_revoked(server, alices):
 def test_password_change_ends_sessions_but_not_tokens(tmp_path):
     data = tmp_path / "d"
     add_user(data, "carol")
-    with TestClient(create_app(ServerConfig(data_dir=data, team=True))) as c:
+    with TestClient(create_app(ServerConfig(data_dir=data, team=True)), headers=PAGE) as c:
         login(c, "carol")
         token = c.post("/api/auth/tokens", json={"name": "script"}).json()["token"]
         cookie = c.cookies.get("sightplan_session")
@@ -322,7 +327,7 @@ def test_users_command_line(tmp_path):
     assert again.exit_code == 2 and "exists already" in again.output and "Traceback" not in again.output
     bad = runner.invoke(cli, ["users", "add", "../x", "--data", str(data), "--password-stdin"], input="x" * 10 + "\n")
     assert bad.exit_code == 2 and "user name" in bad.output
-    with TestClient(create_app(ServerConfig(data_dir=data, team=True))) as c:
+    with TestClient(create_app(ServerConfig(data_dir=data, team=True)), headers=PAGE) as c:
         assert c.post("/api/auth/login", json={"username": "dana", "password": "long-enough-pw"}).status_code == 200
         pid = c.post("/api/projects", json={"name": "p"}).json()["id"]
     listed = runner.invoke(cli, ["users", "list", "--data", str(data)])
@@ -331,6 +336,6 @@ def test_users_command_line(tmp_path):
     assert sole.exit_code == 2 and "only owner" in sole.output
     assert runner.invoke(cli, ["users", "passwd", "dana", "--data", str(data), "--password-stdin"],
                          input="another-password\n").exit_code == 0
-    with TestClient(create_app(ServerConfig(data_dir=data, team=True))) as c:
+    with TestClient(create_app(ServerConfig(data_dir=data, team=True)), headers=PAGE) as c:
         assert c.post("/api/auth/login", json={"username": "dana", "password": "long-enough-pw"}).status_code == 401
         assert c.post("/api/auth/login", json={"username": "dana", "password": "another-password"}).status_code == 200

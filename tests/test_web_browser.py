@@ -13,6 +13,7 @@ from __future__ import annotations
 import json
 import time
 import zipfile
+from io import BytesIO
 from pathlib import Path
 
 import numpy as np
@@ -79,8 +80,8 @@ def test_pilot_walks_from_upload_to_export(browser, server, artifacts):
         page.wait_for_function("window.sightplan.state.geom && window.sightplan.viewer.plan", timeout=60_000)
         (plan,) = server.get(f"/api/projects/{project}/plans")
         v1 = server.get(f"/api/projects/{project}/plans/{plan['id']}/versions/1")
-        assert plan["versions"][0]["frames"] == len(v1["frames"]) == page.evaluate("window.sightplan.viewer.plan.n") == 288
-        assert page.inner_text("#plan-summary").startswith("288 frames · 4 mission(s)")
+        assert plan["versions"][0]["frames"] == len(v1["frames"]) == page.evaluate("window.sightplan.viewer.plan.n") == 216
+        assert page.inner_text("#plan-summary").startswith("216 frames · 4 mission(s)")
         page.wait_for_function("document.querySelector('#checks-summary').textContent.startsWith('The plan can be flown')",
                                timeout=30_000)
         shot(page, artifacts, "02-facade-plan")
@@ -166,7 +167,7 @@ def test_pilot_walks_from_upload_to_export(browser, server, artifacts):
         page.click("#plan-save")
         page.wait_for_function("window.sightplan.state.version === 2 && !window.sightplan.state.dirty", timeout=30_000)
         v2 = server.get(f"/api/projects/{project}/plans/{plan['id']}/versions/2")
-        assert len(v2["frames"]) == 288
+        assert len(v2["frames"]) == 216
         assert v2["frames"][frame]["position"] == pytest.approx(np.add(v1["frames"][frame]["position"], [2, 0, 1]).tolist())
         assert [f["position"] for k, f in enumerate(v2["frames"]) if k != frame] == \
             [f["position"] for k, f in enumerate(v1["frames"]) if k != frame]
@@ -185,7 +186,7 @@ def test_pilot_walks_from_upload_to_export(browser, server, artifacts):
         evaluations = server.get(f"/api/projects/{project}/evaluations")
         assert [(e["plan_version"], e["status"]) for e in evaluations] == [(1, "done"), (2, "done")]
         ev2 = evaluations[1]
-        assert ev2["settings"]["scale"] == SCALE_2 and ev2["metrics"]["frames"] == 288
+        assert ev2["settings"]["scale"] == SCALE_2 and ev2["metrics"]["frames"] == 216
         assert page.evaluate("window.sightplan.state.evaluation.id") == ev2["id"]
         page.click("button[data-tab=compare]")
         assert page.input_value("#compare-a") == str(ev1["id"]) and page.input_value("#compare-b") == str(ev2["id"])
@@ -195,13 +196,17 @@ def test_pilot_walks_from_upload_to_export(browser, server, artifacts):
         shot(page, artifacts, "08-compared")
 
         # 9. downloads for the flight apps
+        page.select_option("#export-aircraft", "m3e")  # the sample's Phantom 4 Pro is no DJI Pilot 2 aircraft
         with page.expect_download() as info:
             page.click("#export-wpml")
-        kmz = zipfile.ZipFile(info.value.path())
-        assert info.value.suggested_filename.endswith(".kmz")
-        assert {"wpmz/template.kml", "wpmz/waylines.wpml"} <= set(kmz.namelist()), kmz.namelist()
-        wpml = kmz.read("wpmz/waylines.wpml").decode()
-        assert wpml.count("<wpml:index>") >= 288 // 2  # waypoints of every mission
+        kmzs = zipfile.ZipFile(info.value.path())  # a .kmz per mission, each from its own take-off point
+        assert info.value.suggested_filename.endswith("_wpml.zip")
+        indexes = 0
+        for name in kmzs.namelist():
+            kmz = zipfile.ZipFile(BytesIO(kmzs.read(name)))
+            assert name.endswith(".kmz") and {"wpmz/template.kml", "wpmz/waylines.wpml"} <= set(kmz.namelist())
+            indexes += kmz.read("wpmz/waylines.wpml").decode().count("<wpml:index>")
+        assert indexes >= 216 // 2  # waypoints of every mission
         page.select_option("#export-mission", "1")
         with page.expect_download() as info:
             page.click("#export-qgc")
@@ -247,7 +252,7 @@ def test_date_slider_shows_the_site_at_a_date(browser, server, artifacts):
         project = server.request("POST", "/api/projects", {"name": "dated site"})["id"]
         res = server.upload(f"/api/projects/{project}/models", "duplex.ifc", sample_model_path().read_bytes())
         assert server.wait_job(res["job"]["id"])["status"] == "done"
-    ctx = browser.new_context(viewport=VIEWPORT)
+    ctx = browser.new_context(viewport=VIEWPORT, bypass_csp=True)  # wait_for_function's strings are eval'd
     ctx.add_init_script(f"localStorage.setItem('sightplan.project', '{project}')")
     page = ctx.new_page()
     asked: list[str] = []
@@ -377,3 +382,71 @@ def test_viewer_frame_time_on_a_steel_structure_with_2000_frames(browser, server
     # the frame times are reported (frame-times.json), never asserted
     assert len(times) >= 20, report
     assert np.all(np.isfinite(times)) and median > 0, report
+
+
+def test_page_runs_under_its_content_security_policy(browser, server, artifacts):
+    """The page as a user's browser gets it, policy enforced: it starts, draws, and breaks no rule of it."""
+    ctx = browser.new_context(viewport=VIEWPORT)
+    ctx.add_init_script("""window.__violations = [];
+        document.addEventListener('securitypolicyviolation',
+            (e) => window.__violations.push(e.violatedDirective + ' ' + e.blockedURI));""")
+    page = ctx.new_page()
+    messages: list[str] = []
+    page.on("console", lambda m: messages.append(m.text) if m.type == "error" else None)
+    page.on("pageerror", lambda e: messages.append(str(e)))
+    try:
+        response = page.goto(server.url + "/")
+        assert "script-src 'self' 'sha256-" in response.headers["content-security-policy"]
+        page.wait_for_selector("body[data-state='ready']", state="attached", timeout=30_000)
+        page.wait_for_timeout(1500)  # the 3D view's first frames
+        shot(page, artifacts, "csp-enforced")
+        violations = page.evaluate("() => window.__violations")
+    finally:
+        ctx.close()
+    assert violations == [], violations
+    assert not [m for m in messages if "Content Security Policy" in m or "Refused" in m], messages
+
+
+def test_a_page_on_another_port_cannot_change_anything(browser, server, artifacts):
+    """The forgery of the report: a page served from another loopback port posts to the server with the user's
+    browser, as a no-cors form upload and a body-less POST. The browser sends its Origin; the server refuses."""
+    import http.server
+    import threading
+
+    from web_support import free_port
+
+    before = server.get("/api/projects")
+    attack = f"""<!DOCTYPE html><html><body><script>
+      const form = new FormData();
+      form.append('name', 'forged');
+      window.results = [];
+      Promise.all([
+        fetch('{server.url}/api/projects', {{method: 'POST', mode: 'no-cors', credentials: 'include',
+               headers: {{'Content-Type': 'text/plain'}}, body: JSON.stringify({{name: 'forged'}})}}),
+        fetch('{server.url}/api/projects', {{method: 'POST', mode: 'no-cors', credentials: 'include', body: form}}),
+      ]).then(() => {{ document.body.dataset.done = '1'; }}, () => {{ document.body.dataset.done = '1'; }});
+    </script></body></html>""".encode()
+
+    class Attack(http.server.BaseHTTPRequestHandler):
+        def do_GET(self):  # noqa: N802 (the handler's name is the standard library's)
+            self.send_response(200)
+            self.send_header("Content-Type", "text/html")
+            self.end_headers()
+            self.wfile.write(attack)
+
+        def log_message(self, *args):
+            pass
+
+    port = free_port()
+    httpd = http.server.HTTPServer(("127.0.0.1", port), Attack)
+    thread = threading.Thread(target=httpd.serve_forever, daemon=True)
+    thread.start()
+    ctx = browser.new_context()
+    try:
+        page = ctx.new_page()
+        page.goto(f"http://127.0.0.1:{port}/")
+        page.wait_for_selector("body[data-done='1']", state="attached", timeout=15_000)
+    finally:
+        ctx.close()
+        httpd.shutdown()
+    assert server.get("/api/projects") == before  # nothing was made

@@ -5,7 +5,7 @@ evaluation that takes one as occluders, the selected element outlined, and team 
 links and logout.
 
 Every number the page shows is compared with the API's, and where it can be with a number known beforehand (the
-hand-counted 251 frames of the bridge, the element states written into the CSV, the library's own evaluation at the
+hand-counted 221 frames of the bridge, the element states written into the CSV, the library's own evaluation at the
 date). Screenshots of each step go to ``$SIGHTPLAN_TEST_ARTIFACTS`` (default ``test-artifacts/browser/``).
 """
 
@@ -104,7 +104,7 @@ def api_cells(metrics: dict) -> dict[str, str]:
 
 # --------------------------------------------------------------------------- (a) a bridge, a picked ground station
 def test_bridge_plan_from_the_form_with_a_picked_ground_station(browser, server, artifacts):
-    """A 60 × 10 m deck at z 8–10 on two piers; the axis [0, 0] → [60, 0] typed, 15 m off it: the 251 frames counted
+    """A 60 × 10 m deck at z 8–10 on two piers; the axis [0, 0] → [60, 0] typed, 15 m off it: the 221 frames counted
     by hand in test_web_templates. The ground station is picked by clicking the ground at (30, −25, 0)."""
     started = time.monotonic()
     mesh = trimesh.util.concatenate([box((60, 10, 2), (0, -5, 8)), box((4, 2, 8), (28, 3, 0)), box((4, 2, 8), (28, -5, 0))])
@@ -149,7 +149,7 @@ def test_bridge_plan_from_the_form_with_a_picked_ground_station(browser, server,
 
         page.click("#plan-create")
         wait_for(page, "window.sightplan.viewer.plan && window.sightplan.viewer.plan.n > 0")
-        assert page.inner_text("#plan-summary").startswith("251 frames")
+        assert page.inner_text("#plan-summary").startswith("221 frames")
         assert page.evaluate("window.sightplan.viewer.plan.n") == 251
         assert page.evaluate("window.sightplan.viewer.markers.length") == 0  # the form closed: no picked points drawn
         (plan,) = server.get(f"/api/projects/{project}/plans")

@@ -100,7 +100,7 @@ def test_team_mode_on_postgresql(pg_url, tmp_path):
 
     url = new_database(pg_url, "team")
     config = ServerConfig(data_dir=tmp_path / "d", database_url=url, team=True)
-    with TestClient(create_app(config)) as c:
+    with TestClient(create_app(config), headers={"X-Sightplan-Request": "1"}) as c:  # as the page sends
         with c.app.state.sightplan.db.session() as s:
             create_user(s, "alice", "alice-secret-1")
             create_user(s, "bob", "bob-secret-22")

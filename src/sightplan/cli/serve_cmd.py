@@ -33,6 +33,9 @@ def serve_command(
     sample: Annotated[bool, typer.Option("--sample", help="Start with the sample project: the bundled Duplex, a facade "
                                                           "grid around it and its evaluation (once per data folder)")]
     = False,
+    allowed_origin: Annotated[list[str] | None, typer.Option(
+        "--allowed-origin", help="An origin besides the server's own whose pages may send changes, e.g. the "
+                                 "https://host of a reverse proxy in front of it (repeatable)")] = None,
 ) -> None:
     """Serve the web application and its REST API (OpenAPI docs at /docs).
 
@@ -44,7 +47,8 @@ def serve_command(
     from ..web.config import ServerConfig
 
     config = ServerConfig(data_dir=data, database_url=database, host=host, port=port,
-                          max_upload_bytes=int(max_upload_mb * 1024 * 1024), workers=workers, team=team)
+                          max_upload_bytes=int(max_upload_mb * 1024 * 1024), workers=workers, team=team,
+                          allowed_origins=tuple(allowed_origin or ()))
     web_app = create_app(config)
     if sample:
         _sample_project(web_app.state.sightplan, config.team)

@@ -2,6 +2,10 @@
 
 from __future__ import annotations
 
+import base64
+import hashlib
+import os
+import re
 from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
 
@@ -14,6 +18,7 @@ from .db import Database, upgrade_database
 from .deps import ServerState
 from .errors import ids_in_range, install_error_handlers
 from .routes import ROUTERS
+from .routes.viewer import STATIC_DIR
 from .storage import Storage
 from .worker import Worker, recover_interrupted
 
@@ -25,6 +30,7 @@ Single-user mode: the server listens on the loopback address only and asks for n
 Errors are JSON `{"detail": "one message"}`.
 """
 MULTIPART_SLACK = 64 * 1024  # multipart headers and boundaries around the file
+UNPACKED_PER_UPLOAD = 10  # an archive's contents may be this many times the upload limit
 
 
 def open_state(config: ServerConfig) -> ServerState:
@@ -42,6 +48,8 @@ def open_state(config: ServerConfig) -> ServerState:
 def create_app(config: ServerConfig | None = None) -> FastAPI:
     """The application for ``config`` (default: ``./sightplan-data`` with its SQLite database)."""
     state = open_state(config or ServerConfig())
+    # an uploaded .ifczip may unpack to ten times the upload limit at most (checked before and while unpacking)
+    os.environ["SIGHTPLAN_MAX_UNPACKED_MB"] = f"{UNPACKED_PER_UPLOAD * state.config.max_upload_bytes / 2**20:g}"
 
     @asynccontextmanager
     async def lifespan(_app: FastAPI) -> AsyncIterator[None]:
@@ -49,12 +57,14 @@ def create_app(config: ServerConfig | None = None) -> FastAPI:
         close_state(state)
 
     app = FastAPI(title="sightplan", version=__version__, description=DESCRIPTION, lifespan=lifespan,
-                  dependencies=[Depends(ids_in_range)])
+                  dependencies=[Depends(ids_in_range)], docs_url=None, redoc_url=None)
     app.state.sightplan = state
 
     app.add_middleware(BodyLimit, limit=state.config.max_upload_bytes)
+    app.add_middleware(SameOriginChanges, allowed=state.config.allowed_origins)
     if not state.config.team:
         app.add_middleware(LocalOnly, host=state.config.host)
+    app.add_middleware(SecurityHeaders)
     install_error_handlers(app)
     for router in ROUTERS:
         app.include_router(router)
@@ -62,12 +72,16 @@ def create_app(config: ServerConfig | None = None) -> FastAPI:
 
 
 LOOPBACK_NAMES = ("127.0.0.1", "localhost", "::1", "testserver")  # the last: the name Starlette's test client sends
+SAFE_METHODS = ("GET", "HEAD", "OPTIONS")
+#: The header the page sends with every change; a page of another origin cannot add it without the server's CORS consent,
+#: which it never gives.
+REQUEST_HEADER = "X-Sightplan-Request"
 
 
 class LocalOnly:
-    """Single-user mode has no login, so it answers only requests made to its loopback address by pages of its own:
-    another Host (a web site's name rebound to 127.0.0.1) is refused with 400, and a change sent by a page of
-    another origin (a cross-site form or fetch) with 403."""
+    """Single-user mode has no login, so it answers only requests made to its loopback address: another Host (a web
+    site's name rebound to 127.0.0.1) is refused with 400. Changes from pages of other origins are refused in every
+    mode (:class:`SameOriginChanges`)."""
 
     def __init__(self, app, host: str) -> None:
         self.app = app
@@ -84,14 +98,84 @@ class LocalOnly:
             await JSONResponse({"detail": f"this single-user server answers only on its loopback address, not as "
                                           f"{host!r}"}, status_code=400)(scope, receive, send)
             return
-        origin = headers.get(b"origin")
-        if origin is not None and scope.get("method") not in ("GET", "HEAD", "OPTIONS"):
-            netloc = origin.decode("latin-1").lower().split("://", 1)[-1].rstrip("/")
-            if netloc != host:
-                await JSONResponse({"detail": f"a change sent by a page of another site ({origin.decode('latin-1')}) "
-                                              "is refused"}, status_code=403)(scope, receive, send)
-                return
         await self.app(scope, receive, send)
+
+
+def _origin_of(url: str) -> str:
+    """``scheme://host[:port]`` of a URL, lower case ('' when it has none)."""
+    scheme, _, rest = url.strip().partition("://")
+    return f"{scheme.lower()}://{rest.split('/', 1)[0].lower()}" if rest else ""
+
+
+class SameOriginChanges:
+    """Cross-site request forgery: a change (any method but GET, HEAD, OPTIONS) is refused with 403 when
+
+    - its ``Origin`` (or, without one, its ``Referer``) is not the server's own origin (the request's scheme and
+      ``Host``) nor one of ``allowed`` (a reverse proxy's). Browsers send ``Origin`` with every such request, also
+      from a form or a ``no-cors`` fetch, and a page on another port of the same machine is another origin;
+    - it is authenticated by the session cookie yet carries neither header nor :data:`REQUEST_HEADER`.
+
+    Requests with a bearer token (scripts) need nothing more: a browser never adds that header for another site.
+    """
+
+    def __init__(self, app, allowed: tuple[str, ...] = ()) -> None:
+        self.app, self.allowed = app, set(allowed)
+
+    async def __call__(self, scope, receive, send) -> None:
+        if scope["type"] != "http" or scope.get("method") in SAFE_METHODS:
+            await self.app(scope, receive, send)
+            return
+        headers = dict(scope.get("headers") or ())
+        own = f"{scope.get('scheme', 'http')}://{headers.get(b'host', b'').decode('latin-1').lower()}"
+        origin = headers.get(b"origin", b"").decode("latin-1")
+        referer = headers.get(b"referer", b"").decode("latin-1")
+        sender = origin or _origin_of(referer)
+        problem = None
+        if sender and sender.lower().rstrip("/") != own and sender.lower().rstrip("/") not in self.allowed:
+            problem = f"a change sent by a page of another site ({sender}) is refused"
+        elif not sender and b"sightplan_session=" in headers.get(b"cookie", b"") \
+                and not headers.get(b"authorization", b"").lower().startswith(b"bearer ") \
+                and REQUEST_HEADER.lower().encode() not in headers:
+            problem = (f"a change made with the session cookie must come from sightplan's page (header "
+                       f"{REQUEST_HEADER}); scripts use an API token")
+        if problem:
+            await JSONResponse({"detail": problem}, status_code=403)(scope, receive, send)
+            return
+        await self.app(scope, receive, send)
+
+
+def _csp() -> str:
+    """The page's Content-Security-Policy: its own scripts only, the import map by its hash."""
+    page = (STATIC_DIR / "index.html").read_text(encoding="utf-8")
+    hashes = []
+    for body in re.findall(r"<script(?![^>]*\bsrc=)[^>]*>(.*?)</script>", page, flags=re.S):
+        digest = base64.b64encode(hashlib.sha256(body.encode("utf-8")).digest()).decode()
+        hashes.append(f"'sha256-{digest}'")
+    return ("default-src 'self'; script-src 'self' " + " ".join(hashes) + "; style-src 'self'; "
+            "img-src 'self' data: blob:; connect-src 'self'; worker-src 'self' blob:; object-src 'none'; "
+            "base-uri 'none'; form-action 'self'; frame-ancestors 'none'")
+
+
+class SecurityHeaders:
+    """Headers on every response: a strict Content-Security-Policy, no sniffing, no framing, same-origin referrers."""
+
+    def __init__(self, app) -> None:
+        self.app = app
+        self.headers = [(b"content-security-policy", _csp().encode()), (b"x-content-type-options", b"nosniff"),
+                        (b"x-frame-options", b"DENY"), (b"referrer-policy", b"same-origin")]
+
+    async def __call__(self, scope, receive, send) -> None:
+        if scope["type"] != "http":
+            await self.app(scope, receive, send)
+            return
+
+        async def with_headers(message) -> None:
+            if message["type"] == "http.response.start":
+                present = {k.lower() for k, _ in message.get("headers", ())}
+                message["headers"] = [*message.get("headers", ()), *(h for h in self.headers if h[0] not in present)]
+            await send(message)
+
+        await self.app(scope, receive, with_headers)
 
 
 class BodyLimit:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import ipaddress
+import re
 import socket
 from dataclasses import dataclass
 from pathlib import Path
@@ -34,7 +35,9 @@ def is_loopback(host: str) -> bool:
 class ServerConfig:
     """data_dir: the server's folder (uploaded files, plan versions, results, the SQLite database);
     database_url: any SQLAlchemy URL, default SQLite in ``data_dir``; max_upload_bytes: the largest upload accepted;
-    workers: background jobs run at the same time; team: accounts required (always, on a non-loopback address)."""
+    workers: background jobs run at the same time; team: accounts required (always, on a non-loopback address);
+    allowed_origins: origins besides the server's own whose pages may send changes (``https://host`` of a reverse
+    proxy that ends TLS in front of the server)."""
 
     data_dir: Path = DEFAULT_DATA_DIR
     database_url: str | None = None
@@ -43,6 +46,7 @@ class ServerConfig:
     max_upload_bytes: int = int(DEFAULT_MAX_UPLOAD_MB * 1024 * 1024)
     workers: int = 2
     team: bool = False
+    allowed_origins: tuple[str, ...] = ()
 
 
     def __post_init__(self) -> None:
@@ -53,6 +57,14 @@ class ServerConfig:
             object.__setattr__(self, "team", True)  # reachable from other machines: accounts are required
         if self.workers < 1:
             raise ServerConfigError(f"at least one worker is needed, got {self.workers}")
+        origins = []
+        for origin in self.allowed_origins:
+            o = origin.strip().rstrip("/").lower()
+            if not re.fullmatch(r"https?://[^/\s]+", o):
+                raise ServerConfigError(f"an allowed origin is a scheme and a host, like https://sightplan.example.com, "
+                                        f"not {origin!r}")
+            origins.append(o)
+        object.__setattr__(self, "allowed_origins", tuple(origins))
 
     @property
     def url(self) -> str:

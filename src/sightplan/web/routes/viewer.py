@@ -38,8 +38,8 @@ PNG = {200: {"description": "A PNG image", "content": {"image/png": {}}}}
 STATIC_DIR = Path(__file__).resolve().parents[1] / "static"
 COLOURS_JS = Path(__file__).resolve().parents[2] / "report" / "colours.js"
 # Only these packages of web/node_modules are served, read-only, under /vendor/<package>/ (3d-tiles-renderer streams
-# reality point clouds; its build imports nothing but three.js and its own chunks).
-VENDOR_PACKAGES = ("three", "three-mesh-bvh", "3d-tiles-renderer")
+# reality point clouds; its build imports nothing but three.js and its own chunks; swagger-ui-dist draws /docs).
+VENDOR_PACKAGES = ("three", "three-mesh-bvh", "3d-tiles-renderer", "swagger-ui-dist")
 GEOMETRY_MAGIC = b"SPG1"
 GEOMETRY_MEDIA = "application/vnd.sightplan.geometry"
 NEUTRAL_TARGET = (0.78, 0.81, 0.86)  # elements of a view without an evaluation
@@ -494,6 +494,12 @@ def _file(path: Path, cache: str) -> FileResponse:
 @router.get("/", response_class=FileResponse, include_in_schema=False)
 def index_page() -> FileResponse:
     return _file(STATIC_DIR / "index.html", "no-cache")
+
+
+@router.get("/docs", response_class=FileResponse, include_in_schema=False)
+def api_docs() -> FileResponse:
+    """The OpenAPI documentation (Swagger UI from web/node_modules: no network needed)."""
+    return _file(STATIC_DIR / "docs.html", "no-cache")
 
 
 @router.get("/static/{path:path}", response_class=FileResponse, include_in_schema=False)

@@ -24,7 +24,8 @@ let onUnauthorized = null;
 export function setUnauthorizedHandler(fn) { onUnauthorized = fn; }
 
 export async function request(method, url, body, { raw = false } = {}) {
-  const init = { method, headers: {} };
+  // every request says it comes from this page: the server refuses cookie-authenticated changes without it
+  const init = { method, headers: { 'X-Sightplan-Request': '1' } };
   if (body !== undefined) {
     init.headers['Content-Type'] = 'application/json';
     init.body = JSON.stringify(body);
@@ -78,6 +79,7 @@ export function upload(url, formData, onProgress) {
   return new Promise((resolve, reject) => {
     const xhr = new XMLHttpRequest();
     xhr.open('POST', url);
+    xhr.setRequestHeader('X-Sightplan-Request', '1');
     xhr.responseType = 'json';
     xhr.upload.onprogress = (ev) => { if (ev.lengthComputable && onProgress) onProgress(ev.loaded / ev.total); };
     xhr.onload = () => {

@@ -17,6 +17,7 @@ const el = (tag, attrs = {}, ...children) => {
   for (const [k, v] of Object.entries(attrs)) {
     if (k === 'class') node.className = v;
     else if (k === 'dataset') Object.assign(node.dataset, v);
+    else if (k === 'style') node.style.cssText = v;  // through the CSSOM: the page's policy forbids style attributes
     else if (k.startsWith('on')) node.addEventListener(k.slice(2), v);
     else if (v !== undefined && v !== null && v !== false) node.setAttribute(k, v === true ? '' : v);
   }
@@ -1695,6 +1696,7 @@ async function exportPlan(format) {
   if (S.dirty) throw new Error('the plan is edited: save it first (exports are of saved versions)');
   const q = new URLSearchParams({ format, speed: $('#export-speed').value || '5' });
   if ($('#export-mission').value) q.set('mission', $('#export-mission').value);
+  if (format === 'wpml' && $('#export-aircraft').value) q.set('aircraft', $('#export-aircraft').value);
   if (S.model && S.model.status === 'ready') q.set('model_id', String(S.model.id));
   const file = await api.download(projectUrl(`/plans/${S.plan.id}/versions/${S.version}/export?${q}`));
   showMessage(`Downloaded ${file.name} (${(file.size / 1024).toFixed(1)} kB).`, 'ok');
