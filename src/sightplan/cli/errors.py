@@ -5,11 +5,14 @@ from __future__ import annotations
 import functools
 import os
 import sys
+import tempfile
 from collections.abc import Callable
+from pathlib import Path
 from typing import TypeVar
 
 import typer
 from rich.console import Console
+from rich.markup import escape
 
 from ..errors import SightplanError
 
@@ -23,7 +26,7 @@ def friendly_errors(func: F) -> F:
         try:
             return func(*args, **kwargs)
         except SightplanError as exc:
-            err_console.print(f"[bold red]error:[/] {exc}", highlight=False, markup=True)
+            err_console.print(f"[bold red]error:[/] {escape(str(exc))}", highlight=False, markup=True)
             raise typer.Exit(2) from None
         except KeyboardInterrupt:
             err_console.print("[yellow]interrupted[/]")
@@ -33,9 +36,37 @@ def friendly_errors(func: F) -> F:
         except Exception as exc:  # a bug, not bad input: still one line unless asked for details
             if os.environ.get("SIGHTPLAN_DEBUG"):
                 raise
-            err_console.print(f"[bold red]internal error:[/] {type(exc).__name__}: {exc} "
+            err_console.print(f"[bold red]internal error:[/] {type(exc).__name__}: {escape(str(exc))} "
                               "(set SIGHTPLAN_DEBUG=1 for the traceback)", highlight=False)
             sys.stderr.flush()
             raise typer.Exit(3) from None
 
     return wrapper  # type: ignore[return-value]
+
+
+def writable_folder(path: Path, option: str) -> Path:
+    """``path`` checked, before any work, to be a folder that exists and can be written or that can be made
+    (nothing is created here), else one SightplanError."""
+    path = Path(path).absolute()
+    existing = path
+    while not existing.exists() and existing.parent != existing:
+        existing = existing.parent
+    if not existing.is_dir():
+        raise SightplanError(f"{option} {path}: cannot write there ({existing} is a file, not a folder)")
+    try:
+        with tempfile.NamedTemporaryFile(dir=existing, prefix=".sightplan-write-test-"):
+            pass
+    except OSError as exc:
+        raise SightplanError(f"{option} {path}: cannot write there ({exc.strerror or exc})") from None
+    return path
+
+
+def writable_file(path: Path, option: str) -> Path:
+    """``path``'s folder made and checked writable before any work (the file itself is written later)."""
+    path = Path(path)
+    if path.is_dir():
+        raise SightplanError(f"{option} {path}: is a folder, not a file")
+    writable_folder(path.parent if str(path.parent) else Path("."), option)
+    if path.exists() and not os.access(path, os.W_OK):
+        raise SightplanError(f"{option} {path}: cannot write there (read-only)")
+    return path

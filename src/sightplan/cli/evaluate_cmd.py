@@ -10,8 +10,10 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 from rich.table import Table
 
 from ..engines.base import EngineName
+from ..errors import SightplanError
 from ..model.mesh import MeshGrouping
-from .errors import friendly_errors
+from .camera_opts import CAMERA_FORMS, FocalOpt, cli_camera
+from .errors import friendly_errors, writable_folder
 from .fourd import (
     ActualOpt,
     BasisOpt,
@@ -26,6 +28,8 @@ from .fourd import (
 )
 from .loading import georef_kwargs, load_with_progress, print_warnings, warn_if_far
 from .main import ENGINE_HELP, app, console
+
+MAX_RING_FRAMES = 100_000  # as many as a route may have: a ring plan is built before anything is cast
 
 if TYPE_CHECKING:
     from ..report.gltf import ColourBy
@@ -86,8 +90,9 @@ def evaluate(
     plan: Annotated[str | None, typer.Argument(help="Plan file (sightplan JSON, poses CSV, COLMAP model, OpenSfM "
                                                      "reconstruction.json); omit for a ring of frames")] = None,
     camera: Annotated[str | None, typer.Option(
-        help="Camera (catalogue id) of the ring plan (default p4p) or of a poses CSV; given with a PLAN that has "
-             "cameras of its own, it replaces them")] = None,
+        help="Camera of the ring plan (default p4p) or of a poses CSV: " + CAMERA_FORMS + "; given with a PLAN that "
+             "has cameras of its own, it replaces them")] = None,
+    focal_mm: FocalOpt = None,
     ring_frames: Annotated[int, typer.Option(help="Frames in the ring plan when no PLAN is given")] = 36,
     ring_distance: Annotated[float, typer.Option(help="Ring clearance from the model's box (m)")] = 15.0,
     date: DateOpt = None,
@@ -134,7 +139,6 @@ def evaluate(
     batch_frames: Annotated[int, typer.Option(help="With --cluster: frames per task")] = 64,
 ) -> None:
     """Evaluate a capture plan against a model: VC, V̄C, VR, R, O, T, per element and per frame."""
-    from ..camera.catalogue import get_camera
     from ..evaluate import EvaluationSettings
     from ..evaluate import evaluate as run_evaluation
     from ..metrics import MetricParams
@@ -144,7 +148,11 @@ def evaluate(
     from ..report import write_report
 
     check_date_options(date_basis, unscheduled)
+    if not 1 <= ring_frames <= MAX_RING_FRAMES:
+        raise SightplanError(f"--ring-frames must be 1 to {MAX_RING_FRAMES:,}, got {ring_frames:,}")
+    writable_folder(out, "--out")
     colour, colour_bounds = _check_report_options(html, gltf, colour_by, bounds)
+    the_camera = cli_camera((camera or "p4p") if plan is None else camera, focal_mm)
     settings = EvaluationSettings(engine=engine, scale=scale, d_max=d_max, feature_density=feature_density,
                                   feature_seed=seed, threads=threads,
                                   metric=MetricParams(omega=omega, k=k, min_track=min_track, min_features=min_features))
@@ -156,11 +164,11 @@ def evaluate(
     scene = dated_scene(console, scene, model, schedule, rules, prefer_actual, date, date_basis, unscheduled)
     scene = with_reality(console, scene, reality)
     if plan is None:
-        ring_camera = camera or "p4p"
-        the_plan = ring_plan(scene, get_camera(ring_camera), n_frames=ring_frames, distance_m=ring_distance)
-        plan_label = f"ring of {ring_frames} frames ({ring_camera})"
+        assert the_camera is not None
+        the_plan = ring_plan(scene, the_camera, n_frames=ring_frames, distance_m=ring_distance)
+        plan_label = f"ring of {ring_frames} frames ({camera or 'p4p'})"
     else:
-        the_plan = load_plan(plan, camera=get_camera(camera) if camera else None, transform=transform,
+        the_plan = load_plan(plan, camera=the_camera, transform=transform,
                              **georef_kwargs(scene))
         plan_label = plan
         warn_if_far(console, scene, the_plan)

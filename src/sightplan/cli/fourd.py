@@ -5,8 +5,11 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Annotated
 
+import numpy as np
 import typer
 from rich.console import Console
+
+from ..errors import SightplanError
 
 ScheduleOpt = Annotated[str | None, typer.Option(
     help="Schedule: MS Project XML (.xml), Primavera P6 (.xer), CSV, an IFC with a work schedule, or 'model' for the "
@@ -52,6 +55,10 @@ def scene_at(console: Console, scene, date: str | None, basis: str, unscheduled:
     check_date_options(basis, unscheduled)
     if date is None:
         return scene
+    el = scene.elements
+    if np.isnat(el.start).all() and np.isnat(el.finish).all():
+        raise SightplanError(f"--date {date} needs the elements' dates: give --schedule FILE (or --schedule model for "
+                             "the model's own work schedule); without one every element would count as built")
     scene = scene.at(date, basis=basis, unscheduled=unscheduled)  # type: ignore[arg-type]
     console.print(f"capture date {date}: {int(scene.targets.sum())} target elements built")
     return scene

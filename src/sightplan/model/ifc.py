@@ -21,7 +21,10 @@ from __future__ import annotations
 import math
 import os
 import sys
+import tempfile
 import time
+import zipfile
+import zlib
 from collections import Counter
 from collections.abc import Callable, Iterable
 from pathlib import Path
@@ -80,25 +83,76 @@ def ifc_options(occluders: Iterable[str] = DEFAULT_OCCLUDERS, include_occluders_
     }
 
 
-def _open(path: Path) -> ifcopenshell.file:
-    """Open an IFC file, turning every way it can be unreadable into one ModelError."""
+#: An .ifczip is refused when its IFC would unpack to more than this many MB (``$SIGHTPLAN_MAX_UNPACKED_MB``;
+#: ``sightplan serve`` sets it to ten times its upload limit): a small archive can hold a huge padded file.
+DEFAULT_MAX_UNPACKED_MB = 4096.0
+
+
+def max_unpacked_bytes() -> int:
+    """The largest IFC an .ifczip may unpack to, in bytes."""
+    try:
+        mb = float(os.environ.get("SIGHTPLAN_MAX_UNPACKED_MB", DEFAULT_MAX_UNPACKED_MB))
+    except ValueError:
+        mb = DEFAULT_MAX_UNPACKED_MB
+    return int(max(mb, 1.0) * 1024 * 1024)
+
+
+def _unzip_ifc(path: Path, folder: Path) -> Path:
+    """The IFC inside an .ifczip, unpacked into ``folder`` with its size checked before and while it is written."""
+    limit = max_unpacked_bytes()
+    too_big = (f"{path.name} unpacks to more than the limit of {limit / 2**20:,.0f} MB "
+               "(SIGHTPLAN_MAX_UNPACKED_MB): refused")
+    try:
+        with zipfile.ZipFile(path) as z:
+            entries = [i for i in z.infolist() if i.filename.lower().endswith(".ifc") and not i.is_dir()]
+            if not entries:
+                raise ModelError(f"{path.name}: no .ifc file inside the archive")
+            info = entries[0]
+            if info.file_size > limit:
+                raise ModelError(too_big.replace("more than", f"{info.file_size / 2**20:,.0f} MB, over"))
+            target = folder / "model.ifc"
+            written = 0
+            with z.open(info) as src, open(target, "wb") as dst:
+                while block := src.read(1 << 20):
+                    written += len(block)
+                    if written > limit:  # the declared size can lie
+                        raise ModelError(too_big)
+                    dst.write(block)
+    except (zipfile.BadZipFile, zlib.error, EOFError) as exc:
+        raise ModelError(f"{path.name} is not a readable .ifczip (zip) archive: {exc}") from None
+    return target
+
+
+def _check_spf(path: Path, name: str) -> None:
+    """A STEP physical file starts with ISO-10303-21 and ends with END-ISO-10303-21;."""
+    size = path.stat().st_size
+    with open(path, "rb") as fh:
+        head = fh.read(64).lstrip(b"\xef\xbb\xbf \t\r\n")
+        fh.seek(max(0, size - 4096))
+        tail = fh.read()
+    if not head.startswith(b"ISO-10303-21"):
+        raise ModelError(f"{name} is not an IFC file (no ISO-10303-21 header)")
+    if b"END-ISO-10303-21" not in tail:
+        raise ModelError(f"{name} is truncated: it does not end with END-ISO-10303-21;")
+
+
+def open_ifc(path: str | Path) -> ifcopenshell.file:
+    """Open an IFC file (.ifc, or .ifczip unpacked within :func:`max_unpacked_bytes`), turning every way it can be
+    unreadable into one ModelError."""
+    path = Path(path)
     if not path.is_file():
         raise ModelError(f"model file not found: {path}")
     if path.stat().st_size == 0:
         raise ModelError(f"{path.name} is empty")
-    if path.suffix.lower() == ".ifc":
-        with open(path, "rb") as fh:
-            head = fh.read(64).lstrip(b"\xef\xbb\xbf \t\r\n")
-            fh.seek(max(0, path.stat().st_size - 4096))
-            tail = fh.read()
-        if not head.startswith(b"ISO-10303-21"):
-            raise ModelError(f"{path.name} is not an IFC file (no ISO-10303-21 header)")
-        if b"END-ISO-10303-21" not in tail:
-            raise ModelError(f"{path.name} is truncated: it does not end with END-ISO-10303-21;")
-    try:
-        return ifcopenshell.open(str(path))
-    except Exception as exc:  # ifcopenshell raises Error, OSError, RuntimeError, SchemaError, ...
-        raise ModelError(f"{path.name} cannot be read as IFC: {exc}") from exc
+    with tempfile.TemporaryDirectory(prefix="sightplan-ifczip-") as tmp:
+        source = _unzip_ifc(path, Path(tmp)) if path.suffix.lower() == ".ifczip" else path
+        if source.suffix.lower() == ".ifc":
+            _check_spf(source, path.name)
+        try:
+            return ifcopenshell.open(str(source))
+        except Exception as exc:  # ifcopenshell raises Error, OSError, RuntimeError, SchemaError, ...
+            raise ModelError(f"{path.name} cannot be read as IFC: {exc}") from exc
+
 
 
 def _peak_rss_mb() -> float:
@@ -424,7 +478,7 @@ def load_ifc(
     tracker = _Tracker(progress, status)
     size_mb = path.stat().st_size / 2**20 if path.is_file() else 0.0
     tracker.phase("reading", 0, f"{path.name}, {size_mb:,.1f} MB")
-    f = _open(path)
+    f = open_ifc(path)
     schema = f.schema_identifier
     try:
         unit_scale = float(uunit.calculate_unit_scale(f))

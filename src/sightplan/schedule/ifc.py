@@ -24,7 +24,8 @@ import ifcopenshell.util.date as udate
 import ifcopenshell.util.element as uel
 import numpy as np
 
-from ..errors import ScheduleError
+from ..errors import ModelError, ScheduleError
+from ..model.ifc import open_ifc
 from .tasks import NAT, Task, TaskTable, parse_task_date, task_label
 
 
@@ -32,9 +33,9 @@ def _open(path: Path) -> ifcopenshell.file:
     if not path.is_file():
         raise ScheduleError(f"schedule file not found: {path}")
     try:
-        return ifcopenshell.open(str(path))
-    except Exception as exc:  # ifcopenshell raises many kinds for unreadable files
-        raise ScheduleError(f"{path.name} cannot be read as IFC: {exc}") from exc
+        return open_ifc(path)  # an .ifczip is unpacked within the size limit
+    except ModelError as exc:
+        raise ScheduleError(str(exc)) from None
 
 
 def _nested_tasks(task: ifcopenshell.entity_instance) -> list[ifcopenshell.entity_instance]:

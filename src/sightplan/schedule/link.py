@@ -18,7 +18,8 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from ..errors import ScheduleError
+from ..errors import ModelError, ScheduleError
+from ..model.ifc import open_ifc
 from ..model.load import IFC_EXTENSIONS
 from ..model.scene import Scene
 from .rules import LinkRule, closest, parse_rules, read_rules
@@ -135,13 +136,12 @@ class _Properties:
     """Property values of the scene's elements, read once from the IFC file."""
 
     def __init__(self, scene: Scene, model_path: Path) -> None:
-        import ifcopenshell
         import ifcopenshell.util.element as uel
 
         try:
-            f = ifcopenshell.open(str(model_path))
-        except Exception as exc:  # every way an IFC can be unreadable
-            raise ScheduleError(f"{model_path.name} cannot be read as IFC for the rules' properties: {exc}") from exc
+            f = open_ifc(model_path)
+        except ModelError as exc:  # every way an IFC can be unreadable
+            raise ScheduleError(f"the rules' properties cannot be read: {exc}") from None
         self.schema = f.schema_identifier
         self.values: list[dict[str, object]] = []
         found = 0

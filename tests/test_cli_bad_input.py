@@ -1,0 +1,43 @@
+"""Bad input on the command line: one `error:` line naming the problem, exit 2, nothing written, no work done first."""
+
+from __future__ import annotations
+
+import json
+
+from test_cli import assert_clean_error, run_cli
+
+
+def test_a_ring_too_large_is_refused_before_anything_is_built(tmp_path):
+    res = run_cli("evaluate", "sample", "--ring-frames", "1000000000", "--out", str(tmp_path / "out"), cwd=tmp_path)
+    assert res.returncode == 2
+    assert_clean_error(res, "--ring-frames", "100,000", "1,000,000,000")
+    assert not (tmp_path / "out").exists()
+
+
+def test_an_output_folder_that_cannot_be_written_is_refused_first(tmp_path):
+    (tmp_path / "a-file").write_text("x")
+    res = run_cli("evaluate", "sample", "--ring-frames", "4", "--out", str(tmp_path / "a-file" / "out"), cwd=tmp_path)
+    assert res.returncode == 2
+    assert_clean_error(res, "--out", "cannot write there")
+    assert "casting" not in res.stdout  # refused before any frame was cast
+
+
+def test_a_capture_date_needs_a_schedule(tmp_path):
+    res = run_cli("evaluate", "sample", "--ring-frames", "4", "--date", "2024-05-01", "--out", str(tmp_path / "o"),
+                  cwd=tmp_path)
+    assert res.returncode == 2
+    assert_clean_error(res, "--date 2024-05-01", "--schedule")
+    assert not (tmp_path / "o" / "report.json").exists()
+
+
+def test_an_error_message_keeps_its_brackets(tmp_path):
+    """The value in a message is printed as it is, not taken for console markup."""
+    plan = {"format": "sightplan-plan", "version": 1,
+            "cameras": {"c": {"model": "pinhole", "width": 64, "height": 48, "fx": 50, "fy": 50, "cx": 32, "cy": 24}},
+            "frames": [{"name": "f0", "camera": "c", "position": [float("nan"), -13.0, 4.49],
+                        "rotation": [[1, 0, 0], [0, 1, 0], [0, 0, 1]]}]}
+    path = tmp_path / "nan.json"
+    path.write_text(json.dumps(plan))
+    res = run_cli("evaluate", "sample", str(path), "--out", str(tmp_path / "o"), cwd=tmp_path)
+    assert res.returncode == 2
+    assert_clean_error(res, "position", "not finite", "[nan, -13.0, 4.49]")
