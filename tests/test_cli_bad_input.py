@@ -41,3 +41,14 @@ def test_an_error_message_keeps_its_brackets(tmp_path):
     res = run_cli("evaluate", "sample", str(path), "--out", str(tmp_path / "o"), cwd=tmp_path)
     assert res.returncode == 2
     assert_clean_error(res, "position", "not finite", "[nan, -13.0, 4.49]")
+
+
+def test_check_refuses_a_json_path_it_cannot_write_before_checking(tmp_path):
+    (tmp_path / "a-file").write_text("x")
+    res = run_cli("plan", "orbit", "sample", "--safety-distance", "8", "-o", str(tmp_path / "p.json"), cwd=tmp_path)
+    assert res.returncode == 0, res.stderr
+    res = run_cli("check", str(tmp_path / "p.json"), "sample", "--json", str(tmp_path / "a-file" / "r.json"),
+                  cwd=tmp_path)
+    assert res.returncode == 2
+    assert_clean_error(res, "--json", "cannot write there")
+    assert "mission" not in res.stdout  # refused before the checks ran

@@ -10,7 +10,7 @@ import typer
 
 from ..plan.site import with_site
 from .camera_opts import CAMERA_FORMS, FocalOpt, cli_camera
-from .errors import friendly_errors
+from .errors import friendly_errors, writable_file
 from .flight import (
     AltitudeOpt,
     MinHeightOpt,
@@ -182,6 +182,8 @@ def check_command(
     from ..plan.format import write_plan
     from ..plan.load import load_plan
 
+    if json_out is not None:
+        writable_file(json_out, "--json")  # before the checks run, not after
     scene, _ = load_with_progress(console, model, cache)
     scene = dated_scene(console, scene, model, schedule, rules, prefer_actual, date, date_basis, unscheduled)
     scene = with_reality(console, scene, reality)
