@@ -284,3 +284,18 @@ def test_a_one_frame_mission_joins_its_neighbour_and_batteries_are_counted_by_ti
     # three flights of 91, 86 and 79 s: each needs its own battery; two 40 s flights share one
     assert battery_count(times, ac) == 3
     assert battery_count([type("M", (), {"time_s": 40.0, "start": 0, "stop": 1})()] * 2, ac) == 1
+
+
+def test_runaway_parameters_are_refused_before_anything_is_built():
+    """The report's runaway requests: an orbit every 0.0001° and a facade grid at 0.5 m with 99 % overlap."""
+    from sightplan.camera.catalogue import get_camera
+    from sightplan.errors import PlanError
+    from sightplan.model.load import load_model
+    from sightplan.plan.templates import facade_grid, orbit
+
+    scene, _ = load_model("sample")
+    cam = get_camera("p4p")
+    with pytest.raises(PlanError, match="3,600,000 frames, more than the 100,000"):
+        orbit(scene, cam, [20.0], [6.0], step_deg=0.0001)
+    with pytest.raises(PlanError, match="facade grid at 0.5 m with 99% overlap would make"):
+        facade_grid(scene, cam, 0.5, overlap=0.99)

@@ -161,3 +161,18 @@ def test_the_server_refuses_an_uploaded_bomb_and_keeps_nothing(tmp_path):
         job = wait_job(c, r.json()["job"]["id"])
         assert job["status"] == "failed" and "over the limit of 20 MB" in job["error"], job
     assert not any((tmp_path / "d" / "tmp").iterdir())
+
+
+def test_runaway_template_requests_are_422_naming_the_parameter(server):
+    pid = server.post("/api/projects", json={"name": "runaway"}, headers={REQUEST_HEADER: "1"}).json()["id"]
+    with open(__import__("sightplan.model.load", fromlist=["x"]).sample_model_path(), "rb") as fh:
+        r = server.post(f"/api/projects/{pid}/models", files={"file": ("duplex.ifc", fh)}, headers={REQUEST_HEADER: "1"})
+    from web_support import wait_job
+
+    assert wait_job(server, r.json()["job"]["id"])["status"] == "done"
+    mid = r.json()["model"]["id"]
+    for body, words in (({"template": "orbit", "radius": [20], "height": [6], "step": 0.0001}, "step"),
+                        ({"template": "facade", "overlap": 0.99, "safety_distance": 0.5}, "overlap"),
+                        ({"template": "orbit", "radius": [20] * 30, "height": [6] * 30, "step": 0.1}, "frames")):
+        r = server.post(f"/api/projects/{pid}/plans", json={"model_id": mid, **body}, headers={REQUEST_HEADER: "1"})
+        assert r.status_code == 422 and words in r.json()["detail"], (body, r.text)

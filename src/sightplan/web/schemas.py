@@ -111,7 +111,7 @@ class TemplatePlanIn(BaseModel):
     camera: str = Field("p4p", description="A camera of the catalogue (GET /api/cameras)")
     safety_distance: float | None = Field(None, description="facade and bridge: distance to the model (m); also the "
                                                             "flight check's least distance. Default 10, 0.3 for a route")
-    overlap: float = Field(0.8, description="Image overlap, 0 ≤ l < 1")
+    overlap: float = Field(0.8, ge=0, le=0.95, description="Image overlap, 0 ≤ l ≤ 0.95 (as the page's form)")
     footprint: Literal["box", "outline"] = "box"
     radius: list[float] = Field(default_factory=list, description="orbit: ring radii (m), one per ring (default: the "
                                                                   "targets' half-diagonal + the safety distance)")
@@ -119,12 +119,12 @@ class TemplatePlanIn(BaseModel):
                                                                   "overlap from the minimum height to the safety "
                                                                   "distance above the top); bridge: heights of the side "
                                                                   "passes (default: by overlap)")
-    step: float | None = Field(None, description="orbit: degrees between frames (default: by overlap); route: metres "
-                                                 "between frames")
+    step: float | None = Field(None, ge=0.01, description="orbit: degrees between frames (default: by overlap); "
+                                                          "route: metres between frames")
     aim: Literal["centre", "surface"] = "centre"
     altitude: float | None = Field(None, description="lawnmower: camera height above the model's base (m)")
     gsd: float | None = Field(None, description="lawnmower: ground sampling distance on the model's top (m/px)")
-    side_overlap: float = Field(0.7, description="lawnmower: overlap between lines")
+    side_overlap: float = Field(0.7, ge=0, le=0.95, description="lawnmower: overlap between lines")
     oblique_pitch: float | None = Field(None, description="lawnmower: add crossed lines at this gimbal pitch (°)")
     axis: list[Point2] = Field(default_factory=list, description="bridge: points [x, y] of the axis, in order")
     under_deck: bool = Field(True, description="bridge: add a pass under the deck, looking up")

@@ -42,7 +42,7 @@ from ..aim import drop_blind_frames
 from ..ground import MIN_HEIGHT_M, height_floor, targets_only
 from ..poses import R_from_gimbal
 from ..types import Mission, Plan
-from .spacing import waypoint_spacing
+from .spacing import check_frame_budget, waypoint_spacing
 
 OBLIQUE_DEG = 45.0
 GAP_SHARE = 0.05  # outline mode: gaps in the footprint narrower than 2·GAP_SHARE·g are closed…
@@ -205,6 +205,9 @@ def facade_grid(scene: Scene, camera: Camera, safety_distance_m: float, overlap:
     g = float(safety_distance_m)
     s_h = waypoint_spacing(g, camera.hfov_deg, overlap)
     s_v = waypoint_spacing(g, camera.vfov_deg, overlap)
+    # the box's grid, estimated before anything is built (an outline's is no larger than its box's by much)
+    check_frame_budget((2 * (size[0] + size[1]) / s_h + 8) * (size[2] / s_v + 3),
+                       f"a facade grid at {g:g} m with {overlap:.0%} overlap")
     if footprint == "outline":
         sides = _outline_sides(structure, g, s_h)
     else:

@@ -16,7 +16,7 @@ from ..ground import MIN_HEIGHT_M, ground_z, targets_only
 from ..poses import R_from_gimbal
 from ..types import Mission, Plan
 from .facade import _valid_min_height, layer_heights
-from .spacing import waypoint_spacing
+from .spacing import check_frame_budget, waypoint_spacing
 
 DEFAULT_SAFETY_M = 10.0
 
@@ -80,6 +80,8 @@ def orbit(scene: Scene, camera: Camera, radii_m: list[float] | None = None, heig
         radii_m, heights_m = [p[0] for p in pairs], [p[1] for p in pairs]
     if len(radii_m) != len(heights_m) or not radii_m:
         raise PlanError("give one height per ring radius (and at least one ring)")
+    check_frame_budget(sum(_frames_per_ring(camera, r, step_deg, overlap, k) for k, r in enumerate(radii_m)),
+                       f"{len(radii_m)} rings")
     C, heading, pitch, missions = [], [], [], []
     for k, (r, z) in enumerate(zip(radii_m, heights_m)):
         if not r > half_diag:
@@ -114,6 +116,7 @@ def _frames_per_ring(camera: Camera, radius: float, step_deg: float | None, over
         step = math.degrees(waypoint_spacing(radius, camera.hfov_deg, overlap) / radius)
     if not 0 < step <= 180:
         raise PlanError(f"ring {ring}: the angular step must be in (0°, 180°], got {step}")
+    check_frame_budget(360.0 / step, f"ring {ring}'s step of {step:g}°")
     return max(3, math.ceil(360.0 / step - 1e-9))
 
 

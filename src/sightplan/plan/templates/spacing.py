@@ -22,3 +22,15 @@ def waypoint_spacing(distance_m: float, fov_deg: float, overlap: float) -> float
     if not 0 <= overlap < 1:
         raise PlanError(f"the overlap must be at least 0 and below 100 %, got {overlap * 100:g} %")
     return 2.0 * distance_m * math.tan(math.radians(fov_deg) / 2) * (1.0 - overlap)
+
+
+#: No template builds more frames than this (a walked route neither): more is a typo in a step or an overlap, and
+#: would take the memory of the machine before anything is cast.
+MAX_TEMPLATE_FRAMES = 100_000
+
+
+def check_frame_budget(n_frames: float, what: str) -> None:
+    """Refuse, before anything is built, a template whose parameters give more than :data:`MAX_TEMPLATE_FRAMES`."""
+    if not n_frames <= MAX_TEMPLATE_FRAMES:
+        raise PlanError(f"{what} would make {n_frames:,.0f} frames, more than the {MAX_TEMPLATE_FRAMES:,} a plan may "
+                        "have; raise the step or lower the overlap")
