@@ -150,11 +150,11 @@ def test_bridge_plan_from_the_form_with_a_picked_ground_station(browser, server,
         page.click("#plan-create")
         wait_for(page, "window.sightplan.viewer.plan && window.sightplan.viewer.plan.n > 0")
         assert page.inner_text("#plan-summary").startswith("221 frames")
-        assert page.evaluate("window.sightplan.viewer.plan.n") == 251
+        assert page.evaluate("window.sightplan.viewer.plan.n") == 221
         assert page.evaluate("window.sightplan.viewer.markers.length") == 0  # the form closed: no picked points drawn
         (plan,) = server.get(f"/api/projects/{project}/plans")
         v1 = server.get(f"/api/projects/{project}/plans/{plan['id']}/versions/1")
-        assert len(v1["frames"]) == plan["versions"][0]["frames"] == 251
+        assert len(v1["frames"]) == plan["versions"][0]["frames"] == 221
         assert v1["parameters"]["template"] == "bridge" and v1["parameters"]["deck_z"] == pytest.approx(8.0)
         assert v1["missions"][0]["ground_station"] == pytest.approx(station, abs=1e-9)
         assert {tuple(m["ground_station"]) for m in v1["missions"]} == {tuple(station)}
