@@ -1,4 +1,4 @@
-"""How the CLI reports failures: one readable line and a non-zero exit, never a traceback."""
+"""How the CLI reports: failures in one line and a non-zero exit (no traceback), paths checked before work, cells."""
 
 from __future__ import annotations
 
@@ -70,3 +70,8 @@ def writable_file(path: Path, option: str) -> Path:
     if path.exists() and not os.access(path, os.W_OK):
         raise SightplanError(f"{option} {path}: cannot write there (read-only)")
     return path
+
+
+def cell(x: float | None, spec: str) -> str:
+    """A table cell: ``x`` formatted with ``spec``, or a dash for a missing value."""
+    return "—" if x is None else format(x, spec)

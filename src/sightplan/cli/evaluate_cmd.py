@@ -13,7 +13,7 @@ from ..engines.base import EngineName
 from ..errors import SightplanError
 from ..model.mesh import MeshGrouping
 from .camera_opts import CAMERA_FORMS, FocalOpt, cli_camera
-from .errors import friendly_errors, writable_folder
+from .errors import cell, friendly_errors, writable_folder
 from .fourd import (
     ActualOpt,
     BasisOpt,
@@ -33,11 +33,6 @@ MAX_RING_FRAMES = 100_000  # as many as a route may have: a ring plan is built b
 
 if TYPE_CHECKING:
     from ..report.gltf import ColourBy
-
-
-def cell(x: float | None, spec: str) -> str:
-    """A table cell: ``x`` formatted with ``spec``, or a dash for a missing value."""
-    return "—" if x is None else format(x, spec)
 
 
 def summary_table(ev, title: str) -> Table:

@@ -12,8 +12,7 @@ from rich.table import Table
 
 from ..engines.base import EngineName
 from .camera_opts import CAMERA_FORMS, FocalOpt, cli_camera
-from .errors import friendly_errors
-from .evaluate_cmd import cell
+from .errors import cell, friendly_errors
 from .fourd import (
     ActualOpt,
     BasisOpt,

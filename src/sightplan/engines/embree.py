@@ -80,14 +80,17 @@ class EmbreeEngine(Engine):
         if self._empty:
             out[:] = True
             return out
+        origins = np.broadcast_to(np.asarray(origin32, np.float32), directions.shape)
+        tfar = np.asarray(tfar, np.float32)
         starts = list(range(0, len(directions), max(4096, -(-len(directions) // self.threads))))
         if self._pool is None or len(starts) == 1:
-            _packets.unoccluded(self._rtc.handle, origin32, directions, tfar, out, rtc.packet_buffer())
+            _packets.unoccluded(self._rtc.handle, origins, directions, tfar, out, rtc.packet_buffer())
             return out
 
         def part(s: int) -> None:
             e = min(s + (starts[1] - starts[0]), len(directions))
-            _packets.unoccluded(self._rtc.handle, origin32, directions[s:e], tfar[s:e], out[s:e], rtc.packet_buffer())
+            _packets.unoccluded(self._rtc.handle, origins[s:e], directions[s:e], tfar[s:e], out[s:e],
+                                rtc.packet_buffer())
 
         list(self._pool.map(part, starts))
         return out

@@ -17,37 +17,13 @@ MODE_PINHOLE = 0
 MODE_EQUIRECT = 1
 
 
-@nb.njit(nogil=True, cache=True, inline="always")
-def pixel_direction(mode, p, width, height, fx, fy, cx, cy, R):
-    """Unit world direction (float64 x, y, z) of pixel p (row-major) of a pinhole or equirectangular camera."""
-    u = p % width
-    v = p // width
-    if mode == MODE_EQUIRECT:
-        lon = 2.0 * math.pi * (u + 0.5) / width - math.pi
-        lat = 0.5 * math.pi - math.pi * (v + 0.5) / height
-        cl = math.cos(lat)
-        x = cl * math.sin(lon)
-        y = -math.sin(lat)
-        z = cl * math.cos(lon)
-    else:
-        x = (u + 0.5 - cx) / fx
-        y = (v + 0.5 - cy) / fy
-        inv = 1.0 / math.sqrt(x * x + y * y + 1.0)
-        x *= inv
-        y *= inv
-        z = inv
-    return (R[0, 0] * x + R[0, 1] * y + R[0, 2] * z,
-            R[1, 0] * x + R[1, 1] * y + R[1, 2] * z,
-            R[2, 0] * x + R[2, 1] * y + R[2, 2] * z)
-
-
 @nb.njit(nogil=True, cache=True)
 def direction_tables(mode, width, height, fx, fy, cx, cy):
-    """Per-column and per-row terms of :func:`pixel_direction`, so a frame computes each once.
+    """Per-column and per-row terms of the pixels' ray directions, so a frame computes each once.
 
-    Pinhole: columns (u + 0.5 − cx)/fx, rows (v + 0.5 − cy)/fy. Equirectangular: columns
-    sin and cos of the longitude, rows cos and sin of the latitude. The values are those
-    :func:`pixel_direction` computes, so :func:`table_direction` returns the same directions.
+    Rays pass through pixel centres (u + 0.5, v + 0.5). Pinhole: columns (u + 0.5 − cx)/fx,
+    rows (v + 0.5 − cy)/fy. Equirectangular: columns sin and cos of the longitude
+    2π(u + 0.5)/W − π, rows cos and sin of the latitude π/2 − π(v + 0.5)/H.
     """
     cols = np.empty((width, 2))
     rows = np.empty((height, 2))
@@ -70,7 +46,7 @@ def direction_tables(mode, width, height, fx, fy, cx, cy):
 
 @nb.njit(nogil=True, cache=True, inline="always")
 def table_direction(mode, p, width, cols, rows, R):
-    """:func:`pixel_direction` of pixel p from the tables of :func:`direction_tables`."""
+    """Unit world direction (float64 x, y, z) of pixel p (row-major), from :func:`direction_tables`; R: camera to world."""
     u = p % width
     v = p // width
     if mode == MODE_EQUIRECT:
@@ -90,18 +66,22 @@ def table_direction(mode, p, width, cols, rows, R):
             R[2, 0] * x + R[2, 1] * y + R[2, 2] * z)
 
 
-@nb.njit(nogil=True, cache=True, fastmath=False)
+@nb.njit(nogil=True, cache=True)
+def _directions(mode, p0, p1, width, height, fx, fy, cx, cy, R, out):
+    cols, rows = direction_tables(mode, width, height, fx, fy, cx, cy)
+    for k in range(p1 - p0):
+        out[k, 0], out[k, 1], out[k, 2] = table_direction(mode, p0 + k, width, cols, rows, R)
+
+
 def pinhole_directions(p0, p1, width, fx, fy, cx, cy, R, out):
-    """World ray directions (unit, float32) of pixels p0..p1 (row-major) of a pinhole camera."""
-    for k in range(p1 - p0):
-        out[k, 0], out[k, 1], out[k, 2] = pixel_direction(MODE_PINHOLE, p0 + k, width, 0, fx, fy, cx, cy, R)
+    """World ray directions (unit, float32) of pixels p0..p1 (row-major) of a pinhole camera into ``out``."""
+    height = (p1 - 1) // width + 1 if p1 > 0 else 1  # the rows these pixels reach
+    _directions(MODE_PINHOLE, p0, p1, width, height, float(fx), float(fy), float(cx), float(cy), R, out)
 
 
-@nb.njit(nogil=True, cache=True, fastmath=False)
 def equirect_directions(p0, p1, width, height, R, out):
-    """World ray directions (unit, float32) of pixels p0..p1 of an equirectangular camera."""
-    for k in range(p1 - p0):
-        out[k, 0], out[k, 1], out[k, 2] = pixel_direction(MODE_EQUIRECT, p0 + k, width, height, 1.0, 1.0, 0.0, 0.0, R)
+    """World ray directions (unit, float32) of pixels p0..p1 of an equirectangular camera into ``out``."""
+    _directions(MODE_EQUIRECT, p0, p1, width, height, 1.0, 1.0, 0.0, 0.0, R, out)
 
 
 @nb.njit(nogil=True, cache=True, inline="always")

@@ -89,55 +89,51 @@ def cast_pixels(scene, p0, p1, mode, width, height, fx, fy, cx, cy, R, origin32,
                         count, depth_sum, angle_sum)
 
 
+@nb.njit(nogil=True, inline="always")
+def _load(f, u, valid, origins, directions, tfar, start, n_rays):
+    """Lanes 0..7 of the packet from rays start..start+8 (origins may be a broadcast view); the others off.
+    ``tfar`` (n,) per ray, or an empty array for "unbounded" (then the hit ids are reset too). Returns the lanes used."""
+    n = min(LANES, n_rays - start)
+    for k in range(LANES):
+        if k < n:
+            i = start + k
+            f[_ORG_X + k] = origins[i, 0]
+            f[_ORG_Y + k] = origins[i, 1]
+            f[_ORG_Z + k] = origins[i, 2]
+            f[_DIR_X + k] = directions[i, 0]
+            f[_DIR_Y + k] = directions[i, 1]
+            f[_DIR_Z + k] = directions[i, 2]
+            if tfar.shape[0]:
+                f[_TFAR + k] = tfar[i]
+            else:
+                f[_TFAR + k] = np.inf
+                u[_GEOM_ID + k] = _INVALID
+            valid[k] = -1
+        else:
+            valid[k] = 0
+    return n
+
+
 @nb.njit(nogil=True)
 def first_hits(scene, origins, directions, out, buf):
     """out[i] = the first triangle hit by ray i (−1 on a miss); origins may be a broadcast (n, 3) view."""
     f, u, valid, addr, vaddr = _packet(buf)
     _reset_lanes(f, u)
-    n_rays = directions.shape[0]
-    for start in range(0, n_rays, LANES):
-        n = min(LANES, n_rays - start)
-        for k in range(LANES):
-            if k < n:
-                i = start + k
-                f[_ORG_X + k] = origins[i, 0]
-                f[_ORG_Y + k] = origins[i, 1]
-                f[_ORG_Z + k] = origins[i, 2]
-                f[_DIR_X + k] = directions[i, 0]
-                f[_DIR_Y + k] = directions[i, 1]
-                f[_DIR_Z + k] = directions[i, 2]
-                f[_TFAR + k] = np.inf
-                u[_GEOM_ID + k] = _INVALID
-                valid[k] = -1
-            else:
-                valid[k] = 0
+    unbounded = np.zeros(0, np.float32)
+    for start in range(0, directions.shape[0], LANES):
+        n = _load(f, u, valid, origins, directions, unbounded, start, directions.shape[0])
         _intersect8(vaddr, scene, addr, 0)
         for k in range(n):
             out[start + k] = -1 if u[_GEOM_ID + k] == _INVALID else np.int32(u[_PRIM_ID + k])
 
 
 @nb.njit(nogil=True)
-def unoccluded(scene, origin32, directions, tfar, out, buf):
-    """out[i] = True when nothing is hit along ray i from ``origin32`` before ``tfar[i]`` (``rtcOccluded8``)."""
+def unoccluded(scene, origins, directions, tfar, out, buf):
+    """out[i] = True when nothing is hit along ray i before ``tfar[i]`` (``rtcOccluded8``); origins as :func:`first_hits`."""
     f, u, valid, addr, vaddr = _packet(buf)
     _reset_lanes(f, u)
-    for k in range(LANES):
-        f[_ORG_X + k] = origin32[0]
-        f[_ORG_Y + k] = origin32[1]
-        f[_ORG_Z + k] = origin32[2]
-    n_rays = directions.shape[0]
-    for start in range(0, n_rays, LANES):
-        n = min(LANES, n_rays - start)
-        for k in range(LANES):
-            if k < n:
-                i = start + k
-                f[_DIR_X + k] = directions[i, 0]
-                f[_DIR_Y + k] = directions[i, 1]
-                f[_DIR_Z + k] = directions[i, 2]
-                f[_TFAR + k] = tfar[i]
-                valid[k] = -1
-            else:
-                valid[k] = 0
+    for start in range(0, directions.shape[0], LANES):
+        n = _load(f, u, valid, origins, directions, tfar, start, directions.shape[0])
         _occluded8(vaddr, scene, addr, 0)
         for k in range(n):
             # an occluded ray comes back with tfar = −inf
