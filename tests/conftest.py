@@ -30,3 +30,12 @@ def shared_file(*parts: str) -> Path:
     if not path.exists():
         pytest.skip(f"{path} is not present")
     return path
+
+
+@pytest.fixture(scope="session")
+def duplex():
+    """The bundled Duplex as a Scene, loaded once for every test that reads it (scenes are not changed in place)."""
+    from sightplan.model.load import load_model
+
+    scene, _ = load_model("sample")
+    return scene

@@ -10,10 +10,6 @@ from __future__ import annotations
 
 import json
 import math
-import os
-import subprocess
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -29,6 +25,7 @@ from sightplan.camera import (
     read_camera_file,
     search_cameras,
 )
+from sightplan.camera.catalogue import list_cameras
 from sightplan.cli.camera_opts import cli_camera
 from sightplan.errors import CameraError
 from sightplan.evaluate import EvaluationSettings, evaluate
@@ -36,16 +33,11 @@ from sightplan.model.load import load_model
 from sightplan.plan import Plan, load_plan
 from sightplan.plan.format import write_plan
 from sightplan.plan.ring import ring_plan
+from test_cli import run_cli
 
 # Sony Alpha 7R in OpenSfM's detailed table: 35.9 × 24 mm, 7389 × 4926 px; with a 35 mm lens
 SONY, FOCAL_MM = "Sony Alpha 7R", 35.0
 SONY_W, SONY_H, SONY_SENSOR_MM = 7389, 4926, 35.9
-
-
-def run_cli(*args: str, cwd: Path) -> subprocess.CompletedProcess:
-    env = {**os.environ, "COLUMNS": "160"}
-    return subprocess.run([sys.executable, "-m", "sightplan", *args], capture_output=True, text=True, cwd=cwd, env=env,
-                          timeout=300)
 
 
 @pytest.fixture(scope="module")
@@ -135,7 +127,9 @@ def test_search_cameras():
     assert a7r.needs == "--focal-mm"
     assert SONY in [m.key for m in search_cameras("SONY a7r")]  # Sony's own short name
     assert [m.key for m in search_cameras("phantom 4")] == ["p4p"]  # the catalogue covers its sensor-table rows
-    assert [m.source for m in search_cameras("")] == ["catalogue"] * len(search_cameras(""))
+    everything = search_cameras("")  # no words: the whole catalogue, in its order, and no sensor-table row
+    assert [m.key for m in everything] == [e.id for e in list_cameras()] and len(everything) >= 5
+    assert {m.source for m in everything} == {"catalogue"}
     short = next(m for m in search_cameras("dji fc300s") if m.source == "sensor table")
     assert short.width is None and "image size" in short.needs  # only the short table knows it
 

@@ -19,16 +19,9 @@ from sightplan.engines.embree import EmbreeEngine
 from sightplan.engines.featurecull import FeatureIndex
 from sightplan.evaluate import EvaluationSettings, evaluate
 from sightplan.metrics import MetricParams
-from sightplan.model.load import load_model
 from sightplan.observations.features import cached_features, sample_features
 from sightplan.plan.poses import R_from_gimbal
 from sightplan.plan.ring import ring_plan
-
-
-@pytest.fixture(scope="module")
-def duplex():
-    scene, _ = load_model("sample")
-    return scene
 
 
 @pytest.fixture(scope="module")

@@ -17,7 +17,6 @@ from sightplan.camera.models import EquirectangularCamera, PinholeCamera
 from sightplan.engines import gl, make_engine
 from sightplan.errors import EngineError
 from sightplan.evaluate import EvaluationSettings, evaluate
-from sightplan.model.load import load_model
 from sightplan.observations.features import sample_features
 from sightplan.plan.ring import ring_plan
 from sightplan.plan.templates.facade import facade_grid
@@ -31,12 +30,6 @@ def test_gl_runs_where_ci_runs():
     if not os.environ.get("CI"):
         pytest.skip("only enforced in CI")
     assert gl.available(), gl.probe()["error"]
-
-
-@pytest.fixture(scope="module")
-def duplex():
-    scene, _ = load_model("sample")
-    return scene
 
 
 @pytest.fixture(scope="module")

@@ -332,7 +332,7 @@ ORBIT_JS = """async (seconds) => {
 
 
 @pytest.mark.slow
-def test_viewer_frame_time_on_a_steel_structure_with_2000_frames(browser, server, artifacts):
+def test_viewer_draws_a_steel_structure_with_2000_frames_and_reports_frame_times(browser, server, artifacts):
     from conftest import shared_file
     from sightplan.camera.catalogue import get_camera
     from sightplan.model.load import load_model

@@ -31,7 +31,6 @@ from .errors import SightplanError
 
 GRID_NAMES = ("us_nga_egm96_15.tif", "egm96_15.gtx")
 SYSTEM_DIRS = ("/usr/share/proj", "/usr/local/share/proj")
-MODEL = "EGM96"
 INSTALL_HINT = ("install Debian's proj-data package (apt-get install proj-data), which puts the EGM96 grid "
                 f"{GRID_NAMES[0]} in /usr/share/proj, or set SIGHTPLAN_GEOID_GRID to that file")
 
@@ -57,7 +56,12 @@ def _search_dirs() -> list[Path]:
 
 def grid_path() -> Path | None:
     """The EGM96 grid file found (see the module docstring), or None."""
-    explicit = os.environ.get("SIGHTPLAN_GEOID_GRID")
+    return _find_grid(os.environ.get("SIGHTPLAN_GEOID_GRID"))
+
+
+@lru_cache(maxsize=4)
+def _find_grid(explicit: str | None) -> Path | None:
+    """The folders are searched once per process (every exported frame asks)."""
     if explicit:
         return Path(explicit) if Path(explicit).is_file() else None
     for d in _search_dirs():
@@ -117,5 +121,5 @@ def to_orthometric(latitude_deg: ArrayLike, longitude_deg: ArrayLike, height_m: 
     return np.atleast_1d(np.asarray(height_m, float)) - undulation(latitude_deg, longitude_deg)
 
 
-__all__ = ["GRID_NAMES", "MODEL", "GeoidError", "available", "grid_path", "to_ellipsoidal", "to_orthometric",
+__all__ = ["GRID_NAMES", "GeoidError", "available", "grid_path", "to_ellipsoidal", "to_orthometric",
            "undulation"]

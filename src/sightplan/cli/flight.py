@@ -111,10 +111,10 @@ def print_feasibility(console: Console, report, title: str, max_violations: int 
         gs = "—" if m.line_of_sight_ok is None else ",".join(f"{v:.0f}" for v in m.ground_station[:2])
         t.add_row(m.name, str(m.stop - m.start), str(m.start), gs, _minutes(m.time_s),
                   "—" if m.distance_m is None else f"{m.distance_m / 1000:.2f}", _flag(m.battery_ok), _flag(m.line_of_sight_ok),
-                  _flag(m.safety_ok), _flag(_both(m.altitude_ok, getattr(m, "height_ok", None))))
+                  _flag(m.safety_ok), _flag(_both(m.altitude_ok, m.height_ok)))
     console.print(t)
     n_wp = len(plan.waypoints) if len(plan.waypoints) else len(plan)
-    batteries = getattr(report, "batteries", None)
+    batteries = report.batteries
     if batteries is None:
         batteries = sum(m.battery_ok is not None for m in report.missions)
     total = report.total_time_s

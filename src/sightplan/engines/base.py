@@ -145,21 +145,29 @@ class Engine(ABC):
         )
 
     def _cast_chunks(self, cam: Camera, R: NDArray, C: NDArray, starts: list[int], n_px: int):
+        """Per-element sums (pixels, distance, angle) of the chunks of pixels starting at ``starts``."""
         z = self.n_elements
-        count = np.zeros(z, np.int64)
-        depth = np.zeros(z, np.float64)
-        angle = np.zeros(z, np.float64)
-        buf = np.empty((min(self.chunk_rays, n_px), 3), np.float32)
+        sums = (np.zeros(z, np.int64), np.zeros(z, np.float64), np.zeros(z, np.float64))
+        cast = self._chunk_caster(cam, R, C, min(self.chunk_rays, n_px))
+        for p0 in starts:
+            cast(p0, min(p0 + self.chunk_rays, n_px), *sums)
+        return sums
+
+    def _chunk_caster(self, cam: Camera, R: NDArray, C: NDArray, max_rays: int):
+        """``cast(p0, p1, count, depth, angle)``: add pixels p0..p1 of one frame to the sums. This one makes the
+        rays, asks :meth:`first_hit` and reduces; an engine may fuse the three (the Embree engine does)."""
+        buf = np.empty((max_rays, 3), np.float32)
         C32 = C.astype(np.float32)
         mode = kernels.MODE_EQUIRECT if isinstance(cam, EquirectangularCamera) else kernels.MODE_PINHOLE
-        for p0 in starts:
-            p1 = min(p0 + self.chunk_rays, n_px)
+
+        def cast(p0: int, p1: int, count: NDArray, depth: NDArray, angle: NDArray) -> None:
             dirs = buf[: p1 - p0]
             self._directions(cam, R, p0, p1, dirs)
             prim = self.first_hit(np.broadcast_to(C32, dirs.shape), dirs)
             kernels.accumulate_hits(prim, dirs, C, R, mode, self._face_normal, self._face_offset, self._face_element,
                                     self.d_max, count, depth, angle)
-        return count, depth, angle
+
+        return cast
 
     def element_map(self, camera: Camera, R_world_camera: NDArray, C_world: NDArray, scale: float = 1.0
                     ) -> tuple[NDArray[np.int32], NDArray[np.float64]]:

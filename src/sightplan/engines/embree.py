@@ -52,25 +52,22 @@ class EmbreeEngine(Engine):
         _packets.first_hits(self._rtc.handle, o, np.asarray(directions, np.float32), out, rtc.packet_buffer())
         return out
 
-    def _cast_chunks(self, cam: Camera, R: NDArray, C: NDArray, starts: list[int], n_px: int):
-        z = self.n_elements
-        count = np.zeros(z, np.int64)
-        depth = np.zeros(z, np.float64)
-        angle = np.zeros(z, np.float64)
-        if self._empty:
-            return count, depth, angle
+    def _chunk_caster(self, cam: Camera, R: NDArray, C: NDArray, max_rays: int):
+        """Rays, packets and reduction fused in one compiled loop (:func:`.packets.cast_pixels`)."""
         buf = rtc.packet_buffer()
         C32 = C.astype(np.float32)
         if isinstance(cam, EquirectangularCamera):
             mode, fx, fy, cx, cy = kernels.MODE_EQUIRECT, 1.0, 1.0, 0.0, 0.0
         else:
             mode, fx, fy, cx, cy = kernels.MODE_PINHOLE, cam.fx, cam.fy, cam.cx, cam.cy
-        for p0 in starts:
-            p1 = min(p0 + self.chunk_rays, n_px)
-            _packets.cast_pixels(self._rtc.handle, p0, p1, mode, cam.width, cam.height, float(fx), float(fy),
-                                 float(cx), float(cy), R, C32, C, self._face_normal, self._face_offset,
-                                 self._face_element, self.d_max, count, depth, angle, buf)
-        return count, depth, angle
+
+        def cast(p0: int, p1: int, count: NDArray, depth: NDArray, angle: NDArray) -> None:
+            if not self._empty:
+                _packets.cast_pixels(self._rtc.handle, p0, p1, mode, cam.width, cam.height, float(fx), float(fy),
+                                     float(cx), float(cy), R, C32, C, self._face_normal, self._face_offset,
+                                     self._face_element, self.d_max, count, depth, angle, buf)
+
+        return cast
 
     def _unoccluded(self, origin32: NDArray[np.float32], directions: NDArray[np.float32],
                     tfar: NDArray[np.float32]) -> NDArray[np.bool_]:

@@ -95,7 +95,7 @@ def export_plan(plan: Plan, fmt: ExportFormat, path: str | Path, georef: Georefe
 
     georef: where the model frame lies on the Earth. takeoff_m: (3,) model-frame take-off (home)
     point on the ground; altitudes are measured from it. per_mission_takeoff: each mission takes off
-    from the ground under its own ground station instead (:func:`~sightplan.export.common.mission_takeoffs`;
+    from the ground under its own ground station instead (:func:`~sightplan.plan.site.mission_takeoffs`;
     missions without one from ``takeoff_m``): the default; False for a take-off point the user gave. speed_m_s: flight
     speed between waypoints. mission: index (from 0) into ``plan.missions`` of the only mission to
     write, to ``path`` itself; all missions when None (``qgc``, ``wpl``, ``wpml`` and ``litchi`` write
@@ -127,15 +127,17 @@ def export_plan(plan: Plan, fmt: ExportFormat, path: str | Path, georef: Georefe
         return build_flight(plan, georef, takeoff_m, fmt=fmt, speed_m_s=speed_m_s, mission=m,
                             per_mission_takeoff=per_mission_takeoff, pitch_range=dji.pitch_range if dji else None)
 
-    whole = build(mission)
-    jobs = [(whole, path)]
-    if fmt in PER_MISSION_FORMATS:
-        numbers = [m for m, _ in whole.by_mission()]
-        if len(numbers) > 1:
-            paths = mission_paths(path, numbers, several=True)
-            jobs = [(build(m - 1), paths[m]) for m in numbers]
+    # a file per mission with frames (numbered from 1, as Flight.by_mission numbers them), each flight built once
+    numbers = [k + 1 for k, m in enumerate(plan.missions) if m.stop > m.start] \
+        if fmt in PER_MISSION_FORMATS and mission is None else []
+    if len(numbers) > 1:
+        paths = mission_paths(path, numbers, several=True)
+        jobs = [(build(m - 1), paths[m]) for m in numbers]
+    else:
+        jobs = [(build(mission), path)]
     written: list[Path] = []
     try:
+        name = dji.name if dji else litchi_aircraft(plan) if fmt == "litchi" else None
         for flight, out in jobs:
             if fmt in MAVLINK_FORMATS:
                 files = _WRITERS[fmt](flight, out, autopilot)
@@ -145,7 +147,6 @@ def export_plan(plan: Plan, fmt: ExportFormat, path: str | Path, georef: Georefe
                 files = _WRITERS[fmt](flight, out)
             written += files
             if report is not None:
-                name = dji.name if dji else litchi_aircraft(plan) if fmt == "litchi" else None
                 start = flight.takeoff_of(flight.waypoints[0].mission) if fmt in PER_MISSION_FORMATS else None
                 lowest = min(w.position_m[2] - flight.takeoff_of(w.mission).position_m[2] for w in flight.waypoints)
                 report += [ExportedFile(Path(f), fmt, name, autopilot, lowest, start, _settings(fmt, note)) for f in files]

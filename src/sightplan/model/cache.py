@@ -49,7 +49,8 @@ def _paths(key: str, cache_dir: Path) -> tuple[Path, Path]:
     return cache_dir / f"{key}.npz", cache_dir / f"{key}.json"
 
 
-def _atomic_write(target: Path, write) -> None:
+def atomic_write(target: Path, write) -> None:
+    """Write ``target`` through ``write(fh)`` into a temporary file beside it, then rename: never half written."""
     fd, tmp = tempfile.mkstemp(dir=target.parent, prefix=target.name, suffix=".tmp")
     try:
         with os.fdopen(fd, "wb") as fh:
@@ -82,8 +83,8 @@ def save_scene(scene: Scene, report: LoadReport, cache_dir: str | Path | None = 
         "metadata": scene.metadata,
         "report": report.to_dict(),
     }
-    _atomic_write(npz_path, lambda fh: np.savez(fh, **arrays))
-    _atomic_write(json_path, lambda fh: fh.write(json.dumps(meta, default=str).encode()))
+    atomic_write(npz_path, lambda fh: np.savez(fh, **arrays))
+    atomic_write(json_path, lambda fh: fh.write(json.dumps(meta, default=str).encode()))
     return npz_path
 
 

@@ -14,17 +14,17 @@ from __future__ import annotations
 
 import hashlib
 import json
-import os
-import tempfile
+import zipfile
 from dataclasses import dataclass
 from pathlib import Path
+from typing import BinaryIO
 
 import numba as nb
 import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import ObservationsError
-from ..model.cache import default_cache_dir
+from ..model.cache import atomic_write, default_cache_dir
 from ..model.scene import Scene
 
 CORNER_ANGLE_DEG = 30.0
@@ -57,10 +57,11 @@ class FeatureSet:
         h.update(self.normals.tobytes())
         return h.hexdigest()[:32]
 
-    def save(self, path: str | Path) -> None:
-        np.savez_compressed(path, header=np.array(json.dumps({"format": "sightplan-features", "version": 1,
-                                                              "params": self.params})),
-                            points=self.points, normals=self.normals, kind=self.kind, element=self.element)
+    def save(self, path: str | Path | BinaryIO, compressed: bool = True) -> None:
+        """Write the set as .npz (``compressed=False``: larger, but read back at disk speed)."""
+        (np.savez_compressed if compressed else np.savez)(
+            path, header=np.array(json.dumps({"format": "sightplan-features", "version": 1, "params": self.params})),
+            points=self.points, normals=self.normals, kind=self.kind, element=self.element)
 
     @classmethod
     def load(cls, path: str | Path) -> FeatureSet:
@@ -69,7 +70,7 @@ class FeatureSet:
                 header = json.loads(str(z["header"]))
                 fs = cls(z["points"].astype(np.float64), z["normals"].astype(np.float64), z["kind"].astype(np.int8),
                          z["element"].astype(np.int32), header.get("params", {}))
-        except (OSError, ValueError, KeyError) as exc:
+        except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as exc:
             raise ObservationsError(f"{path} is not a sightplan feature file: {exc}") from None
         if fs.points.ndim != 2 or fs.points.shape[1:] != (3,) or fs.normals.shape != fs.points.shape:
             raise ObservationsError(f"{path}: points and normals must both be (N, 3)")
@@ -196,32 +197,20 @@ def cached_features(scene: Scene, density_per_m2: float = 1.0, seed: int = 0, ca
     The file is keyed by the scene's key (model, loader options, capture date) and the
     sampling parameters; an unreadable or stale file is sampled again and replaced.
     """
-    if not (density_per_m2 >= 0 and np.isfinite(density_per_m2)):
-        raise ObservationsError(f"feature density must be ≥ 0 per m², got {density_per_m2}")
     directory = Path(cache_dir) if cache_dir is not None else default_cache_dir()
     name = hashlib.sha256(json.dumps([SAMPLING_VERSION, scene.key, float(density_per_m2), int(seed)]).encode())
     path = directory / f"features-{name.hexdigest()[:40]}.npz"
     if path.is_file():
         try:
-            with np.load(path, allow_pickle=False) as z:
-                params = json.loads(str(z["header"]))["params"]
-                fs = FeatureSet(z["points"], z["normals"], z["kind"], z["element"], params)
-            if params.get("scene") == scene.key and len(fs.kind) == len(fs.points) == len(fs.element):
+            fs = FeatureSet.load(path)
+            if fs.params.get("scene") == scene.key and len(fs.kind) == len(fs.points) == len(fs.element):
                 return fs
-        except (OSError, ValueError, KeyError, TypeError):
+        except ObservationsError:
             pass  # sampled again below
     fs = sample_features(scene, density_per_m2, seed)
     try:
         directory.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(dir=directory, prefix=path.name, suffix=".tmp")
-        try:
-            with os.fdopen(fd, "wb") as fh:  # uncompressed: it loads at disk speed
-                np.savez(fh, header=np.array(json.dumps({"format": "sightplan-features", "version": 1,
-                                                         "params": fs.params})),
-                         points=fs.points, normals=fs.normals, kind=fs.kind, element=fs.element)
-            os.replace(tmp, path)
-        finally:
-            Path(tmp).unlink(missing_ok=True)
+        atomic_write(path, lambda fh: fs.save(fh, compressed=False))
     except OSError:
         pass  # a read-only cache folder only costs the sampling next time
     return fs

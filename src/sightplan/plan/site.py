@@ -5,8 +5,11 @@ from __future__ import annotations
 
 from dataclasses import replace
 
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
 from ..model.scene import Scene
-from .types import Plan
+from .types import Mission, Plan
 
 
 def with_site(plan: Plan, scene: Scene, *, replace_takeoff: bool = False) -> Plan:
@@ -28,3 +31,28 @@ def with_site(plan: Plan, scene: Scene, *, replace_takeoff: bool = False) -> Pla
         ground = float(ground_z(scene, [station[:2]])[0])
         params["takeoff_m"] = [float(station[0]), float(station[1]), ground]
     return replace(plan, parameters=params)
+
+
+def mission_takeoffs(plan: Plan, takeoff_m: ArrayLike, per_mission: bool = True) -> list[NDArray[np.float64]]:
+    """(3,) model-frame take-off point of each mission (``plan.missions``, or the whole plan as one): under its ground
+    station when ``per_mission`` and it has one, else ``takeoff_m``.
+
+    ``takeoff_m`` is the ground under the first mission's station (:func:`~sightplan.plan.site.with_site`), and
+    stations stand at one height above the ground, so a station's take-off height is ``takeoff_m``'s plus its
+    height above the first station's (0 on flat ground)."""
+    T = np.asarray(takeoff_m, float).reshape(3)
+    missions = plan.missions or (Mission("mission 1", 0, len(plan)),)
+
+    def station(m: Mission) -> NDArray[np.float64] | None:
+        gs = None if m.ground_station is None else np.asarray(m.ground_station, float).reshape(-1)
+        return gs if gs is not None and gs.shape == (3,) and np.isfinite(gs).all() else None
+
+    first = station(missions[0])
+    out = []
+    for m in missions:
+        gs = station(m)
+        if per_mission and gs is not None:
+            out.append(np.array([gs[0], gs[1], T[2] + (gs[2] - first[2] if first is not None else 0.0)]))
+        else:
+            out.append(T.copy())
+    return out

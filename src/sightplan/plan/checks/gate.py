@@ -16,7 +16,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ...model.scene import Scene
-from ..types import Plan
+from ..site import mission_takeoffs
+from ..types import Mission, Plan
 from .battery import ROVERS, Aircraft, Rover
 from .feasibility import FeasibilityReport, FlightSettings, _runs, _span, check_plan
 
@@ -78,16 +79,11 @@ def recorded_settings(plan: Plan) -> FlightSettings:
 
 
 def takeoff_heights(plan: Plan, takeoff_m: NDArray, per_mission: bool = True) -> NDArray[np.float64]:
-    """(n,) the take-off height each frame's flight starts from: ``takeoff_m``'s, or with ``per_mission`` that of
-    its mission's ground station (stations stand at one height above the ground, so a station's take-off height is
-    ``takeoff_m``'s plus its height above the first mission's station)."""
-    z0 = float(np.asarray(takeoff_m, float).reshape(3)[2])
-    out = np.full(len(plan), z0)
-    first = plan.missions[0].ground_station if plan.missions else None
-    if per_mission and first is not None:
-        for m in plan.missions:
-            if m.ground_station is not None:
-                out[m.start:m.stop] = z0 + float(m.ground_station[2]) - float(first[2])
+    """(n,) the take-off height each frame's flight starts from (:func:`~sightplan.plan.site.mission_takeoffs`)."""
+    out = np.empty(len(plan))
+    missions = plan.missions or (Mission("mission 1", 0, len(plan)),)
+    for m, start in zip(missions, mission_takeoffs(plan, takeoff_m, per_mission)):
+        out[m.start:m.stop] = start[2]
     return out
 
 

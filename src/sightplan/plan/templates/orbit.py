@@ -80,13 +80,13 @@ def orbit(scene: Scene, camera: Camera, radii_m: list[float] | None = None, heig
         radii_m, heights_m = [p[0] for p in pairs], [p[1] for p in pairs]
     if len(radii_m) != len(heights_m) or not radii_m:
         raise PlanError("give one height per ring radius (and at least one ring)")
-    check_frame_budget(sum(_frames_per_ring(camera, r, step_deg, overlap, k) for k, r in enumerate(radii_m)),
-                       f"{len(radii_m)} rings")
+    per_ring = [_frames_per_ring(camera, r, step_deg, overlap, k) for k, r in enumerate(radii_m)]
+    check_frame_budget(sum(per_ring), f"{len(radii_m)} rings")
     C, heading, pitch, missions = [], [], [], []
     for k, (r, z) in enumerate(zip(radii_m, heights_m)):
         if not r > half_diag:
             raise PlanError(f"ring {k}: radius {r} m is inside the model's footprint (half diagonal {half_diag:.1f} m)")
-        c, h, p = ring_poses(centre, r, z, _frames_per_ring(camera, r, step_deg, overlap, k))
+        c, h, p = ring_poses(centre, r, z, per_ring[k])
         floor = float(ground_z(scene, c).max()) + min_h
         if z < floor - 1e-6:
             raise PlanError(f"ring {k}: height {z:g} m is below the minimum height, {min_h:g} m above the ground "
