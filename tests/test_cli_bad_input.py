@@ -14,6 +14,14 @@ def test_a_ring_too_large_is_refused_before_anything_is_built(tmp_path):
     assert not (tmp_path / "out").exists()
 
 
+def test_a_feature_density_that_would_take_the_memory_is_refused_before_allocation(tmp_path):
+    res = run_cli("evaluate", "sample", "--ring-frames", "2", "--feature-density", "1e9", "--out", str(tmp_path / "o"),
+                  cwd=tmp_path)
+    assert res.returncode == 2  # not a MemoryError for 33 TiB
+    assert_clean_error(res, "feature density of 1e+09 per m²", "more than the 20,000,000 allowed")
+    assert not (tmp_path / "o").exists()
+
+
 def test_an_output_folder_that_cannot_be_written_is_refused_first(tmp_path):
     (tmp_path / "a-file").write_text("x")
     res = run_cli("evaluate", "sample", "--ring-frames", "4", "--out", str(tmp_path / "a-file" / "out"), cwd=tmp_path)

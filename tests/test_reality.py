@@ -400,3 +400,29 @@ def test_both_sides_of_a_scanned_surface_are_one_element(cloud_files):
     both = [outward[scene.face_element == e].any() and (~outward[scene.face_element == e]).any()
             for e in range(scene.n_elements)]
     assert np.mean(both) > 0.9
+
+
+def test_laz_points_are_bounded_before_they_are_unpacked(tmp_path, monkeypatch):
+    """A LAZ bomb (points that compress to almost nothing) and a header declaring more points than exist are refused
+    before any point is decompressed or allocated, by the whole-file and the streaming reader alike."""
+    from sightplan.model.reality import PointChunkReader
+
+    flat = np.zeros((200_000, 3)) + [10.0, 20.0, 30.0]  # 200,000 identical 34-byte records: ~6.5 MB from a few kB
+    bomb = tmp_path / "bomb.laz"
+    write_las(bomb, flat)
+    assert bomb.stat().st_size < 100_000
+    monkeypatch.setenv("SIGHTPLAN_MAX_UNPACKED_MB", "1")
+    for read in (read_point_cloud, PointChunkReader):
+        with pytest.raises(ModelError, match=r"bomb.laz \(200,000 points\) unpacks to 6 MB, over the limit of 1 MB"):
+            read(bomb)
+    monkeypatch.setenv("SIGHTPLAN_MAX_UNPACKED_MB", "8")
+    assert len(read_point_cloud(bomb).points) == 200_000  # under the limit it reads
+
+    lying = tmp_path / "lying.las"  # an uncompressed file whose header claims 10⁹ points
+    write_las(lying, flat[:100])
+    raw = bytearray(lying.read_bytes())
+    raw[107:111] = struct.pack("<I", 1_000_000_000)  # legacy number of point records (LAS 1.2 § public header)
+    lying.write_bytes(bytes(raw))
+    for read in (read_point_cloud, PointChunkReader):
+        with pytest.raises(ModelError, match="declares 1,000,000,000 points of 34 bytes, more than the file holds"):
+            read(lying)

@@ -362,6 +362,7 @@ def test_cli_end_to_end(tmp_path, gamma):
 
 
 # --------------------------------------------------------------------------- Duplex timing
+@pytest.mark.bench
 def test_duplex_300_frames_timing():
     """Timing only (printed, not asserted): 300-frame ring at scale 0.25 against the Duplex with elements removed."""
     from sightplan.camera.catalogue import get_camera

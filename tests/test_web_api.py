@@ -286,6 +286,21 @@ def test_plan_upload_in_any_format_and_bad_plan(client, project, model, orbit_pl
     assert files_under(data_dir / "plans") == files_before and files_under(data_dir / "tmp") == set()
 
 
+
+def test_a_download_keeps_a_non_ascii_plan_name(client, project, model, orbit_plans):
+    from email.message import Message
+
+    plan_json = client.get(f"/api/projects/{project}/plans/{orbit_plans[0]}/versions/1").content
+    r = client.post(f"/api/projects/{project}/plans/upload", files={"file": ("p.json", plan_json)},
+                    data={"model_id": str(model), "name": "Façade Süd / Ост 2"})
+    assert r.status_code == 201, r.text
+    export = client.get(f"/api/projects/{project}/plans/{r.json()['id']}/versions/1/export", params={"format": "geojson"})
+    assert export.status_code == 200
+    header = Message()
+    header["content-disposition"] = export.headers["content-disposition"]
+    assert "filename*=utf-8''" in export.headers["content-disposition"].lower()  # RFC 5987
+    assert header.get_filename() == "Façade_Süd_Ост_2_v1.geojson"  # decoded by the standard library's parser
+
 def test_editing_makes_version_2_and_keeps_version_1(client, project, orbit_plans, data_dir):
     pid = orbit_plans[0]
     v1 = client.get(f"/api/projects/{project}/plans/{pid}/versions/1").json()

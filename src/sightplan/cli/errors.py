@@ -26,7 +26,7 @@ def friendly_errors(func: F) -> F:
         try:
             return func(*args, **kwargs)
         except SightplanError as exc:
-            err_console.print(f"[bold red]error:[/] {escape(str(exc))}", highlight=False, markup=True)
+            err_console.print(f"[bold red]error:[/] {escape(str(exc))}", highlight=False, markup=True, soft_wrap=True)
             raise typer.Exit(2) from None
         except KeyboardInterrupt:
             err_console.print("[yellow]interrupted[/]")
@@ -37,7 +37,7 @@ def friendly_errors(func: F) -> F:
             if os.environ.get("SIGHTPLAN_DEBUG"):
                 raise
             err_console.print(f"[bold red]internal error:[/] {type(exc).__name__}: {escape(str(exc))} "
-                              "(set SIGHTPLAN_DEBUG=1 for the traceback)", highlight=False)
+                              "(set SIGHTPLAN_DEBUG=1 for the traceback)", highlight=False, soft_wrap=True)
             sys.stderr.flush()
             raise typer.Exit(3) from None
 

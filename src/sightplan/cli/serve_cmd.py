@@ -12,6 +12,8 @@ import typer
 from .errors import friendly_errors
 from .main import app, console
 
+GRACEFUL_SHUTDOWN_S = 4  # open connections (progress streams) after SIGTERM, before the jobs are stopped
+
 DataOpt = Annotated[Path, typer.Option(help="Data folder: uploaded models, plan versions, results and the embedded "
                                             "SQLite database; created on first start")]
 DatabaseOpt = Annotated[str | None, typer.Option(
@@ -64,7 +66,8 @@ def serve_command(
         console.print(f"sightplan serve: single-user mode, no login — for you on this machine only (loopback {host}). "
                       f"Data in {config.data_dir} ({where}).", highlight=False)
     console.print(f"Open http://{host}:{port}/ in a browser (API docs at http://{host}:{port}/docs)", highlight=False)
-    uvicorn.run(web_app, host=host, port=port, log_level="info")
+    # open progress streams get a few seconds, then the jobs their grace period: SIGTERM stops it within 10 s
+    uvicorn.run(web_app, host=host, port=port, log_level="info", timeout_graceful_shutdown=GRACEFUL_SHUTDOWN_S)
 
 
 def _sample_project(state, team: bool) -> None:

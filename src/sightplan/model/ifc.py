@@ -41,6 +41,7 @@ from .cache import content_hash
 from .disciplines import discipline_of, lineage
 from .scene import ElementTable, Scene
 from .summary import LoadProgress, LoadReport, SkippedProduct
+from .unpack import max_unpacked_bytes, too_big
 
 #: Left out entirely (with subtypes): no physical extent, or not a construction product.
 EXCLUDED_CLASSES: tuple[str, ...] = (
@@ -83,25 +84,9 @@ def ifc_options(occluders: Iterable[str] = DEFAULT_OCCLUDERS, include_occluders_
     }
 
 
-#: An .ifczip is refused when its IFC would unpack to more than this many MB (``$SIGHTPLAN_MAX_UNPACKED_MB``;
-#: ``sightplan serve`` sets it to ten times its upload limit): a small archive can hold a huge padded file.
-DEFAULT_MAX_UNPACKED_MB = 4096.0
-
-
-def max_unpacked_bytes() -> int:
-    """The largest IFC an .ifczip may unpack to, in bytes."""
-    try:
-        mb = float(os.environ.get("SIGHTPLAN_MAX_UNPACKED_MB", DEFAULT_MAX_UNPACKED_MB))
-    except ValueError:
-        mb = DEFAULT_MAX_UNPACKED_MB
-    return int(max(mb, 1.0) * 1024 * 1024)
-
-
 def _unzip_ifc(path: Path, folder: Path) -> Path:
     """The IFC inside an .ifczip, unpacked into ``folder`` with its size checked before and while it is written."""
     limit = max_unpacked_bytes()
-    too_big = (f"{path.name} unpacks to more than the limit of {limit / 2**20:,.0f} MB "
-               "(SIGHTPLAN_MAX_UNPACKED_MB): refused")
     try:
         with zipfile.ZipFile(path) as z:
             entries = [i for i in z.infolist() if i.filename.lower().endswith(".ifc") and not i.is_dir()]
@@ -109,14 +94,14 @@ def _unzip_ifc(path: Path, folder: Path) -> Path:
                 raise ModelError(f"{path.name}: no .ifc file inside the archive")
             info = entries[0]
             if info.file_size > limit:
-                raise ModelError(too_big.replace("more than", f"{info.file_size / 2**20:,.0f} MB, over"))
+                raise ModelError(too_big(path.name, info.file_size))
             target = folder / "model.ifc"
             written = 0
             with z.open(info) as src, open(target, "wb") as dst:
                 while block := src.read(1 << 20):
                     written += len(block)
                     if written > limit:  # the declared size can lie
-                        raise ModelError(too_big)
+                        raise ModelError(too_big(path.name))
                     dst.write(block)
     except (zipfile.BadZipFile, zlib.error, EOFError) as exc:
         raise ModelError(f"{path.name} is not a readable .ifczip (zip) archive: {exc}") from None

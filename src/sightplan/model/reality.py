@@ -34,6 +34,7 @@ from ..errors import ModelError
 from .load import MESH_EXTENSIONS, POINT_CLOUD_EXTENSIONS, load_model
 from .scene import ElementTable, Scene
 from .summary import LoadReport
+from .unpack import max_unpacked_bytes, too_big
 
 #: Default patch area (m²): about a wall panel, so reality patches compare with BIM elements.
 PATCH_AREA_M2 = 10.0
@@ -359,6 +360,7 @@ def _read_las_points(path: Path) -> tuple[PointCloud, str | None]:
     import laspy
 
     _check_las_header(path)
+    _check_las_size(path)
     try:
         las = laspy.read(str(path))
         points = np.column_stack([np.asarray(las.x, np.float64), np.asarray(las.y, np.float64),
@@ -404,6 +406,28 @@ def _check_las_header(path: Path) -> None:
                          f"points at byte {offset} of {size}, {n_vlrs} variable-length records)")
 
 
+def _check_las_size(path: Path) -> int:
+    """The number of points a LAS/LAZ file declares, after checking what they need: a LAZ file's points may
+    unpack to :func:`~sightplan.model.unpack.max_unpacked_bytes` at most, a LAS file's must fit in the file."""
+    import laspy
+
+    try:
+        with laspy.open(str(path)) as reader:
+            header = reader.header
+            count, record = int(header.point_count), int(header.point_format.size)
+            compressed = bool(header.are_points_compressed)
+            offset = int(header.offset_to_point_data)
+    except Exception as exc:  # laspy raises LaspyException, ValueError, OSError, ...
+        raise ModelError(f"{path.name} cannot be read as LAS/LAZ: {type(exc).__name__}: {exc}") from exc
+    need = count * record
+    if compressed and need > max_unpacked_bytes():
+        raise ModelError(too_big(f"{path.name} ({count:,} points)", need))
+    if not compressed and need > path.stat().st_size - offset:
+        raise ModelError(f"{path.name} cannot be read as LAS: it declares {count:,} points of {record} bytes, "
+                         f"more than the file holds (truncated or corrupt)")
+    return count
+
+
 class PointChunkReader:
     """A PLY or LAS/LAZ point cloud read a chunk at a time, so files larger than memory can be streamed.
 
@@ -429,9 +453,9 @@ class PointChunkReader:
             import laspy
 
             _check_las_header(self.path)
+            self.n = _check_las_size(self.path)
             try:
                 with laspy.open(str(self.path)) as reader:
-                    self.n = int(reader.header.point_count)
                     self.has_colours = {"red", "green", "blue"} <= set(reader.header.point_format.dimension_names)
             except Exception as exc:  # laspy raises LaspyException, ValueError, OSError, ...
                 raise ModelError(f"{self.name} cannot be read as LAS/LAZ: {type(exc).__name__}: {exc}") from exc

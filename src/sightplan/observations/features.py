@@ -158,10 +158,19 @@ def corner_features(scene: Scene, angle_deg: float = CORNER_ANGLE_DEG) -> tuple[
     return pos[keep], nsum[keep] / length[keep, None], owner[keep]
 
 
+#: More surface features than this would take gigabytes before a frame is cast (~160 bytes each while drawn):
+#: a density typed wrong, refused before anything is allocated.
+MAX_FEATURES = 20_000_000
+
+
 def surface_features(scene: Scene, density_per_m2: float, seed: int) -> tuple[NDArray, NDArray, NDArray]:
     """(N, 3) positions, (N, 3) winding normals, (N,) elements of area-weighted random surface points."""
     areas = scene.face_areas()
     total = float(areas.sum())
+    if not total * density_per_m2 <= MAX_FEATURES:
+        raise ObservationsError(f"a feature density of {density_per_m2:g} per m² over the model's {total:,.0f} m² "
+                                f"gives {total * density_per_m2:,.0f} features, more than the {MAX_FEATURES:,} "
+                                f"allowed; lower the feature density (at most {MAX_FEATURES / total:.3g} per m² here)")
     n = int(round(total * density_per_m2))
     if n == 0 or total == 0:
         return np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0, np.int32)

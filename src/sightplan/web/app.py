@@ -211,6 +211,7 @@ class BodyLimit:
 
 
 def close_state(state: ServerState) -> None:
-    """Stop the worker (running jobs finish first) and close the database."""
-    state.worker.shutdown(wait=True)
+    """Stop the worker (running jobs stop at their next progress step, or are failed after a grace period) and close
+    the database."""
+    state.worker.shutdown()
     state.db.dispose()

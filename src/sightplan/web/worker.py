@@ -1,14 +1,17 @@
-"""The background worker: model loads and evaluations run on a thread pool inside the server process, never in a
-request. Progress goes to the database as it happens, so a page reload (or a new client) sees it."""
+"""The background worker: model loads and evaluations run on worker threads inside the server process, never in a
+request. Progress goes to the database as it happens, so a page reload (or a new client) sees it.
+
+The threads are daemon threads: when the server stops, a job that does not reach its next progress step within
+the shutdown's grace period is marked failed and does not keep the process alive."""
 
 from __future__ import annotations
 
 import json
 import logging
+import queue
 import threading
 import time
 from collections.abc import Callable
-from concurrent.futures import ThreadPoolExecutor
 
 from sqlalchemy import select
 
@@ -61,16 +64,30 @@ def recover_interrupted(db: Database) -> int:
         return len(jobs)
 
 
+SHUTDOWN_GRACE_S = 3.0  # how long a stopping server waits for its running jobs to reach a progress step
+
+
 class Worker:
-    """Runs jobs by id on ``workers`` threads."""
+    """Runs jobs by id on ``workers`` daemon threads."""
 
     def __init__(self, db: Database, storage: Storage, workers: int) -> None:
         self.db = db
         self.storage = storage
-        self._pool = ThreadPoolExecutor(max_workers=workers, thread_name_prefix="sightplan-job")
+        self._queue: queue.SimpleQueue[int | None] = queue.SimpleQueue()
         self._stopping = threading.Event()
         self._cancelled: set[int] = set()
+        self._running: set[int] = set()
         self._lock = threading.Lock()
+        self._threads = [threading.Thread(target=self._serve, name=f"sightplan-job-{k + 1}", daemon=True)
+                         for k in range(max(1, workers))]
+        for thread in self._threads:
+            thread.start()
+
+    def _serve(self) -> None:
+        while (job_id := self._queue.get()) is not None:
+            if self._stopping.is_set():
+                continue  # queued jobs never start once the server stops (the next start fails them)
+            self._run(job_id)
 
     def cancel(self, job_id: int) -> None:
         """Stop a running job at its next progress step; a queued one never starts (the caller marks it failed)."""
@@ -95,17 +112,27 @@ class Worker:
             raise JobStopped(CANCELLED)
 
     def submit(self, job_id: int) -> None:
-        self._pool.submit(self._run, job_id)
+        self._queue.put(job_id)
 
     def run(self, job_id: int) -> None:
         """Run a queued job in the calling thread (failures are recorded on the job, as on the pool)."""
         self._run(job_id)
 
-    def shutdown(self, wait: bool = True) -> None:
-        """Stop: queued jobs never start, running ones stop at their next progress step (and are failed as
-        interrupted)."""
+    def shutdown(self, grace_s: float = SHUTDOWN_GRACE_S) -> None:
+        """Stop: queued jobs never start, running ones stop at their next progress step and are failed as
+        interrupted. A job still running after ``grace_s`` seconds (inside one long step) is marked failed now; its
+        daemon thread does not hold the process. Queued jobs stay queued, and the next start fails them."""
         self._stopping.set()
-        self._pool.shutdown(wait=wait, cancel_futures=True)
+        for _ in self._threads:
+            self._queue.put(None)
+        deadline = time.monotonic() + max(0.0, grace_s)
+        for thread in self._threads:
+            thread.join(max(0.0, deadline - time.monotonic()))
+        with self._lock:
+            stuck = sorted(self._running)
+        for job_id in stuck:
+            log.warning("job %s did not stop within %.0f s of the shutdown: marked failed", job_id, grace_s)
+            self._fail(job_id, INTERRUPTED)
 
     # ------------------------------------------------------------------ running
     def _progress(self, job_id: int, total: float, evaluation_id: int | None = None) -> Callable[[float], None]:
@@ -137,6 +164,7 @@ class Worker:
                 return
             job.status, job.started_at = "running", utcnow()
             kind = job.kind
+            self._running.add(job_id)
         try:
             self._check(job_id)
             if kind == "load_model":
@@ -155,15 +183,16 @@ class Worker:
         finally:
             with self._lock:
                 self._cancelled.discard(job_id)
+                self._running.discard(job_id)
         with self.db.session() as s:
             job = s.get(Job, job_id)
-            if job is not None:
+            if job is not None and job.status == "running":  # not failed meanwhile by a shutdown
                 job.status, job.finished_at, job.message = "done", utcnow(), job.message or "done"
 
     def _fail(self, job_id: int, message: str) -> None:
         with self.db.session() as s:
             job = s.get(Job, job_id)
-            if job is None:
+            if job is None or job.status == "failed":
                 return
             job.status, job.error, job.finished_at = "failed", message, utcnow()
             if job.model_id is not None and job.kind == "load_model":

@@ -169,7 +169,9 @@ def delete_plan(project_id: int, plan_id: int, session: SessionDep, state: State
 
 
 def _slug(text: str) -> str:
-    return re.sub(r"[^A-Za-z0-9._-]+", "_", text).strip("._") or "plan"
+    """A file name from a plan name: letters of any script kept (the download names them with RFC 5987's
+    ``filename*``), every run of anything else one underscore."""
+    return re.sub(r"[^\w.-]+", "_", text).strip("._")[:100] or "plan"
 
 
 @router.get("/{plan_id}/versions/{number}/export", response_class=FileResponse,

@@ -1,0 +1,102 @@
+"""Schemathesis over the team server's OpenAPI document: generated requests to every operation, authenticated with
+an API token, must never get a 5xx.
+
+Bounded: a few examples per operation. Every other example has its path's ids pointed at real rows (a project with
+the Duplex, an orbit plan, its evaluation and a share link), so the generated queries and bodies reach the code behind
+the lookups; the rest keep the generated ids. Deletions run last, the project's own at the very end."""
+
+from __future__ import annotations
+
+import pytest
+
+schemathesis = pytest.importorskip("schemathesis")
+
+from fastapi.testclient import TestClient  # noqa: E402
+from hypothesis import HealthCheck, Phase, given, settings  # noqa: E402
+
+from sightplan.model.load import sample_model_path  # noqa: E402
+from sightplan.plan.templates import spacing  # noqa: E402
+from sightplan.web.app import create_app  # noqa: E402
+from sightplan.web.config import ServerConfig  # noqa: E402
+from test_web_access import PAGE, add_user, login  # noqa: E402
+from web_support import wait_job  # noqa: E402
+
+EXAMPLES = 8
+# the token's own end (logout, password change, token revocation) is covered by test_web_access
+SKIPPED = ("/api/auth/logout", "/api/auth/password", "/api/auth/tokens/{token_id}")
+
+
+@pytest.fixture(scope="module")
+def team(tmp_path_factory):
+    """A team server with Alice's project, her token and real ids for every path parameter, and a template budget
+    small enough that generated template parameters build their plans in moments (the refusal above it is what is
+    exercised)."""
+    data = tmp_path_factory.mktemp("fuzz") / "data"
+    add_user(data, "alice")
+    budget = spacing.MAX_TEMPLATE_FRAMES
+    spacing.MAX_TEMPLATE_FRAMES = 500
+    app = create_app(ServerConfig(data_dir=data, team=True, workers=1))
+    try:
+        with TestClient(app, headers=PAGE) as c:
+            login(c, "alice")
+            pid = c.post("/api/projects", json={"name": "site"}).json()["id"]
+            with open(sample_model_path(), "rb") as fh:
+                r = c.post(f"/api/projects/{pid}/models", files={"file": ("duplex.ifc", fh)})
+            assert wait_job(c, r.json()["job"]["id"])["status"] == "done"
+            mid = r.json()["model"]["id"]
+            plan = c.post(f"/api/projects/{pid}/plans", json={"model_id": mid, "template": "orbit", "radius": [25],
+                                                              "height": [8.0], "step": 60}).json()["id"]
+            r = c.post(f"/api/projects/{pid}/evaluations", json={"plan_id": plan, "settings": {"scale": 0.04}})
+            job = r.json()["job"]["id"]
+            assert wait_job(c, job)["status"] == "done"
+            link = c.post(f"/api/projects/{pid}/plans/{plan}/links", json={}).json()
+            me = c.get(f"/api/projects/{pid}/members").json()[0]["user_id"]
+            token = c.post("/api/auth/tokens", json={"name": "fuzz"}).json()["token"]
+            c.cookies.clear()
+            ids = {"project_id": pid, "model_id": mid, "plan_id": plan, "number": 1, "evaluation_id":
+                   r.json()["evaluation"]["id"], "job_id": job, "link_id": link["id"], "token": link["token"],
+                   "user_id": me, "frame": 0, "index": 0}
+            yield app, token, ids
+    finally:
+        spacing.MAX_TEMPLATE_FRAMES = budget
+
+
+def _order(operation) -> tuple[int, int]:
+    """Reads and changes first, deletions after them, the project's deletion last."""
+    return (operation.method.upper() == "DELETE", operation.path == "/api/projects/{project_id}")
+
+
+def _fuzz(operation, auth: dict, ids: dict, failures: list[str]) -> set[int]:
+    """Send EXAMPLES generated requests to one operation; the status codes it answered."""
+    seen: set[int] = set()
+    count = [0]
+
+    @given(case=operation.as_strategy())
+    @settings(max_examples=EXAMPLES, deadline=None, derandomize=True, database=None,
+              suppress_health_check=list(HealthCheck), phases=[Phase.explicit, Phase.generate])
+    def call(case):
+        count[0] += 1
+        if count[0] % 2 and case.path_parameters:  # real rows behind the path
+            case.path_parameters = {k: ids.get(k, v) for k, v in case.path_parameters.items()}
+        response = case.call(headers=auth)
+        seen.add(response.status_code)
+        if response.status_code >= 500:
+            failures.append(f"{case.method} {case.formatted_path} {case.query or ''} → "
+                            f"{response.status_code}: {response.text[:200]}")
+
+    call()
+    return seen
+
+
+def test_no_generated_request_gets_a_server_error(team):
+    app, token, ids = team
+    schema = schemathesis.openapi.from_asgi("/openapi.json", app)
+    auth = {"Authorization": f"Bearer {token}"}
+    failures: list[str] = []
+    operations = sorted((r.ok() for r in schema.get_all_operations()), key=_order)
+    statuses = {f"{op.method.upper()} {op.path}": _fuzz(op, auth, ids, failures)
+                for op in operations if op.path not in SKIPPED}
+    assert len(statuses) > 60  # every operation was called
+    answered = {op for op, codes in statuses.items() if codes & {200, 201, 202, 204, 409, 413, 415, 422}}
+    assert len(answered) > 40, sorted(statuses.items())  # most got past the lookups, not only a 404
+    assert not failures, "\n".join(failures[:20])
