@@ -50,6 +50,7 @@ test: $(STAMP)
 	$(BIN)/python -m pytest -q
 
 bench: $(STAMP)
+	$(BIN)/python -m pytest -q -m bench
 	$(BIN)/python benchmarks/speed.py
 	$(BIN)/python benchmarks/load.py
 	$(BIN)/python benchmarks/run.py
@@ -57,6 +58,7 @@ bench: $(STAMP)
 	$(BIN)/python benchmarks/validation.py
 	$(BIN)/python benchmarks/large.py
 	$(BIN)/python benchmarks/pointcloud.py
+	$(BIN)/python benchmarks/ties.py
 
 clean:
 	rm -rf $(VENV) sightplan-demo sightplan-out sightplan-progress sightplan-study sightplan-validate .pytest_cache

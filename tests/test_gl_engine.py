@@ -77,25 +77,27 @@ def test_equirect_element_maps_agree_with_embree(engines, duplex):
 
 
 @needs_gl
-def test_two_thousand_frame_plan_metrics_agree_with_embree(duplex, features):
-    """The issue's bar: a 2,000-frame plan on a real model, every plan metric within 0.5 %, and
-    the pixel counts of every (element, frame) within 0.5 % in total."""
-    plan = facade_grid(duplex, get_camera("p4p"), 6.0, overlap=0.93)
-    assert len(plan) >= 2000
+@pytest.mark.parametrize("overlap, frames", [(0.3, 72), pytest.param(0.93, 2040, marks=pytest.mark.bench)])
+def test_plan_metrics_agree_with_embree(duplex, features, overlap, frames):
+    """A facade grid on a real model (72 frames in `make test`, 2,040 in `make bench`): every plan metric within
+    0.5 %, and the pixel counts of every (element, frame) within 0.5 % in total."""
+    plan = facade_grid(duplex, get_camera("p4p"), 6.0, overlap=overlap)
+    assert len(plan) == frames
     settings = {name: EvaluationSettings(engine=name, scale=0.04) for name in ("embree", "gl")}
     ev = {name: evaluate(duplex, plan, s, features=features, cache_dir=False) for name, s in settings.items()}
     assert ev["gl"].engine == "gl"
     pa, pb = ev["embree"].metrics.plan.to_dict(), ev["gl"].metrics.plan.to_dict()
     oa, ob = ev["embree"].observations, ev["gl"].observations
-    # Where faces of two elements coincide, either engine may own a pixel (METRICS.md §2, until the ties rule gives
-    # it to both), so an element glimpsed only through such faces (a beam flush with a slab) can be "observed" (one
-    # pixel or more) by one engine and not the other. Such an element must be a glimpse, far below Ω in every frame;
-    # n_observed and V̄C, which count it, are then compared on the elements both engines observe.
+    # Coincident surfaces count for every element on them (METRICS.md §2), so ties no longer split the engines. A ray
+    # that grazes a triangle's edge exactly (the contract leaves hits within 1 mm of an edge to the engine) can still
+    # glimpse an element through one engine only: such an element must be a glimpse, far below Ω in every frame
+    # (a pixel or two; at scale 0.04 each stands for 625), and n_observed and V̄C, which count it, are then compared
+    # on the elements both engines observe. (The 2,040-frame plan has two: beams behind a slab's edge, one pixel each.)
     ea, eb = ev["embree"].metrics.elements, ev["gl"].metrics.elements
     glimpsed = np.flatnonzero((ea.observed != eb.observed) & ea.is_target)
-    for e in glimpsed:  # a few cast pixels in a frame at most (at scale 0.04 each stands for 625 pixels)
+    for e in glimpsed:
         seen = np.r_[oa.count[oa.element == e], ob.count[ob.element == e]]
-        assert seen.max() <= 3, (e, seen.max())
+        assert seen.max() <= 2, (e, seen.max())
     assert len(glimpsed) <= 0.05 * pa["n_observed"]
     pa["n_observed"] -= int(ea.observed[glimpsed].sum())
     pb["n_observed"] -= int(eb.observed[glimpsed].sum())

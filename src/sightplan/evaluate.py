@@ -16,6 +16,7 @@ from .engines.base import OCCLUSION_TOLERANCE_M
 from .errors import SightplanError
 from .metrics import MetricParams, Metrics, compute_metrics
 from .model.scene import Scene
+from .model.ties import TIE_TOL_M
 from .observations.cache import FrameCache
 from .observations.features import FeatureSet, cached_features
 from .observations.table import FrameObservation, Observations
@@ -24,7 +25,7 @@ from .plan.types import Plan
 ProgressCallback = Callable[[int, int], None]
 
 # Bump when what a frame's observation means changes (kernels, tolerances): cached frames are then recast.
-OBSERVATION_RULES = f"v1 occlusion={OCCLUSION_TOLERANCE_M}"
+OBSERVATION_RULES = f"v2 occlusion={OCCLUSION_TOLERANCE_M} ties={TIE_TOL_M}"
 
 
 @dataclass(frozen=True)
@@ -98,8 +99,8 @@ def observe_plan(
     engine = make_engine(settings.engine, scene, features, d_max=settings.d_max, threads=settings.threads)
     timings["engine_build_s"] = time.perf_counter() - t0
     features_key = features.key
-    context = FrameCache.context_key(__version__, OBSERVATION_RULES, scene.key, features_key, engine.name,
-                                     settings.scale, settings.d_max)
+    context = FrameCache.context_key(__version__, OBSERVATION_RULES, scene.key, len(scene.tie_pairs()), features_key,
+                                     engine.name, settings.scale, settings.d_max)
     keys = plan.frame_keys() if cache is not None else [None] * len(plan)
     frames: list[FrameObservation] = []
     t0 = time.perf_counter()

@@ -49,6 +49,9 @@ def print_summary(s: dict) -> None:
     lo, hi = s["bounds_m"]["min"], s["bounds_m"]["max"]
     size = [h - lo_ for lo_, h in zip(lo, hi)]
     console.print(f"bounds (m): min {lo}, max {hi}, size {[round(x, 2) for x in size]}")
+    if s.get("tied_faces"):
+        console.print(f"{s['tied_faces']:,} faces of {s['tied_elements']:,} elements are flush with another element's "
+                      "(coincident surfaces: a pixel on them counts for each element)", highlight=False)
     for key in ("by_class", "by_discipline", "by_storey"):
         t = Table(key.removeprefix("by_"), "elements", "targets", "occluders", title=key.replace("_", " "), title_justify="left")
         for name, row in sorted(s[key].items(), key=lambda kv: -kv[1]["elements"]):

@@ -63,6 +63,8 @@ class Engine(ABC):
         v0 = self.local_vertices[scene.faces[:, 0]] if len(scene.faces) else np.zeros((0, 3))
         self._face_offset = np.einsum("ij,ij->i", normals, v0)
         self._face_element = np.ascontiguousarray(scene.face_element, dtype=np.int32)
+        # coincident surfaces: (tie_ptr, tie_elem, tie_edge), see kernels.tie_table
+        self._ties = kernels.tie_table(scene.tie_pairs(), self.local_vertices, scene.faces, self._face_element)
         self._pool = ThreadPoolExecutor(self.threads) if self.threads > 1 else None
         self._feature_index: FeatureIndex | None = None
         self._index_lock = threading.Lock()
@@ -165,13 +167,15 @@ class Engine(ABC):
             self._directions(cam, R, p0, p1, dirs)
             prim = self.first_hit(np.broadcast_to(C32, dirs.shape), dirs)
             kernels.accumulate_hits(prim, dirs, C, R, mode, self._face_normal, self._face_offset, self._face_element,
-                                    self.d_max, count, depth, angle)
+                                    *self._ties, self.d_max, count, depth, angle)
 
         return cast
 
     def element_map(self, camera: Camera, R_world_camera: NDArray, C_world: NDArray, scale: float = 1.0
                     ) -> tuple[NDArray[np.int32], NDArray[np.float64]]:
         """(H, W) int32 element id per pixel (−1: nothing within d_max) and (H, W) distance in metres.
+
+        On a coincident surface (METRICS.md §2) the pixel shows the smallest of the elements that own it.
 
         The simulated view of one frame; it holds a whole image, so use it for pictures and
         checks, not for evaluation (:meth:`observe` never keeps more than a chunk).
@@ -194,6 +198,7 @@ class Engine(ABC):
         cos = np.abs(dn)
         hit = (prim >= 0) & (t <= self.d_max) & (t >= 0)
         ids = np.where(hit, self._face_element[np.maximum(prim, 0)], -1).astype(np.int32)
+        kernels.smallest_owners(prim, t, dirs, C, self._face_element, *self._ties, ids)
         shape = (cam.height, cam.width)
         return ids.reshape(shape), np.where(hit, t, np.inf).reshape(shape), np.where(hit, cos, 0.0).reshape(shape)
 

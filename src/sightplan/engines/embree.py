@@ -65,7 +65,7 @@ class EmbreeEngine(Engine):
             if not self._empty:
                 _packets.cast_pixels(self._rtc.handle, p0, p1, mode, cam.width, cam.height, float(fx), float(fy),
                                      float(cx), float(cy), R, C32, C, self._face_normal, self._face_offset,
-                                     self._face_element, self.d_max, count, depth, angle, buf)
+                                     self._face_element, *self._ties, self.d_max, count, depth, angle, buf)
 
         return cast
 

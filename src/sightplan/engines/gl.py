@@ -52,6 +52,7 @@ from numpy.typing import NDArray
 
 from ..camera.models import Camera, EquirectangularCamera
 from ..errors import EngineError
+from ..model.ties import TIE_TOL_M
 from ..observations.table import FrameObservation
 from .base import OCCLUSION_TOLERANCE_M, Engine
 
@@ -182,7 +183,8 @@ int face_texel(vec3 c, out ivec2 tex, out vec3 axis) {
 """
 
 _REDUCE = _COMMON + """
-layout(std430, binding = 2) readonly buffer FaceElement { int face_element[]; };
+layout(std430, binding = 2) readonly buffer FaceInfo { ivec2 face_info[]; };  // element, first tie entry
+layout(std430, binding = 12) readonly buffer Ties { vec4 tie[]; };  // 4 per entry: 3 inward edges, the element
 layout(std430, binding = 3) coherent buffer Acc { uint acc[]; };          // 5 per element
 layout(std430, binding = 4) coherent buffer Touched { uint n_touched; uint touched[]; };
 layout(std430, binding = 5) writeonly buffer Map { uint map[]; };        // 3 per pixel when mapping
@@ -191,6 +193,7 @@ uniform ivec3 map_at;    // u0, v0 of this id image in the mapped frame, and the
 uniform int cube_reach;  // face pixels around the nearest one whose triangles are tested exactly
 uniform float t_unit;    // metres per fixed-point step
 uniform float a_unit;    // degrees per fixed-point step
+uniform float tie_tol;   // metres a hit may lie outside a tied triangle's edges
 shared int s_el[%(LN)d];
 shared uint s_t[%(LN)d];
 shared uint s_a[%(LN)d];
@@ -203,7 +206,7 @@ void add64(uint i, uint lo, uint hi) {
 void main() {
     uvec2 gid = gl_GlobalInvocationID.xy;
     uint li = gl_LocalInvocationIndex;
-    int e = -1;
+    int e = -1, owner = -1;
     uint tq = 0u, aq = 0u;
     float t_out = 1.0 / 0.0, c_out = 0.0;
     bool inside = gid.x < uint(img.x) && gid.y < uint(img.y);
@@ -259,17 +262,39 @@ void main() {
                 float cosv = -dot(nrm, axis);
                 // θ = atan2(|n × a|, n·a): accurate near 0°, where acos is not
                 float ang = (cosv <= 0.0) ? 90.0 : degrees(atan(length(cross(nrm, axis)), cosv));
-                e = face_element[p];
+                e = face_info[p].x;
+                owner = e;
                 tq = uint(min(round(t / t_unit), 2147483648.0));
                 aq = uint(min(round(ang / a_unit), 2147483648.0));
                 t_out = t;
                 c_out = abs(dn);
+                // coincident surfaces: the pixel counts for every element whose tied face holds the hit too
+                int j1 = face_info[p + 1].y;
+                vec3 x = C + t * d;
+                int last = -1;
+                for (int j = face_info[p].y; j < j1; j++) {
+                    int eg = floatBitsToInt(tie[4 * j + 3].x);
+                    if (eg == e || eg == last) continue;
+                    if (dot(tie[4 * j].xyz, x) - tie[4 * j].w < -tie_tol
+                        || dot(tie[4 * j + 1].xyz, x) - tie[4 * j + 1].w < -tie_tol
+                        || dot(tie[4 * j + 2].xyz, x) - tie[4 * j + 2].w < -tie_tol) continue;
+                    last = eg;
+                    owner = min(owner, eg);
+                    if (write_map == 0) {
+                        uint base = 5u * uint(eg);
+                        if (atomicAdd(acc[base], 1u) == 0u) {
+                            touched[atomicAdd(n_touched, 1u)] = uint(eg);
+                        }
+                        add64(base + 1u, tq, 0u);
+                        add64(base + 3u, aq, 0u);
+                    }
+                }
             }
         }
     }
     if (write_map != 0 && inside) {
         uint k = 3u * ((gid.y + uint(map_at.y)) * uint(map_at.z) + gid.x + uint(map_at.x));
-        map[k] = uint(e);
+        map[k] = uint(owner);  // the smallest owner, as the ray-casting engines' maps
         map[k + 1u] = floatBitsToUint(t_out);
         map[k + 2u] = floatBitsToUint(c_out);
     }
@@ -522,7 +547,15 @@ class GLEngine(Engine):
             planes[:, :3] = self._face_normal
             planes[:, 3] = self._face_offset
         self._planes = ctx.buffer(planes.tobytes())
-        self._face_el = ctx.buffer(np.ascontiguousarray(np.r_[self._face_element, 0], np.int32).tobytes())
+        tie_ptr, tie_elem, tie_edge = self._ties
+        info = np.zeros((self._n_faces + 1, 2), np.int32)
+        info[:-1, 0] = self._face_element
+        info[:, 1] = tie_ptr
+        self._face_el = ctx.buffer(info.tobytes())
+        ties = np.zeros((max(1, len(tie_elem)), 4, 4), np.float32)
+        ties[: len(tie_elem), :3] = tie_edge
+        ties[: len(tie_elem), 3, 0] = tie_elem.view(np.float32)  # the element's bits, read back with floatBitsToInt
+        self._ties_buf = ctx.buffer(ties.tobytes())
         self._acc = ctx.buffer(reserve=max(1, self.n_elements) * 5 * 4)
         self._acc.clear()
         self._touched = ctx.buffer(reserve=(max(1, self.n_elements) + 1) * 4)
@@ -559,7 +592,8 @@ class GLEngine(Engine):
         ctx.disable(moderngl.CULL_FACE)
         ctx.depth_func = "<"
         for binding, buf in ((1, self._planes), (2, self._face_el), (3, self._acc), (4, self._touched),
-                             (6, self._out), (7, self._fpoints), (8, self._fnormals), (9, self._visible)):
+                             (6, self._out), (7, self._fpoints), (8, self._fnormals), (9, self._visible),
+                             (12, self._ties_buf)):
             buf.bind_to_storage_buffer(binding)
         if self._n_faces:
             self._vbo.bind_to_storage_buffer(10)
@@ -569,6 +603,7 @@ class GLEngine(Engine):
                 prog["M"].write(_FACE_MATRICES_GL)
             self._set(prog, "dmax", self.d_max)
         self._set(self._reduce, "t_unit", self.d_max / _FIX)
+        self._set(self._reduce, "tie_tol", TIE_TOL_M)
         self._set(self._reduce, "a_unit", _ANGLE_MAX_DEG / _FIX)
         self._set(self._reduce, "cube_reach", self.cube_reach)
         self._set(self._feat, "n_features", self._n_features)

@@ -13,6 +13,8 @@ import math
 import numba as nb
 import numpy as np
 
+from ..model.ties import TIE_TOL_M
+
 MODE_PINHOLE = 0
 MODE_EQUIRECT = 1
 
@@ -84,9 +86,54 @@ def equirect_directions(p0, p1, width, height, R, out):
     _directions(MODE_EQUIRECT, p0, p1, width, height, 1.0, 1.0, 0.0, 0.0, R, out)
 
 
+def tie_table(pairs: np.ndarray, local_vertices: np.ndarray, faces: np.ndarray, face_element: np.ndarray
+              ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per face, the faces of other elements it is tied to (coincident surfaces, METRICS.md §2), for :func:`add_hit`.
+
+    Returns ``tie_ptr`` (F + 1,) int64: face f's entries are ``tie_ptr[f]:tie_ptr[f + 1]`` (none for most faces),
+    sorted by element; ``tie_elem`` (k,) int32 the tied face's element; ``tie_edge`` (k, 3, 4) float64 its three
+    edges as in-plane inward unit normals m and offsets m·a (engine frame): a point X lies inside the tied triangle,
+    within the tolerance of its edges, when m·X − offset ≥ −tolerance for all three.
+    """
+    n_faces = len(faces)
+    pairs = np.asarray(pairs, np.int64).reshape(-1, 2)
+    src = np.r_[pairs[:, 0], pairs[:, 1]]
+    dst = np.r_[pairs[:, 1], pairs[:, 0]]
+    elem = np.asarray(face_element, np.int64)
+    order = np.lexsort((dst, elem[dst], src))
+    src, dst = src[order], dst[order]
+    ptr = np.zeros(n_faces + 1, np.int64)
+    np.cumsum(np.bincount(src, minlength=n_faces), out=ptr[1:])
+    tri = local_vertices[np.asarray(faces)[dst]]  # (k, 3, 3)
+    normal = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    normal /= np.maximum(np.linalg.norm(normal, axis=1, keepdims=True), 1e-300)
+    edge = np.zeros((len(dst), 3, 4))
+    for j in range(3):
+        a, b = tri[:, j], tri[:, (j + 1) % 3]
+        m = np.cross(normal, b - a)  # toward the third vertex
+        m /= np.maximum(np.linalg.norm(m, axis=1, keepdims=True), 1e-300)
+        edge[:, j, :3] = m
+        edge[:, j, 3] = np.einsum("ij,ij->i", m, a)
+    return ptr, elem[dst].astype(np.int32), edge
+
+
 @nb.njit(nogil=True, cache=True, inline="always")
-def add_hit(f, d0, d1, d2, origin, R, mode, face_normal, face_offset, face_element, d_max, count, depth_sum, angle_sum):
+def inside_tied(edge, j, x0, x1, x2):
+    """Whether point x lies inside tie entry j's triangle, within :data:`TIE_TOL_M` of its edges."""
+    for k in range(3):
+        if edge[j, k, 0] * x0 + edge[j, k, 1] * x1 + edge[j, k, 2] * x2 - edge[j, k, 3] < -TIE_TOL_M:
+            return False
+    return True
+
+
+@nb.njit(nogil=True, cache=True, inline="always")
+def add_hit(f, d0, d1, d2, origin, R, mode, face_normal, face_offset, face_element, tie_ptr, tie_elem, tie_edge,
+            d_max, count, depth_sum, angle_sum):
     """Add one ray's first hit (triangle f, float64 unit direction d) to the per-element sums.
+
+    The pixel counts for the hit face's element and, where the hit lies on a surface it shares with other
+    elements (the tie entries of f, :func:`tie_table`: inside the other triangle within 1 mm of its edges), for
+    each of those elements too, with the same distance and angle (METRICS.md §2, coincident surfaces).
 
     The hit distance is recomputed in float64 from the hit triangle's plane
     (face_normal · X = face_offset), so engines that return only triangle ids give the
@@ -134,14 +181,32 @@ def add_hit(f, d0, d1, d2, origin, R, mode, face_normal, face_offset, face_eleme
     elif c < 0.0:
         c = 0.0
     e = face_element[f]
+    a = math.acos(c) * (180.0 / math.pi)
     count[e] += 1
     depth_sum[e] += t
-    angle_sum[e] += math.acos(c) * (180.0 / math.pi)
+    angle_sum[e] += a
+    j0 = tie_ptr[f]
+    j1 = tie_ptr[f + 1]
+    if j0 == j1:
+        return
+    x0 = origin[0] + t * d0
+    x1 = origin[1] + t * d1
+    x2 = origin[2] + t * d2
+    last = -1
+    for j in range(j0, j1):  # sorted by element: each element once
+        eg = tie_elem[j]
+        if eg == e or eg == last:
+            continue
+        if inside_tied(tie_edge, j, x0, x1, x2):
+            count[eg] += 1
+            depth_sum[eg] += t
+            angle_sum[eg] += a
+            last = eg
 
 
 @nb.njit(nogil=True, cache=True, fastmath=False)
-def accumulate_hits(prim, dirs, origin, R, mode, face_normal, face_offset, face_element, d_max,
-                    count, depth_sum, angle_sum):
+def accumulate_hits(prim, dirs, origin, R, mode, face_normal, face_offset, face_element, tie_ptr, tie_elem, tie_edge,
+                    d_max, count, depth_sum, angle_sum):
     """Add each ray's first hit to per-element sums (see :func:`add_hit`).
 
     prim: (n,) int32 first-hit triangle (−1 on a miss). dirs: (n, 3) float32 unit world
@@ -152,4 +217,22 @@ def accumulate_hits(prim, dirs, origin, R, mode, face_normal, face_offset, face_
         f = prim[k]
         if f >= 0:
             add_hit(f, np.float64(dirs[k, 0]), np.float64(dirs[k, 1]), np.float64(dirs[k, 2]), origin, R, mode,
-                    face_normal, face_offset, face_element, d_max, count, depth_sum, angle_sum)
+                    face_normal, face_offset, face_element, tie_ptr, tie_elem, tie_edge, d_max, count, depth_sum,
+                    angle_sum)
+
+
+@nb.njit(nogil=True, cache=True)
+def smallest_owners(prim, t, dirs, origin, face_element, tie_ptr, tie_elem, tie_edge, ids):
+    """Where a ray's hit (triangle prim, distance t, float32 unit direction) lies on a coincident surface, set its
+    ``ids`` entry to the smallest element that owns the pixel (METRICS.md §2), so element maps do not depend on
+    which of the coincident faces the caster reported. Pixels with ``ids`` < 0 are left alone."""
+    for k in range(prim.shape[0]):
+        f = prim[k]
+        if f < 0 or ids[k] < 0 or tie_ptr[f] == tie_ptr[f + 1]:
+            continue
+        x0 = origin[0] + t[k] * np.float64(dirs[k, 0])
+        x1 = origin[1] + t[k] * np.float64(dirs[k, 1])
+        x2 = origin[2] + t[k] * np.float64(dirs[k, 2])
+        for j in range(tie_ptr[f], tie_ptr[f + 1]):
+            if tie_elem[j] < ids[k] and inside_tied(tie_edge, j, x0, x1, x2):
+                ids[k] = tie_elem[j]

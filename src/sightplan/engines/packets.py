@@ -55,7 +55,7 @@ def _reset_lanes(f, u):
 
 @nb.njit(nogil=True)
 def cast_pixels(scene, p0, p1, mode, width, height, fx, fy, cx, cy, R, origin32, origin, face_normal, face_offset,
-                face_element, d_max, count, depth_sum, angle_sum, buf):
+                face_element, tie_ptr, tie_elem, tie_edge, d_max, count, depth_sum, angle_sum, buf):
     """Cast pixels p0..p1 (row-major) of one camera from ``origin`` and add their first hits to the sums.
 
     origin32: (3,) float32 camera centre in the scene's frame, as cast; origin: the same in
@@ -85,8 +85,8 @@ def cast_pixels(scene, p0, p1, mode, width, height, fx, fy, cx, cy, R, origin32,
         for k in range(n):
             if u[_GEOM_ID + k] != _INVALID:
                 add_hit(np.int64(u[_PRIM_ID + k]), np.float64(f[_DIR_X + k]), np.float64(f[_DIR_Y + k]),
-                        np.float64(f[_DIR_Z + k]), origin, R, mode, face_normal, face_offset, face_element, d_max,
-                        count, depth_sum, angle_sum)
+                        np.float64(f[_DIR_Z + k]), origin, R, mode, face_normal, face_offset, face_element, tie_ptr,
+                        tie_elem, tie_edge, d_max, count, depth_sum, angle_sum)
 
 
 @nb.njit(nogil=True, inline="always")

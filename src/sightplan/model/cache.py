@@ -24,7 +24,7 @@ from .scene import ElementTable, Scene
 from .summary import LoadReport
 
 #: Bump when the tessellation or the element rules change, so old entries are not reused.
-CACHE_FORMAT = 4
+CACHE_FORMAT = 5
 _COLUMNS = ("global_id", "name", "ifc_class", "discipline", "storey")
 
 
@@ -71,6 +71,7 @@ def save_scene(scene: Scene, report: LoadReport, cache_dir: str | Path | None = 
         "vertices": scene.vertices,
         "faces": scene.faces,
         "face_element": scene.face_element,
+        "tie_pairs": scene.tie_pairs(),
         "is_target": el.is_target,
         "start": el.start.astype("datetime64[s]").astype(np.int64),
         "finish": el.finish.astype("datetime64[s]").astype(np.int64),
@@ -111,6 +112,8 @@ def load_scene(key: str, cache_dir: str | Path | None = None) -> tuple[Scene, Lo
         scene = Scene.from_arrays(
             a["vertices"], a["faces"], a["face_element"], elements, meta["source"], key, meta.get("metadata") or {}
         )
+        if "tie_pairs" in a:
+            scene.set_tie_pairs(a["tie_pairs"])
         report = LoadReport.from_dict(meta["report"])
     except (OSError, ValueError, KeyError, TypeError, EOFError, zipfile.BadZipFile, zlib.error, ModelError):
         return None  # a corrupt or foreign entry: the caller rebuilds and overwrites it

@@ -14,6 +14,7 @@ from ..errors import ModelError
 from . import cache as _cache
 from .scene import Scene
 from .summary import LoadReport
+from .ties import tie_summary
 
 IFC_EXTENSIONS: tuple[str, ...] = (".ifc", ".ifczip")
 MESH_EXTENSIONS: tuple[str, ...] = (".obj", ".ply", ".stl", ".gltf", ".glb")
@@ -88,6 +89,8 @@ def load_model(
             return replace(scene, source=str(path)), replace(report, source=str(path),
                                                              elapsed_s=time.perf_counter() - t0, from_cache=True)
     scene, report = loader(path, **options)
+    tied_faces, tied_elements = tie_summary(scene.tie_pairs(), scene.face_element)
+    report = replace(report, tied_faces=tied_faces, tied_elements=tied_elements)
     if cache:
         try:
             _cache.save_scene(scene, report, cache_dir)

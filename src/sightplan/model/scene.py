@@ -15,6 +15,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import ModelError, ScheduleError
+from .ties import coincident_face_pairs, remap_pairs
 
 DateBasis = Literal["finish", "start"]
 Discipline = Literal["S", "A", "M", "P", "E", ""]
@@ -185,12 +186,33 @@ class Scene:
         tri = self.vertices[self.faces]
         return 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
 
+    def tie_pairs(self) -> NDArray[np.int32]:
+        """(k, 2) face index pairs of different elements on one surface (METRICS.md §2, :mod:`.ties`): found once
+        per scene object (or read from the scene cache) and kept on it. A scene made with ``dataclasses.replace``
+        finds its own, so changed faces never meet stale pairs."""
+        pairs = self.__dict__.get("_tie_pairs")
+        if pairs is None:
+            pairs = coincident_face_pairs(self.vertices, self.faces, self.face_element)
+            self.set_tie_pairs(pairs)
+        return pairs
+
+    def set_tie_pairs(self, pairs: NDArray) -> None:
+        """Attach pairs known for exactly these faces (from the cache, or remapped from a superset)."""
+        pairs = np.asarray(pairs, np.int32).reshape(-1, 2)
+        if len(pairs) and (pairs.min() < 0 or pairs.max() >= len(self.faces)):
+            raise ModelError("tie pairs index faces that do not exist")
+        object.__setattr__(self, "_tie_pairs", pairs)
+
     # ------------------------------------------------------------------ subsets
     def with_present(self, present: NDArray[np.bool_]) -> Scene:
         """The scene with only the faces of ``present`` elements (indices unchanged)."""
         present = np.asarray(present, bool) & self.present
         keep = present[self.face_element]
-        return replace(self, faces=self.faces[keep], face_element=self.face_element[keep], present=present)
+        out = replace(self, faces=self.faces[keep], face_element=self.face_element[keep], present=present)
+        known = self.__dict__.get("_tie_pairs")
+        if known is not None:
+            out.set_tie_pairs(remap_pairs(known, keep))
+        return out
 
     def at(self, date: str | np.datetime64, basis: DateBasis = "finish",
            unscheduled: Literal["present", "absent"] = "present") -> Scene:

@@ -65,6 +65,8 @@ class LoadReport:
         what was done instead (its bounding box, or skipped) in ``reason``.
     peak_rss_mb: the loading process's peak resident memory at the end of the load (MB; the
         first load's when ``from_cache``; 0.0 where unknown).
+    tied_faces, tied_elements: faces (and their elements) flush with another element's face
+        (coincident surfaces, METRICS.md §2), whose pixels count for every element on them.
     """
 
     source: str
@@ -82,6 +84,8 @@ class LoadReport:
     from_cache: bool = False
     fallbacks: tuple[SkippedProduct, ...] = ()
     peak_rss_mb: float = 0.0
+    tied_faces: int = 0
+    tied_elements: int = 0
 
     def to_dict(self) -> dict:
         """Plain JSON-serialisable dict (skipped products as dicts)."""
@@ -118,7 +122,7 @@ def summarize(scene: Scene, report: LoadReport) -> dict:
     by_class / by_discipline / by_storey ({name: {"elements", "targets", "occluders"}};
     '' means unclassified / no storey), excluded and containers ({class: count}),
     skipped and fallbacks ([{global_id, ifc_class, name, reason}]), warnings, georeference and
-    site_location (dict or None), elapsed_s, from_cache, peak_rss_mb.
+    site_location (dict or None), elapsed_s, from_cache, peak_rss_mb, tied_faces and tied_elements.
     """
     el = scene.elements
     targets = np.asarray(el.is_target, bool)
@@ -147,4 +151,6 @@ def summarize(scene: Scene, report: LoadReport) -> dict:
         "elapsed_s": round(float(report.elapsed_s), 3),
         "from_cache": bool(report.from_cache),
         "peak_rss_mb": round(float(report.peak_rss_mb), 1),
+        "tied_faces": int(report.tied_faces),
+        "tied_elements": int(report.tied_elements),
     }
