@@ -140,3 +140,17 @@ def test_found_pairs_match_a_brute_force_search_on_part_of_the_duplex(duplex):
             slack.add((a, b))
     assert len(reference) > 100
     assert reference <= found and found <= reference | slack
+
+
+@pytest.mark.parametrize("engine_name", ALL_ENGINES)
+def test_a_long_wall_with_many_flush_plates_counts_each_plate_and_each_overlap(engine_name):
+    """Twenty plates (elements 1–20) flush on one 4 m wall (element 0), each overlapping the next: a pixel counts for
+    the wall and for every plate holding it (up to three elements at once). Exercises the per-face window of tie
+    entries sorted along the wall's axis."""
+    plates = [(-1.887 + 0.19 * k, -1.887 + 0.19 * k + 0.25) for k in range(20)]
+    rects = [wall_y(Y, -2.0, 2.0, -1.0, 1.0, 0)] + [wall_y(Y, x0, x1, -0.3, 0.3, k + 1) for k, (x0, x1) in
+                                                     enumerate(plates)]
+    got = counts(engine_name, build_scene(rects, 21))
+    assert got[0][0] == by_hand(-2.0, 2.0)[0]
+    for k, (x0, x1) in enumerate(plates):
+        assert got[k + 1][0] == by_hand(x0, x1, -0.3, 0.3)[0], k

@@ -184,7 +184,8 @@ int face_texel(vec3 c, out ivec2 tex, out vec3 axis) {
 
 _REDUCE = _COMMON + """
 layout(std430, binding = 2) readonly buffer FaceInfo { ivec2 face_info[]; };  // element, first tie entry
-layout(std430, binding = 12) readonly buffer Ties { vec4 tie[]; };  // 4 per entry: 3 inward edges, the element
+// 4 per entry (kernels.tie_table): 3 inward edges, then (lo, hi, element bits, 0); a face's header: (axis, span)
+layout(std430, binding = 12) readonly buffer Ties { vec4 tie[]; };
 layout(std430, binding = 3) coherent buffer Acc { uint acc[]; };          // 5 per element
 layout(std430, binding = 4) coherent buffer Touched { uint n_touched; uint touched[]; };
 layout(std430, binding = 5) writeonly buffer Map { uint map[]; };        // 3 per pixel when mapping
@@ -197,6 +198,23 @@ uniform float tie_tol;   // metres a hit may lie outside a tied triangle's edges
 shared int s_el[%(LN)d];
 shared uint s_t[%(LN)d];
 shared uint s_a[%(LN)d];
+
+// tie entry j's triangle holds x (within tie_tol of its edges), s = x along the hit face's axis
+bool holds(int j, float s, vec3 x) {
+    return tie[4 * j + 3].y >= s && dot(tie[4 * j].xyz, x) - tie[4 * j].w >= -tie_tol
+        && dot(tie[4 * j + 1].xyz, x) - tie[4 * j + 1].w >= -tie_tol
+        && dot(tie[4 * j + 2].xyz, x) - tie[4 * j + 2].w >= -tie_tol;
+}
+
+// entry j's element when it holds x and no earlier entry of the window of the same element does; else -1
+int tied_owner(int j, int start, float s, vec3 x) {
+    if (!holds(j, s, x)) return -1;
+    int eg = floatBitsToInt(tie[4 * j + 3].z);
+    for (int i = start; i < j; i++) {
+        if (floatBitsToInt(tie[4 * i + 3].z) == eg && holds(i, s, x)) return -1;
+    }
+    return eg;
+}
 
 void add64(uint i, uint lo, uint hi) {
     uint old = atomicAdd(acc[i], lo);
@@ -269,16 +287,17 @@ void main() {
                 t_out = t;
                 c_out = abs(dn);
                 // coincident surfaces: the pixel counts for every element whose tied face holds the hit too
-                int j1 = face_info[p + 1].y;
+                int h = face_info[p].y, j1 = face_info[p + 1].y;
                 vec3 x = C + t * d;
-                int last = -1;
-                for (int j = face_info[p].y; j < j1; j++) {
-                    int eg = floatBitsToInt(tie[4 * j + 3].x);
-                    if (eg == e || eg == last) continue;
-                    if (dot(tie[4 * j].xyz, x) - tie[4 * j].w < -tie_tol
-                        || dot(tie[4 * j + 1].xyz, x) - tie[4 * j + 1].w < -tie_tol
-                        || dot(tie[4 * j + 2].xyz, x) - tie[4 * j + 2].w < -tie_tol) continue;
-                    last = eg;
+                float s = (h < j1) ? dot(tie[4 * h].xyz, x) : 0.0;
+                int a = h + 1, b = j1;
+                while (a < b) {  // the first entry starting at or after s - span
+                    int mid = (a + b) / 2;
+                    if (tie[4 * mid + 3].x < s - tie[4 * h].w) a = mid + 1; else b = mid;
+                }
+                for (int j = a; j < j1 && tie[4 * j + 3].x <= s; j++) {
+                    int eg = tied_owner(j, a, s, x);
+                    if (eg < 0 || eg == e) continue;
                     owner = min(owner, eg);
                     if (write_map == 0) {
                         uint base = 5u * uint(eg);
@@ -553,8 +572,8 @@ class GLEngine(Engine):
         info[:, 1] = tie_ptr
         self._face_el = ctx.buffer(info.tobytes())
         ties = np.zeros((max(1, len(tie_elem)), 4, 4), np.float32)
-        ties[: len(tie_elem), :3] = tie_edge
-        ties[: len(tie_elem), 3, 0] = tie_elem.view(np.float32)  # the element's bits, read back with floatBitsToInt
+        ties[: len(tie_elem)] = tie_edge
+        ties[: len(tie_elem), 3, 2] = tie_elem.view(np.float32)  # the element's bits, read back with floatBitsToInt
         self._ties_buf = ctx.buffer(ties.tobytes())
         self._acc = ctx.buffer(reserve=max(1, self.n_elements) * 5 * 4)
         self._acc.clear()

@@ -90,31 +90,57 @@ def tie_table(pairs: np.ndarray, local_vertices: np.ndarray, faces: np.ndarray, 
               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Per face, the faces of other elements it is tied to (coincident surfaces, METRICS.md §2), for :func:`add_hit`.
 
-    Returns ``tie_ptr`` (F + 1,) int64: face f's entries are ``tie_ptr[f]:tie_ptr[f + 1]`` (none for most faces),
-    sorted by element; ``tie_elem`` (k,) int32 the tied face's element; ``tie_edge`` (k, 3, 4) float64 its three
-    edges as in-plane inward unit normals m and offsets m·a (engine frame): a point X lies inside the tied triangle,
-    within the tolerance of its edges, when m·X − offset ≥ −tolerance for all three.
+    Returns ``tie_ptr`` (F + 1,) int64, ``tie_elem`` (k,) int32 and ``tie_edge`` (k, 4, 4) float64, in the engine
+    frame. A face f with ties has the entries ``tie_ptr[f]:tie_ptr[f + 1]`` (most faces have none): first a header
+    (element −1; row 0: the unit axis u along f's longest edge and the longest span of its tied triangles along u),
+    then one entry per tied face, sorted by where it starts along u: its element; rows 0–2 its three edges as in-plane
+    inward unit normals m and offsets m·a (a point X lies inside the triangle, within the tolerance of its edges,
+    when m·X − offset ≥ −tolerance for all three); row 3 its span [lo, hi] along u, widened by the tolerance. A hit
+    at u·X = s then tests only the entries with s − span ≤ lo ≤ s (:func:`tie_window`): a long flange tied to many
+    small plates costs a few tests per hit, not one per plate.
     """
     n_faces = len(faces)
+    faces = np.asarray(faces)
     pairs = np.asarray(pairs, np.int64).reshape(-1, 2)
     src = np.r_[pairs[:, 0], pairs[:, 1]]
     dst = np.r_[pairs[:, 1], pairs[:, 0]]
     elem = np.asarray(face_element, np.int64)
-    order = np.lexsort((dst, elem[dst], src))
-    src, dst = src[order], dst[order]
+    if len(src) == 0:
+        return np.zeros(n_faces + 1, np.int64), np.zeros(0, np.int32), np.zeros((0, 4, 4))
+    own = local_vertices[faces[src]]  # the hit face's axis: its longest edge
+    edges = np.stack([own[:, 1] - own[:, 0], own[:, 2] - own[:, 1], own[:, 0] - own[:, 2]], axis=1)
+    longest = np.argmax(np.linalg.norm(edges, axis=2), axis=1)
+    axis = edges[np.arange(len(src)), longest]
+    axis /= np.maximum(np.linalg.norm(axis, axis=1, keepdims=True), 1e-300)
+    tri = local_vertices[faces[dst]]  # (k, 3, 3)
+    along = np.einsum("kvc,kc->kv", tri, axis)
+    lo, hi = along.min(axis=1) - TIE_TOL_M, along.max(axis=1) + TIE_TOL_M
+    order = np.lexsort((lo, src))
+    src, dst, tri, lo, hi, axis = src[order], dst[order], tri[order], lo[order], hi[order], axis[order]
+    first = np.r_[True, src[1:] != src[:-1]]
+    counts = np.bincount(src, minlength=n_faces)
+    counts[counts > 0] += 1  # the header
     ptr = np.zeros(n_faces + 1, np.int64)
-    np.cumsum(np.bincount(src, minlength=n_faces), out=ptr[1:])
-    tri = local_vertices[np.asarray(faces)[dst]]  # (k, 3, 3)
+    np.cumsum(counts, out=ptr[1:])
+    slot = ptr[src] + 1 + (np.arange(len(src)) - np.flatnonzero(first).repeat(np.diff(np.r_[np.flatnonzero(first),
+                                                                                          len(src)])))
+    out_elem = np.full(ptr[-1], -1, np.int32)
+    out_edge = np.zeros((ptr[-1], 4, 4))
+    out_elem[slot] = elem[dst]
     normal = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
     normal /= np.maximum(np.linalg.norm(normal, axis=1, keepdims=True), 1e-300)
-    edge = np.zeros((len(dst), 3, 4))
     for j in range(3):
         a, b = tri[:, j], tri[:, (j + 1) % 3]
         m = np.cross(normal, b - a)  # toward the third vertex
         m /= np.maximum(np.linalg.norm(m, axis=1, keepdims=True), 1e-300)
-        edge[:, j, :3] = m
-        edge[:, j, 3] = np.einsum("ij,ij->i", m, a)
-    return ptr, elem[dst].astype(np.int32), edge
+        out_edge[slot, j, :3] = m
+        out_edge[slot, j, 3] = np.einsum("ij,ij->i", m, a)
+    out_edge[slot, 3, 0] = lo
+    out_edge[slot, 3, 1] = hi
+    head = ptr[src[first]]
+    out_edge[head, 0, :3] = axis[first]
+    out_edge[head, 0, 3] = np.maximum.reduceat(hi - lo, np.flatnonzero(first))
+    return ptr, out_elem, out_edge
 
 
 @nb.njit(nogil=True, cache=True, inline="always")
@@ -124,6 +150,40 @@ def inside_tied(edge, j, x0, x1, x2):
         if edge[j, k, 0] * x0 + edge[j, k, 1] * x1 + edge[j, k, 2] * x2 - edge[j, k, 3] < -TIE_TOL_M:
             return False
     return True
+
+
+@nb.njit(nogil=True, cache=True, inline="always")
+def tie_window(tie_ptr, tie_edge, f, x0, x1, x2):
+    """(start, stop, s): the entries of face f that may hold the point x, s its coordinate along f's axis."""
+    h = tie_ptr[f]
+    s = tie_edge[h, 0, 0] * x0 + tie_edge[h, 0, 1] * x1 + tie_edge[h, 0, 2] * x2
+    lo_bound = s - tie_edge[h, 0, 3]
+    a = h + 1
+    b = tie_ptr[f + 1]
+    while a < b:  # the first entry starting at or after s − span
+        mid = (a + b) // 2
+        if tie_edge[mid, 3, 0] < lo_bound:
+            a = mid + 1
+        else:
+            b = mid
+    stop = a
+    end = tie_ptr[f + 1]
+    while stop < end and tie_edge[stop, 3, 0] <= s:
+        stop += 1
+    return a, stop, s
+
+
+@nb.njit(nogil=True, cache=True, inline="always")
+def tied_owner(tie_elem, tie_edge, j, start, s, x0, x1, x2):
+    """Entry j's element when its triangle holds x and no earlier entry of the window (from ``start``) of the same
+    element does (each element counts once per pixel); else −1."""
+    if tie_edge[j, 3, 1] < s or not inside_tied(tie_edge, j, x0, x1, x2):
+        return -1
+    e = tie_elem[j]
+    for i in range(start, j):
+        if tie_elem[i] == e and tie_edge[i, 3, 1] >= s and inside_tied(tie_edge, i, x0, x1, x2):
+            return -1
+    return e
 
 
 @nb.njit(nogil=True, cache=True, inline="always")
@@ -185,23 +245,18 @@ def add_hit(f, d0, d1, d2, origin, R, mode, face_normal, face_offset, face_eleme
     count[e] += 1
     depth_sum[e] += t
     angle_sum[e] += a
-    j0 = tie_ptr[f]
-    j1 = tie_ptr[f + 1]
-    if j0 == j1:
+    if tie_ptr[f] == tie_ptr[f + 1]:
         return
     x0 = origin[0] + t * d0
     x1 = origin[1] + t * d1
     x2 = origin[2] + t * d2
-    last = -1
-    for j in range(j0, j1):  # sorted by element: each element once
-        eg = tie_elem[j]
-        if eg == e or eg == last:
-            continue
-        if inside_tied(tie_edge, j, x0, x1, x2):
+    start, stop, s = tie_window(tie_ptr, tie_edge, f, x0, x1, x2)
+    for j in range(start, stop):
+        eg = tied_owner(tie_elem, tie_edge, j, start, s, x0, x1, x2)
+        if eg >= 0 and eg != e:
             count[eg] += 1
             depth_sum[eg] += t
             angle_sum[eg] += a
-            last = eg
 
 
 @nb.njit(nogil=True, cache=True, fastmath=False)
@@ -233,6 +288,7 @@ def smallest_owners(prim, t, dirs, origin, face_element, tie_ptr, tie_elem, tie_
         x0 = origin[0] + t[k] * np.float64(dirs[k, 0])
         x1 = origin[1] + t[k] * np.float64(dirs[k, 1])
         x2 = origin[2] + t[k] * np.float64(dirs[k, 2])
-        for j in range(tie_ptr[f], tie_ptr[f + 1]):
-            if tie_elem[j] < ids[k] and inside_tied(tie_edge, j, x0, x1, x2):
+        start, stop, s = tie_window(tie_ptr, tie_edge, f, x0, x1, x2)
+        for j in range(start, stop):
+            if tie_elem[j] < ids[k] and tie_edge[j, 3, 1] >= s and inside_tied(tie_edge, j, x0, x1, x2):
                 ids[k] = tie_elem[j]
