@@ -534,3 +534,16 @@ def test_dji_area_template_with_its_waylines_reads_the_generated_waypoints(tmp_p
     np.testing.assert_allclose(plan.C_world[:, 2], 50.0, atol=0.01)
     np.testing.assert_allclose(plan.R_world_camera[:, :, 2], np.tile([0, 0, -1.0], (9, 1)), atol=1e-9)  # nadir
     assert not any("nadir" in w for w in plan.parameters["warnings"])
+
+
+def test_a_kmz_bomb_is_refused_before_its_waylines_are_unpacked(tmp_path):
+    """A 65 MB waylines.wpml of padding deflates to kilobytes: refused from its declared size, nothing unpacked."""
+    path = tmp_path / "bomb.kmz"
+    with zipfile.ZipFile(path, "w", zipfile.ZIP_DEFLATED) as z, z.open("wpmz/waylines.wpml", "w") as entry:
+        entry.write(b'<?xml version="1.0"?><kml xmlns="http://www.opengis.net/kml/2.2"><Document>')
+        for _ in range(65):
+            entry.write(b" " * (1 << 20))
+        entry.write(b"</Document></kml>")
+    assert path.stat().st_size < 200_000
+    with pytest.raises(PlanError, match=r"bomb.kmz, wpmz/waylines.wpml: 68 MB unpacked, too large for a mission file"):
+        load_plan(path)

@@ -154,3 +154,15 @@ def test_a_long_wall_with_many_flush_plates_counts_each_plate_and_each_overlap(e
     assert got[0][0] == by_hand(-2.0, 2.0)[0]
     for k, (x0, x1) in enumerate(plates):
         assert got[k + 1][0] == by_hand(x0, x1, -0.3, 0.3)[0], k
+
+
+def test_a_scene_at_a_date_keeps_the_pairs_of_the_elements_that_stand(duplex):
+    """``with_present`` remaps the pairs it already knows; they equal a search over the remaining faces."""
+    from dataclasses import replace
+
+    full = replace(duplex)
+    full.tie_pairs()
+    present = np.arange(full.n_elements) % 3 != 0
+    part = full.with_present(present)
+    fresh = coincident_face_pairs(part.vertices, part.faces, part.face_element)
+    assert len(fresh) > 0 and np.array_equal(part.tie_pairs(), fresh)

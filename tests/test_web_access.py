@@ -136,7 +136,10 @@ def test_login_cookie_me_and_logout(server, alices):
     assert cookie and cookie.startswith("sps_")
     me = c.get("/api/auth/me").json()
     assert me["username"] == "alice" and me["projects"] == {str(alices["project_id"]): "owner"}
-    assert c.post("/api/auth/logout").status_code == 204
+    out = c.post("/api/auth/logout")
+    assert out.status_code == 204
+    deletion = out.headers["set-cookie"].lower()  # deleted with the attributes it was set with
+    assert "max-age=0" in deletion and "samesite=strict" in deletion and "httponly" in deletion
     c.cookies.set("sightplan_session", cookie)  # the old cookie, replayed after logout
     assert c.get("/api/projects").status_code == 401
 

@@ -31,8 +31,13 @@ def login(body: LoginIn, request: Request, response: Response, session: SessionD
     token, secret = issue_token(session, user, "session")
     session.commit()
     response.set_cookie(SESSION_COOKIE, secret, max_age=int((token.expires_at - token.created_at).total_seconds()),
-                        httponly=True, samesite="strict", secure=request.url.scheme == "https", path="/")
+                        **cookie_attributes(request))
     return user_out(session, user)
+
+
+def cookie_attributes(request: Request) -> dict:
+    """The session cookie's attributes, the same when it is set and when it is deleted."""
+    return {"httponly": True, "samesite": "strict", "secure": request.url.scheme == "https", "path": "/"}
 
 
 @router.post("/logout", status_code=204, response_class=Response, summary="Log out: ends this session")
@@ -44,7 +49,7 @@ def logout(request: Request, session: SessionDep) -> Response:
             session.delete(token)
             session.commit()
     response = Response(status_code=204)
-    response.delete_cookie(SESSION_COOKIE, path="/")
+    response.delete_cookie(SESSION_COOKIE, **cookie_attributes(request))
     return response
 
 
@@ -57,7 +62,7 @@ def me(user: UserDep, session: SessionDep) -> UserOut:
              description="Ends your login sessions (API tokens stay).",
              responses={**UNAUTHORIZED, 403: {"model": ErrorOut, "description": "The current password is wrong"},
                         422: {"model": ErrorOut, "description": "The new password is too short"}})
-def change_password(body: PasswordIn, user: UserDep, session: SessionDep) -> Response:
+def change_password(body: PasswordIn, request: Request, user: UserDep, session: SessionDep) -> Response:
     user = require_user(user)
     if authenticate(session, user.username, body.old_password) is None:
         raise HTTPException(403, "the current password is wrong")  # 403, not 401: the session itself is fine
@@ -67,7 +72,7 @@ def change_password(body: PasswordIn, user: UserDep, session: SessionDep) -> Res
         raise HTTPException(422, str(exc)) from None
     session.commit()
     response = Response(status_code=204)
-    response.delete_cookie(SESSION_COOKIE, path="/")
+    response.delete_cookie(SESSION_COOKIE, **cookie_attributes(request))
     return response
 
 
