@@ -23,16 +23,9 @@ from sightplan.errors import ModelError
 from sightplan.evaluate import EvaluationSettings, evaluate, pixel_counts
 from sightplan.model import load_model
 from sightplan.model.mesh import load_mesh
-from sightplan.model.reality import (
-    PATCH_CLASS,
-    combine,
-    default_spacing,
-    is_point_cloud,
-    load_reality,
-    patch_faces,
-    points_to_mesh,
-    read_point_cloud,
-)
+from sightplan.model.patches import PATCH_CLASS, patch_faces
+from sightplan.model.pointcloud import default_spacing, is_point_cloud, points_to_mesh, read_point_cloud
+from sightplan.model.reality import combine, load_reality
 from sightplan.model.scene import ElementTable, Scene
 from sightplan.plan.ring import ring_plan
 from sightplan.plan.types import Plan
@@ -384,7 +377,7 @@ def test_bad_point_clouds(tmp_path, box_points):
 def test_both_sides_of_a_scanned_surface_are_one_element(cloud_files):
     # the 10 × 6 × 4 m box has 248 m² of surface: about 248 / 20 ≈ 12 patches of 20 m², whose voxel shell has a
     # face on each side; without merging the sides there would be about twice as many elements
-    from sightplan.model.reality import merge_shell_sides, patch_faces
+    from sightplan.model.pointcloud import merge_shell_sides
 
     scene, _ = load_model(cloud_files["ply"], cache=False, patch_area_m2=20.0)
     assert 8 <= scene.n_elements <= 18
@@ -405,7 +398,7 @@ def test_both_sides_of_a_scanned_surface_are_one_element(cloud_files):
 def test_laz_points_are_bounded_before_they_are_unpacked(tmp_path, monkeypatch):
     """A LAZ bomb (points that compress to almost nothing) and a header declaring more points than exist are refused
     before any point is decompressed or allocated, by the whole-file and the streaming reader alike."""
-    from sightplan.model.reality import PointChunkReader
+    from sightplan.model.pointcloud import PointChunkReader
 
     flat = np.zeros((200_000, 3)) + [10.0, 20.0, 30.0]  # 200,000 identical 34-byte records: ~6.5 MB from a few kB
     bomb = tmp_path / "bomb.laz"

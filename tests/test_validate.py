@@ -18,7 +18,7 @@ from sightplan.camera.models import PinholeCamera
 from sightplan.engines.registry import available_engines
 from sightplan.evaluate import EvaluationSettings
 from sightplan.metrics import MetricParams
-from sightplan.model.reality import PointCloud
+from sightplan.model.pointcloud import PointCloud
 from sightplan.model.scene import ElementTable, Scene
 from sightplan.plan.types import Plan
 from sightplan.validate import outward_normal, points_near_mesh, synthetic_reality, validate

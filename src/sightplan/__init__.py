@@ -4,8 +4,6 @@ The public API, in the order of the data flow: model → scene at a date → pla
 engine → Observations → metrics → reports.
 """
 
-__version__ = "0.1.0"  # before the imports: report modules read it
-
 from .camera import Camera, EquirectangularCamera, PinholeCamera, get_camera, list_cameras
 from .engines import Engine, EngineName, available_engines, make_engine
 from .errors import (
@@ -26,9 +24,10 @@ from .observations.features import FeatureSet, sample_features
 from .plan import Mission, Plan, R_from_gimbal, gimbal_from_R, load_plan, read_plan, write_plan
 from .plan.ring import ring_plan
 from .report import write_report
+from .version import __version__
 
 __all__ = [
-    "Camera", "CameraError", "ElementTable", "Engine", "EngineError", "EngineName", "EquirectangularCamera",
+    "__version__", "Camera", "CameraError", "ElementTable", "Engine", "EngineError", "EngineName", "EquirectangularCamera",
     "Evaluation", "EvaluationSettings", "FeatureSet", "FormatVersionError", "FrameObservation", "LoadReport",
     "MetricParams", "Metrics", "Mission", "ModelError", "Observations", "ObservationsError", "PinholeCamera", "Plan",
     "PlanError", "PlanMetrics", "R_from_gimbal", "Scene", "ScheduleError", "SightplanError", "available_engines",

@@ -10,7 +10,6 @@ from pathlib import Path
 
 import numpy as np
 
-from . import __version__
 from .engines import D_MAX_M, EngineName, make_engine
 from .engines.base import OCCLUSION_TOLERANCE_M
 from .errors import SightplanError
@@ -21,6 +20,7 @@ from .observations.cache import FrameCache
 from .observations.features import FeatureSet, cached_features
 from .observations.table import FrameObservation, Observations
 from .plan.types import Plan
+from .version import __version__
 
 ProgressCallback = Callable[[int, int], None]
 

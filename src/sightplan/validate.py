@@ -59,7 +59,7 @@ from .engines.base import DEFAULT_CHUNK_RAYS, Engine
 from .engines.registry import ray_engine_name
 from .errors import ModelError, SightplanError
 from .evaluate import Evaluation, EvaluationSettings, evaluate
-from .model.reality import PointCloud, check_points
+from .model.pointcloud import PointCloud, check_points
 from .model.scene import Scene
 from .plan.types import Plan
 

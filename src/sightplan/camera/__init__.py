@@ -7,10 +7,9 @@ from .catalogue import (
     get_camera,
     list_cameras,
     lookup_sensor,
-    parse_camera_spec,
     search_cameras,
 )
-from .files import camera_from_json, camera_from_option, check_camera, read_camera_file
+from .files import camera_from_json, camera_from_option, check_camera, parse_camera_spec, read_camera_file
 from .models import Camera, CameraKind, EquirectangularCamera, PinholeCamera, camera_from_dict
 
 __all__ = [

@@ -23,11 +23,10 @@ import re
 from dataclasses import dataclass
 from functools import lru_cache
 from importlib import resources
-from pathlib import Path
 from typing import Any, Literal
 
 from ..errors import CameraError
-from .models import Camera, CameraKind, EquirectangularCamera, PinholeCamera, camera_from_dict
+from .models import Camera, CameraKind, EquirectangularCamera, PinholeCamera
 
 
 @dataclass(frozen=True)
@@ -197,7 +196,7 @@ def search_cameras(text: str = "", *, sensor_tables: bool = True) -> list[Camera
     return found
 
 
-def _suggestions(name: str) -> list[str]:
+def similar_names(name: str) -> list[str]:
     _, index = _catalogue()
     sensors = _sensor_tables()
     display = {k: e.id for k, e in index.items()}
@@ -220,7 +219,7 @@ def get_camera(name: str, *, focal_mm: float | None = None, width: int | None = 
         return entry.camera(focal_mm)
     sensor = lookup_sensor(name)
     if sensor is None:
-        hint = _suggestions(name)
+        hint = similar_names(name)
         also = f"; did you mean {', '.join(map(repr, hint))}?" if hint else ""
         raise CameraError(f"unknown camera {name!r}{also} (`sightplan cameras WORDS` searches the catalogue and the "
                           "sensor tables; any other camera can be given as a camera JSON file)")
@@ -240,73 +239,3 @@ def get_camera(name: str, *, focal_mm: float | None = None, width: int | None = 
         )
     return PinholeCamera.from_sensor(sensor.sensor_width_mm, float(focal_mm), int(w), int(h),
                                      name=f"{sensor.key} ({float(focal_mm):g} mm)")
-
-
-def _number(spec: dict, key: str) -> float:
-    value = spec[key]
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise CameraError(f"camera field {key!r} must be a number, got {value!r}")
-    return float(value)
-
-
-def _pixels(spec: dict, key: str) -> int:
-    value = _number(spec, key)
-    if value != int(value):
-        raise CameraError(f"camera field {key!r} must be whole pixels, got {value!r}")
-    return int(value)
-
-
-_SENSOR_KEYS = {"sensor_width_mm", "focal_mm", "width", "height"}
-_INTRINSIC_KEYS = {"fx", "fy", "cx", "cy", "width", "height"}
-
-
-def parse_camera_spec(spec: str | Path | dict | Camera) -> Camera:
-    """A camera from any of the forms a user may write.
-
-    - a catalogue (or sensor-table) name: ``"p4p"``;
-    - the path of a camera JSON file (a ``.json`` name, or with a folder): see :mod:`.files`;
-    - ``{"catalogue": "p1", "focal_mm": 24}``;
-    - a camera dict as written by ``Camera.to_dict``: ``{"model": "pinhole", ...}``;
-    - a physical camera: ``{"sensor_width_mm", "focal_mm", "width", "height"}`` (+ optional
-      ``"sensor_height_mm"``, ``"name"``), mm and px;
-    - intrinsics in px: ``{"fx", "fy", "cx", "cy", "width", "height", "convention"}`` with
-      convention ``"opencv"`` (pixel centres at integers, shifted by +½) or ``"sightplan"``
-      (pixel centres at +½, as COLMAP).
-    """
-    if isinstance(spec, (PinholeCamera, EquirectangularCamera)):
-        return spec
-    if isinstance(spec, str | Path):
-        from .files import is_camera_file, read_camera_file
-
-        if isinstance(spec, Path) or is_camera_file(spec):
-            return read_camera_file(spec)
-        return get_camera(spec)
-    if not isinstance(spec, dict):
-        raise CameraError(f"a camera spec must be a name or an object, got {type(spec).__name__}")
-    name = str(spec.get("name", ""))
-    if "model" in spec:
-        return camera_from_dict(spec)
-    if "catalogue" in spec:
-        focal = _number(spec, "focal_mm") if "focal_mm" in spec else None
-        return get_camera(str(spec["catalogue"]), focal_mm=focal)
-    if _SENSOR_KEYS <= set(spec):
-        sh = _number(spec, "sensor_height_mm") if "sensor_height_mm" in spec else None
-        return PinholeCamera.from_sensor(_number(spec, "sensor_width_mm"), _number(spec, "focal_mm"),
-                                         _pixels(spec, "width"), _pixels(spec, "height"), sh, name)
-    if _INTRINSIC_KEYS <= set(spec):
-        fx, fy, cx, cy = (_number(spec, k) for k in ("fx", "fy", "cx", "cy"))
-        w, h = _pixels(spec, "width"), _pixels(spec, "height")
-        convention = spec.get("convention")
-        if convention == "opencv":
-            return PinholeCamera.from_opencv(fx, fy, cx, cy, w, h, name)
-        if convention == "sightplan":
-            return PinholeCamera(w, h, fx, fy, cx, cy, name)
-        raise CameraError(
-            f"camera intrinsics need \"convention\": \"opencv\" (pixel centres at integers) or \"sightplan\" "
-            f"(pixel centres at +0.5, as COLMAP), got {convention!r}"
-        )
-    raise CameraError(
-        f"a camera spec with fields {sorted(spec)} matches no known form: give a catalogue name, "
-        "{'model': 'pinhole'|'equirectangular', ...}, {'sensor_width_mm', 'focal_mm', 'width', 'height'} "
-        "or {'fx', 'fy', 'cx', 'cy', 'width', 'height', 'convention'}"
-    )

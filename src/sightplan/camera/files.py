@@ -28,7 +28,8 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import CameraError
-from .models import Camera, EquirectangularCamera, PinholeCamera
+from .catalogue import get_camera
+from .models import Camera, EquirectangularCamera, PinholeCamera, camera_from_dict
 
 MIN_FOV_DEG = 0.1
 MAX_PIXEL_ASPECT = 4.0
@@ -84,8 +85,6 @@ def check_camera(cam: Camera, where: str = "camera") -> Camera:
 
 def camera_from_json(spec: Any, where: str = "camera") -> Camera:
     """A checked camera from a camera object (see the module docstring); errors start with ``where``."""
-    from .catalogue import parse_camera_spec
-
     if not isinstance(spec, dict):
         raise CameraError(f"{where}: a camera is a JSON object such as {{\"model\": \"pinhole\", \"width\": …}}, "
                           f"got {type(spec).__name__}")
@@ -173,6 +172,72 @@ def camera_from_option(spec: str, focal_mm: float | None = None) -> Camera:
             raise CameraError(f"--focal-mm is for a catalogue or sensor-table camera, not a camera file ({spec}): "
                               "put focal_mm (with sensor_width_mm) in the file")
         return read_camera_file(spec)
-    from .catalogue import get_camera
-
     return check_camera(get_camera(spec, focal_mm=focal_mm), spec if focal_mm is None else f"{spec} with {focal_mm:g} mm")
+
+
+def _number(spec: dict, key: str) -> float:
+    value = spec[key]
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise CameraError(f"camera field {key!r} must be a number, got {value!r}")
+    return float(value)
+
+
+def _pixels(spec: dict, key: str) -> int:
+    value = _number(spec, key)
+    if value != int(value):
+        raise CameraError(f"camera field {key!r} must be whole pixels, got {value!r}")
+    return int(value)
+
+
+_SENSOR_KEYS = {"sensor_width_mm", "focal_mm", "width", "height"}
+_INTRINSIC_KEYS = {"fx", "fy", "cx", "cy", "width", "height"}
+
+
+def parse_camera_spec(spec: str | Path | dict | Camera) -> Camera:
+    """A camera from any of the forms a user may write.
+
+    - a catalogue (or sensor-table) name: ``"p4p"``;
+    - the path of a camera JSON file (a ``.json`` name, or with a folder): see :mod:`.files`;
+    - ``{"catalogue": "p1", "focal_mm": 24}``;
+    - a camera dict as written by ``Camera.to_dict``: ``{"model": "pinhole", ...}``;
+    - a physical camera: ``{"sensor_width_mm", "focal_mm", "width", "height"}`` (+ optional
+      ``"sensor_height_mm"``, ``"name"``), mm and px;
+    - intrinsics in px: ``{"fx", "fy", "cx", "cy", "width", "height", "convention"}`` with
+      convention ``"opencv"`` (pixel centres at integers, shifted by +½) or ``"sightplan"``
+      (pixel centres at +½, as COLMAP).
+    """
+    if isinstance(spec, (PinholeCamera, EquirectangularCamera)):
+        return spec
+    if isinstance(spec, str | Path):
+        if isinstance(spec, Path) or is_camera_file(spec):
+            return read_camera_file(spec)
+        return get_camera(spec)
+    if not isinstance(spec, dict):
+        raise CameraError(f"a camera spec must be a name or an object, got {type(spec).__name__}")
+    name = str(spec.get("name", ""))
+    if "model" in spec:
+        return camera_from_dict(spec)
+    if "catalogue" in spec:
+        focal = _number(spec, "focal_mm") if "focal_mm" in spec else None
+        return get_camera(str(spec["catalogue"]), focal_mm=focal)
+    if _SENSOR_KEYS <= set(spec):
+        sh = _number(spec, "sensor_height_mm") if "sensor_height_mm" in spec else None
+        return PinholeCamera.from_sensor(_number(spec, "sensor_width_mm"), _number(spec, "focal_mm"),
+                                         _pixels(spec, "width"), _pixels(spec, "height"), sh, name)
+    if _INTRINSIC_KEYS <= set(spec):
+        fx, fy, cx, cy = (_number(spec, k) for k in ("fx", "fy", "cx", "cy"))
+        w, h = _pixels(spec, "width"), _pixels(spec, "height")
+        convention = spec.get("convention")
+        if convention == "opencv":
+            return PinholeCamera.from_opencv(fx, fy, cx, cy, w, h, name)
+        if convention == "sightplan":
+            return PinholeCamera(w, h, fx, fy, cx, cy, name)
+        raise CameraError(
+            f"camera intrinsics need \"convention\": \"opencv\" (pixel centres at integers) or \"sightplan\" "
+            f"(pixel centres at +0.5, as COLMAP), got {convention!r}"
+        )
+    raise CameraError(
+        f"a camera spec with fields {sorted(spec)} matches no known form: give a catalogue name, "
+        "{'model': 'pinhole'|'equirectangular', ...}, {'sensor_width_mm', 'focal_mm', 'width', 'height'} "
+        "or {'fx', 'fy', 'cx', 'cy', 'width', 'height', 'convention'}"
+    )

@@ -8,8 +8,8 @@ import typer
 from rich.markup import escape
 from rich.table import Table
 
+from .base import app, console
 from .errors import friendly_errors
-from .main import app, console
 
 
 def _mm(w: float | None, h: float | None) -> str:
@@ -31,7 +31,7 @@ def cameras(
     limit: Annotated[int, typer.Option(help="Show at most this many sensor-table cameras")] = 40,
 ) -> None:
     """List the built-in cameras, and search OpenSfM's sensor tables too."""
-    from ..camera.catalogue import _suggestions, get_camera, search_cameras
+    from ..camera.catalogue import get_camera, search_cameras, similar_names
     from ..camera.models import PinholeCamera
     from ..errors import CameraError
 
@@ -40,7 +40,7 @@ def cameras(
     built_in = [m for m in found if m.source == "catalogue"]
     table_rows = [m for m in found if m.source == "sensor table"]
     if not found:
-        hint = _suggestions(search)
+        hint = similar_names(search)
         also = f"; close: {', '.join(map(repr, hint))}" if hint else ""
         raise CameraError(f"no camera matches {search!r} in the catalogue or the sensor tables{also}. Any camera can "
                           "be given as a JSON file of its intrinsics (see the README, Camera catalogue)")

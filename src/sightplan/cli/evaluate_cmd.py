@@ -12,6 +12,7 @@ from rich.table import Table
 from ..engines.base import EngineName
 from ..errors import SightplanError
 from ..model.mesh import MeshGrouping
+from .base import ENGINE_HELP, app, console
 from .camera_opts import CAMERA_FORMS, FocalOpt, cli_camera
 from .errors import cell, friendly_errors, writable_folder
 from .fourd import (
@@ -27,7 +28,6 @@ from .fourd import (
     with_reality,
 )
 from .loading import georef_kwargs, load_with_progress, print_warnings, warn_if_far
-from .main import ENGINE_HELP, app, console
 
 MAX_RING_FRAMES = 100_000  # as many as a route may have: a ring plan is built before anything is cast
 

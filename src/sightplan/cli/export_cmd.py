@@ -7,10 +7,10 @@ from typing import Annotated, Literal
 
 import typer
 
+from .base import app, console
 from .camera_opts import CAMERA_FORMS, FocalOpt, cli_camera
 from .errors import friendly_errors
 from .flight import parse_point
-from .main import app, console
 
 ExportFormat = Literal["qgc", "wpl", "wpml", "litchi", "kml", "geojson"]
 Autopilot = Literal["px4", "ardupilot"]

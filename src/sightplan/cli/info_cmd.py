@@ -9,9 +9,9 @@ import typer
 from rich.table import Table
 
 from ..model.mesh import MeshGrouping
+from .base import app, console
 from .errors import friendly_errors
 from .loading import load_with_progress, print_warnings
-from .main import app, console
 
 
 @app.command()

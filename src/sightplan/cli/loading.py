@@ -21,7 +21,7 @@ def load_with_progress(console: Console, model: str, cache: bool, mesh_elements:
     An IFC file shows its phases as they come: reading the file (from the first second), then products
     tessellated / total with an ETA, then assembling the scene."""
     from ..model.load import MESH_EXTENSIONS, load_model, resolve_model_path
-    from ..model.reality import is_point_cloud
+    from ..model.pointcloud import is_point_cloud
 
     name = resolve_model_path(model).name
     with Progress(TextColumn("[bold]{task.description}"), BarColumn(), TaskProgressColumn(),

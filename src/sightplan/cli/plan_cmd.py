@@ -9,6 +9,7 @@ from typing import Annotated, Literal
 import typer
 
 from ..plan.site import with_site
+from .base import app, console
 from .camera_opts import CAMERA_FORMS, FocalOpt, cli_camera
 from .errors import friendly_errors, writable_file
 from .flight import (
@@ -32,7 +33,6 @@ from .fourd import (
     with_reality,
 )
 from .loading import georef_kwargs, load_with_progress, warn_if_far
-from .main import app, console
 
 TemplateName = Literal["facade", "orbit", "lawnmower", "bridge", "route"]
 

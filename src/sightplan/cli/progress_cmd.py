@@ -10,6 +10,7 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 from rich.table import Column, Table
 
 from ..engines.base import EngineName
+from .base import ENGINE_HELP, app, console
 from .camera_opts import CAMERA_FORMS, FocalOpt, cli_camera
 from .errors import cell, friendly_errors
 from .fourd import (
@@ -24,7 +25,6 @@ from .fourd import (
     with_reality,
 )
 from .loading import georef_kwargs, load_with_progress, print_warnings
-from .main import ENGINE_HELP, app, console
 
 
 @app.command("progress")

@@ -9,8 +9,8 @@ from typing import Annotated
 
 import typer
 
+from .base import app, console
 from .errors import friendly_errors
-from .main import app, console
 
 GRACEFUL_SHUTDOWN_S = 4  # open connections (progress streams) after SIGTERM, before the jobs are stopped
 

@@ -8,8 +8,8 @@ from typing import Annotated
 import typer
 from rich.table import Table
 
+from .base import app, console
 from .errors import friendly_errors
-from .main import app, console
 
 _STYLE = {"strong": "bold green", "moderate": "yellow", "weak": "dim", "n/a": "dim"}
 

@@ -11,6 +11,7 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 from rich.table import Table
 
 from ..engines.base import EngineName
+from .base import ENGINE_HELP, app, console
 from .camera_opts import CAMERA_FORMS, FocalOpt, cli_camera
 from .errors import cell, friendly_errors
 from .fourd import (
@@ -24,7 +25,6 @@ from .fourd import (
     dated_scene,
 )
 from .loading import georef_kwargs, load_with_progress, print_warnings
-from .main import ENGINE_HELP, app, console
 
 
 def validation_table(v, title: str) -> Table:
@@ -52,7 +52,8 @@ def validation_table(v, title: str) -> Table:
 def load_reality_input(path: Path, scale: float, cache: bool):
     """A point cloud file as its points (scaled), a mesh file as a Scene (load_reality)."""
     from ..errors import ModelError
-    from ..model.reality import PointCloud, is_point_cloud, load_reality, read_point_cloud
+    from ..model.pointcloud import PointCloud, is_point_cloud, read_point_cloud
+    from ..model.reality import load_reality
 
     path = Path(path).expanduser()
     if not path.is_file():

@@ -12,14 +12,11 @@ from pathlib import Path
 
 from ..errors import ModelError
 from . import cache as _cache
+from .formats import IFC_EXTENSIONS, MESH_EXTENSIONS, POINT_CLOUD_EXTENSIONS, SUPPORTED_EXTENSIONS
 from .scene import Scene
 from .summary import LoadReport
 from .ties import tie_summary
 
-IFC_EXTENSIONS: tuple[str, ...] = (".ifc", ".ifczip")
-MESH_EXTENSIONS: tuple[str, ...] = (".obj", ".ply", ".stl", ".gltf", ".glb")
-POINT_CLOUD_EXTENSIONS: tuple[str, ...] = (".las", ".laz")  # and .ply files without faces
-SUPPORTED_EXTENSIONS: tuple[str, ...] = IFC_EXTENSIONS + MESH_EXTENSIONS + POINT_CLOUD_EXTENSIONS
 SAMPLE = "sample"
 
 
@@ -41,7 +38,7 @@ def _options_and_loader(path: Path, options: dict):
         hashed = ifc_options(**{k: v for k, v in options.items() if k not in ("num_threads", "progress", "status")})
         return hashed, load_ifc
     if ext in POINT_CLOUD_EXTENSIONS or ext == ".ply":
-        from .reality import is_point_cloud, load_point_cloud, reality_options
+        from .pointcloud import is_point_cloud, load_point_cloud, reality_options
 
         if is_point_cloud(path):
             options.pop("progress", None)
@@ -67,7 +64,7 @@ def load_model(
     include_occluders_as_targets, num_threads, max_triangles, oversize, and the callbacks
     progress and status), :func:`~sightplan.model.mesh.load_mesh`
     (elements, scale, up, and patch_area_m2, normal_angle_deg for elements='patches') or, for
-    .las/.laz and .ply files without faces, :func:`~sightplan.model.reality.load_point_cloud`
+    .las/.laz and .ply files without faces, :func:`~sightplan.model.pointcloud.load_point_cloud`
     (patch_area_m2, normal_angle_deg, spacing_m, method, solid, scale). With ``cache``, the
     tessellated scene is stored under ``cache_dir`` (default ``$SIGHTPLAN_CACHE`` or
     ``~/.cache/sightplan/scenes``) keyed by the file's content and the options, and read back

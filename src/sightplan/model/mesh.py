@@ -8,7 +8,7 @@ An element is, by ``elements``:
   edge after merging coincident vertices);
 - ``"faces"``: one per triangle (a reality mesh used as a-priori model, METRICS.md §1);
 - ``"patches"``: connected surface patches of about ``patch_area_m2`` whose normals stay
-  within ``normal_angle_deg`` (:func:`sightplan.model.reality.patch_faces`), named
+  within ``normal_angle_deg`` (:func:`sightplan.model.patches.patch_faces`), named
   'patch 00001', ... with class RealityPatch: a reconstruction without objects.
 
 Units: the file is taken to be in metres; ``scale`` multiplies every coordinate.
@@ -52,7 +52,7 @@ def mesh_options(path: str | Path, elements: MeshGrouping = "objects", scale: fl
     y_up = up == "y" or (up == "auto" and Path(path).suffix.lower() in _Y_UP_FORMATS)
     options = {"loader": "mesh", "elements": elements, "scale": float(scale), "y_up": y_up}
     if elements == "patches":
-        from .reality import patch_options
+        from .patches import patch_options
 
         area, angle = patch_options(patch_area_m2, normal_angle_deg)
         options.update(patch_area_m2=area, normal_angle_deg=angle)
@@ -128,7 +128,7 @@ def load_mesh(
         vertices, all_faces, face_element = _components(vertices, all_faces)
         ids = [f"component{i}" for i in range(int(face_element.max()) + 1)]
     elif elements == "patches":
-        from .reality import patch_faces, patch_table
+        from .patches import patch_faces, patch_table
 
         face_element, n_patches = patch_faces(vertices, all_faces, options["patch_area_m2"], options["normal_angle_deg"])
         table = patch_table(n_patches)

@@ -20,7 +20,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..camera.catalogue import get_camera, parse_camera_spec
+from ..camera.catalogue import get_camera
+from ..camera.files import parse_camera_spec
 from ..camera.models import Camera
 from ..errors import CameraError, PlanError
 from .format import checked_rotations, quaternions_to_R

@@ -48,7 +48,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..camera.catalogue import get_camera, parse_camera_spec
+from ..camera.catalogue import get_camera
+from ..camera.files import parse_camera_spec
 from ..camera.models import Camera, PinholeCamera, camera_from_dict
 from ..errors import CameraError, PlanError
 from ..geo import Georeference, GeoreferenceError

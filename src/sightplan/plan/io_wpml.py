@@ -49,7 +49,8 @@ from xml.etree import ElementTree as ET
 import numpy as np
 from numpy.typing import NDArray
 
-from ..camera.catalogue import get_camera, parse_camera_spec
+from ..camera.catalogue import get_camera
+from ..camera.files import parse_camera_spec
 from ..camera.models import Camera
 from ..errors import CameraError, PlanError
 from ..geo import Georeference, GeoreferenceError

@@ -24,7 +24,7 @@ from typing import Literal, get_args
 import numpy as np
 from numpy.typing import ArrayLike
 
-from ..camera.catalogue import parse_camera_spec
+from ..camera.files import parse_camera_spec
 from ..camera.models import Camera
 from ..errors import PlanError
 from ..geo import Georeference

@@ -22,11 +22,11 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import __version__
 from ..errors import ReportError
 from ..evaluate import Evaluation
 from ..model.scene import Scene
 from ..plan.types import Plan
+from ..version import __version__
 from .gltf import (
     COLOUR_BY,
     GRADIENT,

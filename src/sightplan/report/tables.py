@@ -10,10 +10,10 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import __version__
 from ..evaluate import Evaluation
 from ..model.scene import Scene
 from ..plan.types import Plan
+from ..version import __version__
 
 
 def json_number(x: float) -> float | None:

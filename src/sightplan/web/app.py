@@ -12,7 +12,7 @@ from contextlib import asynccontextmanager
 from fastapi import Depends, FastAPI, HTTPException
 from fastapi.responses import JSONResponse
 
-from .. import __version__
+from ..version import __version__
 from .config import ServerConfig
 from .db import Database, upgrade_database
 from .deps import ServerState

@@ -54,9 +54,9 @@ import numba as nb
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .. import __version__
 from ..errors import ModelError
-from ..model.reality import PointChunkReader, PointCloud
+from ..model.pointcloud import PointChunkReader, PointCloud
+from ..version import __version__
 
 #: Morton code bits per axis: 63-bit codes, the cube cut into 2^21 steps per axis.
 DEPTH = 21
@@ -544,7 +544,7 @@ def write_point_tiles(source: str | Path | ArrayLike | tuple, out_dir: str | Pat
 
     ``source``: a .las/.laz/.ply file (read in chunks of ``chunk_points``; colours from its red,
     green, blue), an (n, 3) array of positions with optional (n, 3) 8-bit ``colours``, a
-    (positions, colours) pair, or a :class:`~sightplan.model.reality.PointCloud`. Coordinates
+    (positions, colours) pair, or a :class:`~sightplan.model.pointcloud.PointCloud`. Coordinates
     are metres in the model's frame; ``origin_m`` is subtracted from each (a georeferenced cloud
     moved into the model's frame). 16-bit colour channels (LAS) are scaled to 8 bits; a cloud
     whose colour values all stay within 0–255 is taken as 8-bit.

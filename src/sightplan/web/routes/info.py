@@ -4,9 +4,9 @@ from __future__ import annotations
 
 from fastapi import APIRouter
 
-from ... import __version__
 from ...export import EXPORT_FORMATS
 from ...plan.checks import battery
+from ...version import __version__
 from ..deps import StateDep
 from ..schemas import CameraOut, InfoOut
 

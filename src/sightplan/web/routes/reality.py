@@ -65,7 +65,7 @@ def reality_out(row: Reality) -> RealityOut:
                         415: {"model": ErrorOut, "description": "Not a point cloud or mesh"}})
 async def upload_reality(project: ProjectEdit, state: StateDep, session: SessionDep,
                          file: Annotated[UploadFile, File(description="The capture")]) -> RealityUploadOut:
-    from ...model.reality import is_point_cloud
+    from ...model.pointcloud import is_point_cloud
 
     tmp, size = await receive_upload(state, file, REALITY_SUFFIXES, "point cloud or mesh")
     stored = state.storage.new_name(tmp.suffix)
