@@ -87,7 +87,7 @@ def frame_rays(engine: EmbreeEngine, cam, R, C_world) -> tuple[np.ndarray, np.nd
     """The rays sightplan casts for one frame: (n, 3) float32 directions and the local float32 origin."""
     n = cam.width * cam.height
     dirs = np.empty((n, 3), np.float32)
-    engine._directions(cam, np.ascontiguousarray(R, np.float64), 0, n, dirs)
+    engine.pixel_directions(cam, np.ascontiguousarray(R, np.float64), 0, n, dirs)
     return dirs, (np.asarray(C_world, np.float64) - engine.centre).astype(np.float32)
 
 

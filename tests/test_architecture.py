@@ -107,3 +107,14 @@ def test_no_private_name_is_imported_from_another_package():
     crossing = [f"{name} imports {target}.{n}" for name in MODULES for target, names in imports(name) for n in names
                 if n.startswith("_") and not n.startswith("__") and package(target) != package(name)]
     assert not crossing, "\n".join(crossing)
+
+
+def test_no_private_member_of_another_object_is_read():
+    """``x._name`` only on ``self`` or ``cls``: stages use each other's public API (engines' ray queries, say)."""
+    found = []
+    for name, path in MODULES.items():
+        for node in ast.walk(ast.parse(path.read_text())):
+            if (isinstance(node, ast.Attribute) and node.attr.startswith("_") and not node.attr.startswith("__")
+                    and not (isinstance(node.value, ast.Name) and node.value.id in ("self", "cls"))):
+                found.append(f"{name}:{node.lineno} .{node.attr}")
+    assert not found, "\n".join(found)

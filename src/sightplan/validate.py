@@ -59,6 +59,7 @@ from .engines.base import DEFAULT_CHUNK_RAYS, Engine
 from .engines.registry import ray_engine_name
 from .errors import ModelError, SightplanError
 from .evaluate import Evaluation, EvaluationSettings, evaluate
+from .geometry.distance import point_triangle_sq
 from .model.pointcloud import PointCloud, check_points
 from .model.scene import Scene
 from .plan.types import Plan
@@ -162,52 +163,6 @@ def _num(x: float) -> float | None:
 
 # =========================================================================== geometry kernels
 @nb.njit(cache=True, nogil=True)
-def _point_triangle_sq(px, py, pz, t):  # pragma: no cover - compiled
-    """Squared distance from (px, py, pz) to triangle t (3, 3) (closest point by Voronoi regions)."""
-    ax, ay, az = t[0, 0], t[0, 1], t[0, 2]
-    abx, aby, abz = t[1, 0] - ax, t[1, 1] - ay, t[1, 2] - az
-    acx, acy, acz = t[2, 0] - ax, t[2, 1] - ay, t[2, 2] - az
-    apx, apy, apz = px - ax, py - ay, pz - az
-    d1 = abx * apx + aby * apy + abz * apz
-    d2 = acx * apx + acy * apy + acz * apz
-    if d1 <= 0.0 and d2 <= 0.0:
-        return apx * apx + apy * apy + apz * apz
-    bpx, bpy, bpz = px - t[1, 0], py - t[1, 1], pz - t[1, 2]
-    d3 = abx * bpx + aby * bpy + abz * bpz
-    d4 = acx * bpx + acy * bpy + acz * bpz
-    if d3 >= 0.0 and d4 <= d3:
-        return bpx * bpx + bpy * bpy + bpz * bpz
-    vc = d1 * d4 - d3 * d2
-    if vc <= 0.0 and d1 >= 0.0 and d3 <= 0.0:
-        s = d1 / (d1 - d3)
-        qx, qy, qz = ax + s * abx, ay + s * aby, az + s * abz
-    else:
-        cpx, cpy, cpz = px - t[2, 0], py - t[2, 1], pz - t[2, 2]
-        d5 = abx * cpx + aby * cpy + abz * cpz
-        d6 = acx * cpx + acy * cpy + acz * cpz
-        vb = d5 * d2 - d1 * d6
-        va = d3 * d6 - d5 * d4
-        if d6 >= 0.0 and d5 <= d6:
-            return cpx * cpx + cpy * cpy + cpz * cpz
-        if vb <= 0.0 and d2 >= 0.0 and d6 <= 0.0:
-            s = d2 / (d2 - d6)
-            qx, qy, qz = ax + s * acx, ay + s * acy, az + s * acz
-        elif va <= 0.0 and (d4 - d3) >= 0.0 and (d5 - d6) >= 0.0:
-            s = (d4 - d3) / ((d4 - d3) + (d5 - d6))
-            qx, qy, qz = t[1, 0] + s * (t[2, 0] - t[1, 0]), t[1, 1] + s * (t[2, 1] - t[1, 1]), t[1, 2] + s * (t[2, 2] - t[1, 2])
-        else:
-            den = va + vb + vc
-            if den == 0.0:  # degenerate: its vertices
-                return min(apx * apx + apy * apy + apz * apz, bpx * bpx + bpy * bpy + bpz * bpz,
-                           cpx * cpx + cpy * cpy + cpz * cpz)
-            v = vb / den
-            w = vc / den
-            qx, qy, qz = ax + abx * v + acx * w, ay + aby * v + acy * w, az + abz * v + acz * w
-    dx, dy, dz = px - qx, py - qy, pz - qz
-    return dx * dx + dy * dy + dz * dz
-
-
-@nb.njit(cache=True, nogil=True)
 def _any_within(points, idx, tri, r2):  # pragma: no cover - compiled
     """(n,) whether any candidate triangle idx[i, :] (index ≥ len(tri): none) lies within √r2 of points[i]."""
     n, k = idx.shape
@@ -218,7 +173,7 @@ def _any_within(points, idx, tri, r2):  # pragma: no cover - compiled
             f = idx[i, j]
             if f >= m:
                 break
-            if _point_triangle_sq(points[i, 0], points[i, 1], points[i, 2], tri[f]) <= r2:
+            if point_triangle_sq(points[i, 0], points[i, 1], points[i, 2], tri[f]) <= r2:
                 out[i] = True
                 break
     return out
@@ -474,44 +429,22 @@ class _Caster:
         samp_d = np.empty(_SAMPLES_PER_CHUNK + 1, np.float64)
         samp_r = np.empty(_SAMPLES_PER_CHUNK + 1, np.float64)
         g = self.gamma
-        og = C - g.centre
-        og32 = og.astype(np.float32)
-        op = None if self.psi is None else C - self.psi.centre
-        op32 = None if op is None else op.astype(np.float32)
         for p0 in starts:
             p1 = min(p0 + chunk, n_px)
             n = p1 - p0
             dirs = buf[:n]
-            Engine._directions(cam, R, p0, p1, dirs)
-            prim = g.first_hit(np.broadcast_to(og32, dirs.shape), dirs)
-            _plane_t(prim, dirs, og, g._face_normal, g._face_offset, tg[:n])
+            Engine.pixel_directions(cam, R, p0, p1, dirs)
+            prim = g.hits_from(C, dirs, tg[:n])
             if psi_img is not None:
                 dp[:n] = psi_img[p0:p1]
             else:
-                pp = self.psi.first_hit(np.broadcast_to(op32, dirs.shape), dirs)
-                _plane_t(pp, dirs, op, self.psi._face_normal, self.psi._face_offset, dp[:n])
-            k = _accumulate(prim, tg[:n], dp[:n], g._face_element, self.is_target, g.d_max, self.lam, back, complete,
+                self.psi.hits_from(C, dirs, dp[:n])
+            k = _accumulate(prim, tg[:n], dp[:n], g.face_element, self.is_target, g.d_max, self.lam, back, complete,
                             both_n, diff_sum, stats, samp_d, samp_r, max(1, n // _SAMPLES_PER_CHUNK))
             if k:
                 diffs.append(samp_d[:k].copy())
                 ratios.append(samp_r[:k].copy())
         return [back, complete, both_n, diff_sum, int(stats[0]), int(stats[1]), int(stats[2]), diffs, ratios]
-
-
-@nb.njit(cache=True, nogil=True)
-def _plane_t(prim, dirs, o, normal, offset, out):  # pragma: no cover - compiled
-    """Distance along each ray to its hit triangle's plane; inf on a miss or behind the origin."""
-    for i in range(len(prim)):
-        p = prim[i]
-        out[i] = np.inf
-        if p < 0:
-            continue
-        dn = normal[p, 0] * dirs[i, 0] + normal[p, 1] * dirs[i, 1] + normal[p, 2] * dirs[i, 2]
-        if dn == 0.0:
-            continue
-        t = (offset[p] - (normal[p, 0] * o[0] + normal[p, 1] * o[1] + normal[p, 2] * o[2])) / dn
-        if t >= 0.0:
-            out[i] = t
 
 
 @nb.njit(cache=True, nogil=True)

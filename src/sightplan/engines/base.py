@@ -95,8 +95,25 @@ class Engine(ABC):
         t[hit] = (self._face_offset[prim[hit]] - np.einsum("ij,ij->i", n, o)) / dn[hit]
         return t, dn
 
+    # ------------------------------------------------------------ ray queries
+    @property
+    def face_element(self) -> NDArray[np.int32]:
+        """(F,) the element of each triangle, as the triangle ids :meth:`hits_from` returns index."""
+        return self._face_element
+
+    def hits_from(self, C_world: NDArray, directions: NDArray[np.float32], t_out: NDArray[np.float64]
+                  ) -> NDArray[np.int32]:
+        """The first hits of rays from the world point ``C_world`` along (n, 3) unit ``directions``: (n,) triangle
+        ids (−1 on a miss), and into ``t_out`` (n,) the distance to the hit triangle's plane in float64 (inf on a
+        miss or behind the point), as every engine measures it. Any thread may call it; with
+        :meth:`pixel_directions` it is how other stages (validation, flight checks) cast rays."""
+        origin = np.asarray(C_world, np.float64) - self.centre
+        prim = self.first_hit(np.broadcast_to(origin.astype(np.float32), directions.shape), directions)
+        kernels.plane_distances(prim, directions, origin, self._face_normal, self._face_offset, t_out)
+        return prim
+
     @staticmethod
-    def _directions(cam: Camera, R: NDArray, p0: int, p1: int, out: NDArray[np.float32]) -> None:
+    def pixel_directions(cam: Camera, R: NDArray, p0: int, p1: int, out: NDArray[np.float32]) -> None:
         """Unit world directions of pixels p0..p1 (row-major) of ``cam`` into ``out``."""
         if isinstance(cam, EquirectangularCamera):
             kernels.equirect_directions(p0, p1, cam.width, cam.height, R, out)
@@ -164,7 +181,7 @@ class Engine(ABC):
 
         def cast(p0: int, p1: int, count: NDArray, depth: NDArray, angle: NDArray) -> None:
             dirs = buf[: p1 - p0]
-            self._directions(cam, R, p0, p1, dirs)
+            self.pixel_directions(cam, R, p0, p1, dirs)
             prim = self.first_hit(np.broadcast_to(C32, dirs.shape), dirs)
             kernels.accumulate_hits(prim, dirs, C, R, mode, self._face_normal, self._face_offset, self._face_element,
                                     *self._ties, self.d_max, count, depth, angle)
@@ -191,7 +208,7 @@ class Engine(ABC):
         C = np.asarray(C_world, dtype=np.float64) - self.centre
         n_px = cam.width * cam.height
         dirs = np.empty((n_px, 3), np.float32)
-        self._directions(cam, R, 0, n_px, dirs)
+        self.pixel_directions(cam, R, 0, n_px, dirs)
         origin = np.broadcast_to(C.astype(np.float32), dirs.shape)
         prim = self.first_hit(origin, dirs)
         t, dn = self._plane_distance(prim, C, dirs)
@@ -233,10 +250,10 @@ class Engine(ABC):
         if len(cand) == 0:
             return cand
         origin = (np.asarray(C_world, np.float64) - self.centre).astype(np.float32)
-        return np.sort(cand[self._unoccluded(origin, dirs, dist - OCCLUSION_TOLERANCE_M)])
+        return np.sort(cand[self.unoccluded_rays(origin, dirs, dist - OCCLUSION_TOLERANCE_M)])
 
-    def _unoccluded(self, origin32: NDArray[np.float32], directions: NDArray[np.float32],
-                    tfar: NDArray[np.float64]) -> NDArray[np.bool_]:
+    def unoccluded_rays(self, origin32: NDArray[np.float32], directions: NDArray[np.float32],
+                        tfar: NDArray[np.float64]) -> NDArray[np.bool_]:
         """(k,) True where nothing is hit along each ray from ``origin32`` (local frame) closer than ``tfar``."""
         t = self.hit_distance(np.broadcast_to(origin32, directions.shape), directions)
         return t >= tfar

@@ -18,7 +18,7 @@ from .base import Engine
 try:  # keep the error until this engine is asked for
     from . import packets as _packets
 
-    _IMPORT_ERROR: Exception | None = None if rtc.available() else rtc._LOAD_ERROR
+    _IMPORT_ERROR: Exception | None = None if rtc.available() else rtc.load_error()
 except ImportError as exc:  # pragma: no cover - depends on the platform
     _IMPORT_ERROR = exc
 
@@ -69,8 +69,8 @@ class EmbreeEngine(Engine):
 
         return cast
 
-    def _unoccluded(self, origin32: NDArray[np.float32], directions: NDArray[np.float32],
-                    tfar: NDArray[np.float32]) -> NDArray[np.bool_]:
+    def unoccluded_rays(self, origin32: NDArray[np.float32], directions: NDArray[np.float32],
+                        tfar: NDArray[np.float32]) -> NDArray[np.bool_]:
         out = np.zeros(len(directions), np.bool_)
         if len(directions) == 0:
             return out

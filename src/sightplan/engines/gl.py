@@ -679,9 +679,9 @@ class GLEngine(Engine):
         """Arbitrary rays are not frames: they go to the Embree engine."""
         return self._rays().first_hit(origins, directions)
 
-    def _unoccluded(self, origin32, directions, tfar):
+    def unoccluded_rays(self, origin32, directions, tfar):
         """Feature sight lines go to the Embree engine too (its occlusion query)."""
-        return self._rays()._unoccluded(origin32, directions, tfar)
+        return self._rays().unoccluded_rays(origin32, directions, tfar)
 
     # ------------------------------------------------------------------ views
     def _views(self, cam: Camera, R: NDArray):

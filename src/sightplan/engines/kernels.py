@@ -292,3 +292,21 @@ def smallest_owners(prim, t, dirs, origin, face_element, tie_ptr, tie_elem, tie_
         for j in range(start, stop):
             if tie_elem[j] < ids[k] and tie_edge[j, 3, 1] >= s and inside_tied(tie_edge, j, x0, x1, x2):
                 ids[k] = tie_elem[j]
+
+
+@nb.njit(nogil=True, cache=True)
+def plane_distances(prim, dirs, origin, face_normal, face_offset, out):
+    """Distance along each ray (float32 unit direction) from ``origin`` to its hit triangle's plane; inf on a miss
+    (prim < 0), a ray parallel to the plane or a plane behind the origin."""
+    for i in range(len(prim)):
+        p = prim[i]
+        out[i] = np.inf
+        if p < 0:
+            continue
+        dn = face_normal[p, 0] * dirs[i, 0] + face_normal[p, 1] * dirs[i, 1] + face_normal[p, 2] * dirs[i, 2]
+        if dn == 0.0:
+            continue
+        t = (face_offset[p] - (face_normal[p, 0] * origin[0] + face_normal[p, 1] * origin[1]
+                               + face_normal[p, 2] * origin[2])) / dn
+        if t >= 0.0:
+            out[i] = t

@@ -108,6 +108,11 @@ def available() -> bool:
     return _LOAD_ERROR is None
 
 
+def load_error() -> Exception | None:
+    """Why the Embree library could not be loaded (None when it was)."""
+    return _LOAD_ERROR
+
+
 def _shared_device():
     """One Embree device per process (it owns the thread pool that builds BVHs)."""
     global _device

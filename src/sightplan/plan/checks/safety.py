@@ -8,9 +8,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ...errors import PlanError
+from ...geometry.distance import min_point_distances, min_segment_distances
 from ...model.scene import Scene
 from ..types import Plan
-from .distance import min_point_distances, min_segment_distances
 
 
 @dataclass(frozen=True)

@@ -1,4 +1,5 @@
-"""Exact distances from points and segments to triangles (numba kernels, brute force over triangles)."""
+"""Exact distances from points and segments to triangles (numba kernels), the one implementation the flight
+checks (clearance from the model) and the validation (points near a mesh) share."""
 
 from __future__ import annotations
 
@@ -13,43 +14,51 @@ def _dot(a0, a1, a2, b0, b1, b2):
     return a0 * b0 + a1 * b1 + a2 * b2
 
 
-@nb.njit(cache=True)
-def point_triangle_sq(p, a, b, c):
-    """Squared distance from point p to triangle abc (closest-point by Voronoi regions)."""
-    ab = b - a
-    ac = c - a
-    ap = p - a
-    d1 = _dot(ab[0], ab[1], ab[2], ap[0], ap[1], ap[2])
-    d2 = _dot(ac[0], ac[1], ac[2], ap[0], ap[1], ap[2])
+@nb.njit(cache=True, nogil=True)
+def point_triangle_sq(px, py, pz, t):
+    """Squared distance from point (px, py, pz) to triangle t, (3, 3) vertices by rows (closest point by Voronoi
+    regions; a degenerate triangle by its vertices). Scalar arithmetic: nothing is allocated."""
+    ax, ay, az = t[0, 0], t[0, 1], t[0, 2]
+    abx, aby, abz = t[1, 0] - ax, t[1, 1] - ay, t[1, 2] - az
+    acx, acy, acz = t[2, 0] - ax, t[2, 1] - ay, t[2, 2] - az
+    apx, apy, apz = px - ax, py - ay, pz - az
+    d1 = abx * apx + aby * apy + abz * apz
+    d2 = acx * apx + acy * apy + acz * apz
     if d1 <= 0.0 and d2 <= 0.0:
-        q = a
+        return apx * apx + apy * apy + apz * apz
+    bpx, bpy, bpz = px - t[1, 0], py - t[1, 1], pz - t[1, 2]
+    d3 = abx * bpx + aby * bpy + abz * bpz
+    d4 = acx * bpx + acy * bpy + acz * bpz
+    if d3 >= 0.0 and d4 <= d3:
+        return bpx * bpx + bpy * bpy + bpz * bpz
+    vc = d1 * d4 - d3 * d2
+    if vc <= 0.0 and d1 >= 0.0 and d3 <= 0.0:
+        s = d1 / (d1 - d3)
+        qx, qy, qz = ax + s * abx, ay + s * aby, az + s * abz
     else:
-        bp = p - b
-        d3 = _dot(ab[0], ab[1], ab[2], bp[0], bp[1], bp[2])
-        d4 = _dot(ac[0], ac[1], ac[2], bp[0], bp[1], bp[2])
-        cp = p - c
-        d5 = _dot(ab[0], ab[1], ab[2], cp[0], cp[1], cp[2])
-        d6 = _dot(ac[0], ac[1], ac[2], cp[0], cp[1], cp[2])
-        vc = d1 * d4 - d3 * d2
+        cpx, cpy, cpz = px - t[2, 0], py - t[2, 1], pz - t[2, 2]
+        d5 = abx * cpx + aby * cpy + abz * cpz
+        d6 = acx * cpx + acy * cpy + acz * cpz
         vb = d5 * d2 - d1 * d6
         va = d3 * d6 - d5 * d4
-        if d3 >= 0.0 and d4 <= d3:
-            q = b
-        elif vc <= 0.0 and d1 >= 0.0 and d3 <= 0.0:
-            q = a + ab * (d1 / (d1 - d3))
-        elif d6 >= 0.0 and d5 <= d6:
-            q = c
-        elif vb <= 0.0 and d2 >= 0.0 and d6 <= 0.0:
-            q = a + ac * (d2 / (d2 - d6))
+        if d6 >= 0.0 and d5 <= d6:
+            return cpx * cpx + cpy * cpy + cpz * cpz
+        if vb <= 0.0 and d2 >= 0.0 and d6 <= 0.0:
+            s = d2 / (d2 - d6)
+            qx, qy, qz = ax + s * acx, ay + s * acy, az + s * acz
         elif va <= 0.0 and (d4 - d3) >= 0.0 and (d5 - d6) >= 0.0:
-            q = b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)))
+            s = (d4 - d3) / ((d4 - d3) + (d5 - d6))
+            qx, qy, qz = t[1, 0] + s * (t[2, 0] - t[1, 0]), t[1, 1] + s * (t[2, 1] - t[1, 1]), t[1, 2] + s * (t[2, 2] - t[1, 2])
         else:
             den = va + vb + vc
-            if den == 0.0:  # degenerate triangle: fall back to its vertices
-                return min(np.sum((p - a) ** 2), np.sum((p - b) ** 2), np.sum((p - c) ** 2))
-            q = a + ab * (vb / den) + ac * (vc / den)
-    d = p - q
-    return _dot(d[0], d[1], d[2], d[0], d[1], d[2])
+            if den == 0.0:  # degenerate: its vertices
+                return min(apx * apx + apy * apy + apz * apz, bpx * bpx + bpy * bpy + bpz * bpz,
+                           cpx * cpx + cpy * cpy + cpz * cpz)
+            v = vb / den
+            w = vc / den
+            qx, qy, qz = ax + abx * v + acx * w, ay + aby * v + acy * w, az + abz * v + acz * w
+    dx, dy, dz = px - qx, py - qy, pz - qz
+    return dx * dx + dy * dy + dz * dz
 
 
 @nb.njit(cache=True)
@@ -134,7 +143,7 @@ def min_point_distances(points, tri, tri_lo, tri_hi, upper_sq):
         for f in range(tri.shape[0]):
             if _gap_sq(p, p, tri_lo[f], tri_hi[f]) >= best:
                 continue
-            dsq = point_triangle_sq(p, tri[f, 0], tri[f, 1], tri[f, 2])
+            dsq = point_triangle_sq(p[0], p[1], p[2], tri[f])
             if dsq < best:
                 best = dsq
         out[i] = math.sqrt(best)
@@ -156,7 +165,7 @@ def min_segment_distances(p, q, tri, tri_lo, tri_hi, upper_sq):
             if segment_hits_triangle(p[i], q[i], a, b, c):
                 best = 0.0
                 break
-            dsq = min(point_triangle_sq(p[i], a, b, c), point_triangle_sq(q[i], a, b, c),
+            dsq = min(point_triangle_sq(p[i, 0], p[i, 1], p[i, 2], tri[f]), point_triangle_sq(q[i, 0], q[i, 1], q[i, 2], tri[f]),
                       segment_segment_sq(p[i], q[i], a, b), segment_segment_sq(p[i], q[i], b, c),
                       segment_segment_sq(p[i], q[i], c, a))
             if dsq < best:
