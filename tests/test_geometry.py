@@ -23,3 +23,24 @@ def test_point_triangle_distances_match_trimesh():
     assert np.allclose(min_point_distances(points, tri, lo, hi, upper), np.sqrt(ours.min(axis=1)))
     # a segment from a point to itself is that point
     assert np.allclose(min_segment_distances(points, points.copy(), tri, lo, hi, upper), np.sqrt(ours.min(axis=1)))
+
+
+def test_a_written_glb_reads_back_in_trimesh_y_up_with_its_colours():
+    import io
+
+    from sightplan.geometry.axes import y_up_to_z_up, z_up_to_y_up
+    from sightplan.geometry.glb import primitive_glb
+
+    rng = np.random.default_rng(3)
+    v = rng.uniform(-5, 5, size=(30, 3)) + [1000.0, 2000.0, 50.0]
+    assert np.allclose(y_up_to_z_up(z_up_to_y_up(v)), v)
+    faces = rng.integers(0, 30, size=(20, 3))
+    mesh = trimesh.load(io.BytesIO(primitive_glb(v, v.mean(axis=0), triangles=faces)), file_type="glb", force="mesh",
+                        process=False)
+    assert np.allclose(mesh.vertices, z_up_to_y_up(v), atol=1e-3) and np.array_equal(mesh.faces, faces)
+    colours = rng.integers(0, 256, size=(30, 3)).astype(np.uint8)
+    cloud = trimesh.load(io.BytesIO(primitive_glb(v, v.mean(axis=0), colours=colours)), file_type="glb")
+    geometry = next(iter(cloud.geometry.values()))
+    points = trimesh.transform_points(geometry.vertices, cloud.graph[cloud.graph.nodes_geometry[0]][0])
+    assert np.allclose(points, z_up_to_y_up(v), atol=1e-3)
+    assert np.array_equal(np.asarray(geometry.colors)[:, :3], colours)

@@ -111,7 +111,8 @@ def test_mesh_capture_is_a_y_up_glb_and_occludes_in_evaluations(client, project)
     assert row["triangles"] == 12
     doc, binary = glb_parts(client.get(row["view_url"]).content)
     acc = doc["accessors"][doc["meshes"][0]["primitives"][0]["attributes"]["POSITION"]]
-    np.testing.assert_allclose([acc["min"], acc["max"]], [[-15, 0, 13.5], [25, 12, 14.5]], atol=1e-5)  # (x, z, −y)
+    at = np.asarray(doc["nodes"][0].get("translation", [0, 0, 0]))  # the node's place plus its vertices' offsets
+    np.testing.assert_allclose([acc["min"] + at, acc["max"] + at], [[-15, 0, 13.5], [25, 12, 14.5]], atol=1e-5)  # (x, z, −y)
     assert client.get(f"/api/projects/{project}/reality/{rid}/tileset.json").status_code == 404  # not a cloud
     with open(sample_model_path(), "rb") as fh:
         up = client.post(f"/api/projects/{project}/models", files={"file": ("duplex.ifc", fh)}).json()

@@ -27,6 +27,7 @@ import numpy as np
 import trimesh
 
 from ..errors import ModelError
+from ..geometry.axes import y_up_to_z_up
 from .cache import content_hash
 from .scene import ElementTable, Scene
 from .summary import LoadReport, SkippedProduct
@@ -119,7 +120,7 @@ def load_mesh(
     vertices = np.concatenate(verts) * options["scale"]
     all_faces = np.concatenate(faces) + np.repeat(offsets, counts)[:, None]
     if options["y_up"]:
-        vertices = np.column_stack([vertices[:, 0], -vertices[:, 2], vertices[:, 1]])
+        vertices = y_up_to_z_up(vertices)
 
     if elements == "objects":
         face_element = np.repeat(np.arange(len(names), dtype=np.int32), counts)

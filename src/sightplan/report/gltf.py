@@ -19,6 +19,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import ReportError
+from ..geometry.axes import z_up_to_y_up
 from ..metrics import Metrics
 from ..metrics.elements import ElementMetrics
 from ..model.scene import Scene
@@ -199,8 +200,7 @@ class ViewerFrame:
         return cls((v.min(0) + v.max(0)) / 2)
 
     def apply(self, points: NDArray) -> NDArray[np.float64]:
-        p = np.asarray(points, np.float64).reshape(-1, 3) - self.origin
-        return np.column_stack([p[:, 0], p[:, 2], -p[:, 1]])
+        return z_up_to_y_up(points, self.origin)
 
 
 @dataclass(frozen=True)

@@ -44,7 +44,6 @@ from __future__ import annotations
 import json
 import math
 import shutil
-import struct
 import time
 from collections.abc import Iterator
 from dataclasses import asdict, dataclass
@@ -55,6 +54,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..errors import ModelError
+from ..geometry.glb import primitive_glb
 from ..model.pointcloud import PointChunkReader, PointCloud
 from ..version import __version__
 
@@ -74,7 +74,6 @@ _TMP_DIR = ".pointtiles-tmp"
 _BOX_PAD = 1e-6  # of the cube edge, so float32 offsets stay inside their tile's box (twice that at the root)
 _RECORD = np.dtype([("p", "<f8", (3,)), ("c", "u1", (3,))])
 _SORTED_RECORD = np.dtype([("p", "<f8", (3,)), ("c", "u1", (3,)), ("l", "i1")])
-_GLB_MAGIC, _JSON_CHUNK, _BIN_CHUNK = 0x46546C67, 0x4E4F534A, 0x004E4942
 
 
 @dataclass(frozen=True)
@@ -465,45 +464,10 @@ class _TileWriter:
 
     def write(self, name: str, pos: NDArray[np.float64], rgb: NDArray[np.uint8] | None, box: NDArray[np.float64]) -> None:
         centre = (box[0] + box[1]) / 2
-        (self.dir / name).write_bytes(glb_points(pos, rgb, centre))
+        (self.dir / name).write_bytes(primitive_glb(pos, centre, colours=rgb))
         self.n_files += 1
         self.n_points += len(pos)
         self.max_points = max(self.max_points, len(pos))
-
-
-def glb_points(positions: ArrayLike, colours: ArrayLike | None, centre: ArrayLike) -> bytes:
-    """A binary glTF 2.0 of one POINTS primitive: Z-up model coordinates ``positions`` stored Y up as float32
-    offsets from ``centre`` (the node's translation), ``colours`` (n, 3) uint8 as normalized COLOR_0."""
-    pos = np.asarray(positions, np.float64)
-    c = np.asarray(centre, np.float64)
-    rel = pos - c
-    local = np.empty((len(pos), 3), np.float32)
-    local[:, 0], local[:, 1], local[:, 2] = rel[:, 0], rel[:, 2], -rel[:, 1]
-    n = len(local)
-    blobs = [local.tobytes()]
-    accessors = [{"bufferView": 0, "componentType": 5126, "count": n, "type": "VEC3",
-                  "min": local.min(axis=0).tolist(), "max": local.max(axis=0).tolist()}]
-    views = [{"buffer": 0, "byteOffset": 0, "byteLength": 12 * n, "target": 34962}]
-    attributes = {"POSITION": 0}
-    if colours is not None:
-        rgba = np.zeros((n, 4), np.uint8)  # 3 bytes a point, padded to 4 as glTF aligns vertex attributes
-        rgba[:, :3] = colours
-        blobs.append(rgba.tobytes())
-        views.append({"buffer": 0, "byteOffset": 12 * n, "byteLength": 4 * n, "byteStride": 4, "target": 34962})
-        accessors.append({"bufferView": 1, "componentType": 5121, "normalized": True, "count": n, "type": "VEC3"})
-        attributes["COLOR_0"] = 1
-    binary = b"".join(blobs)
-    gltf = {"asset": {"version": "2.0", "generator": f"sightplan {__version__}"},
-            "scene": 0, "scenes": [{"nodes": [0]}],
-            "nodes": [{"mesh": 0, "translation": [float(c[0]), float(c[2]), float(-c[1])]}],
-            "meshes": [{"primitives": [{"attributes": attributes, "mode": 0}]}],
-            "accessors": accessors, "bufferViews": views, "buffers": [{"byteLength": len(binary)}]}
-    text = json.dumps(gltf, separators=(",", ":")).encode()
-    text += b" " * (-len(text) % 4)
-    binary += b"\0" * (-len(binary) % 4)
-    total = 12 + 8 + len(text) + 8 + len(binary)
-    return b"".join([struct.pack("<III", _GLB_MAGIC, 2, total), struct.pack("<II", len(text), _JSON_CHUNK), text,
-                     struct.pack("<II", len(binary), _BIN_CHUNK), binary])
 
 
 # =========================================================================== buckets

@@ -392,15 +392,16 @@ class Worker:
 
 
 def write_mesh_glb(vertices, faces, path) -> None:
-    """A triangle mesh as a binary glTF with glTF's Y up: model (x, y, z) is (x, z, −y) in the file, as in the point
-    tiles, so the viewer turns both the same way."""
+    """A triangle mesh as a binary glTF, Y up and centred on its box as the point tiles are, so the viewer turns
+    both the same way."""
     import numpy as np
-    import trimesh
+
+    from ..geometry.glb import primitive_glb
 
     v = np.asarray(vertices, float)
-    mesh = trimesh.Trimesh(np.column_stack([v[:, 0], v[:, 2], -v[:, 1]]), np.asarray(faces), process=False)
+    centre = (v.min(axis=0) + v.max(axis=0)) / 2 if len(v) else np.zeros(3)
     tmp = path.with_suffix(".glb.part")
-    tmp.write_bytes(mesh.export(file_type="glb"))
+    tmp.write_bytes(primitive_glb(v, centre, triangles=faces))
     tmp.replace(path)
 
 
