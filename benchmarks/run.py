@@ -50,11 +50,11 @@ from sightplan import __version__
 from sightplan.camera.catalogue import get_camera
 from sightplan.engines import available_engines, make_engine
 from sightplan.evaluate import EvaluationSettings, evaluate
+from sightplan.geometry.poses import R_from_gimbal
 from sightplan.metrics import MetricParams, compute_metrics
 from sightplan.model.load import load_model
 from sightplan.observations.features import sample_features
 from sightplan.observations.table import Observations
-from sightplan.plan.poses import R_from_gimbal
 from sightplan.plan.templates.orbit import ring_poses
 from sightplan.plan.types import Mission, Plan
 

@@ -19,9 +19,9 @@ from sightplan.camera.models import EquirectangularCamera, PinholeCamera
 from sightplan.engines import make_engine
 from sightplan.engines.registry import available_engines
 from sightplan.errors import ScheduleError
+from sightplan.geometry.poses import R_from_gimbal
 from sightplan.model.scene import ElementTable, Scene
 from sightplan.observations.table import Observations
-from sightplan.plan.poses import R_from_gimbal
 
 ENGINES = ["embree", "gl", "trimesh"]
 

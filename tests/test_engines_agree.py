@@ -12,10 +12,10 @@ import pytest
 from sightplan.camera.models import EquirectangularCamera, PinholeCamera
 from sightplan.engines import make_engine
 from sightplan.evaluate import EvaluationSettings, evaluate, pixel_counts
+from sightplan.geometry.poses import R_from_gimbal
 from sightplan.metrics import MetricParams
 from sightplan.model.load import load_model
 from sightplan.observations.features import FeatureSet, sample_features
-from sightplan.plan.poses import R_from_gimbal
 from sightplan.plan.ring import ring_plan
 from sightplan.plan.types import Plan
 

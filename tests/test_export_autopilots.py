@@ -20,9 +20,9 @@ from sightplan.camera.catalogue import get_camera
 from sightplan.export import export_plan, file_summary
 from sightplan.export.qgc import ARDUPILOT_STOP_HOLD_S
 from sightplan.geo import Georeference
+from sightplan.geometry.poses import gimbal_from_R
 from sightplan.plan import Plan
 from sightplan.plan.load import load_plan
-from sightplan.plan.poses import gimbal_from_R
 from sightplan.plan.templates import bridge, facade_grid, indoor_route, lawnmower, orbit
 from test_exports import GEOREFS, TAKEOFF, angle_diff, facade_plan
 from test_templates import box_scene

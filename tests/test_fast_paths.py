@@ -18,9 +18,9 @@ from sightplan.engines import kernels, make_engine
 from sightplan.engines.embree import EmbreeEngine
 from sightplan.engines.featurecull import FeatureIndex
 from sightplan.evaluate import EvaluationSettings, evaluate
+from sightplan.geometry.poses import R_from_gimbal
 from sightplan.metrics import MetricParams
 from sightplan.observations.features import cached_features, sample_features
-from sightplan.plan.poses import R_from_gimbal
 from sightplan.plan.ring import ring_plan
 
 

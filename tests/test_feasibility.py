@@ -8,6 +8,7 @@ import trimesh
 
 from sightplan.camera.catalogue import get_camera
 from sightplan.errors import PlanError
+from sightplan.geometry.poses import R_from_gimbal
 from sightplan.model.scene import ElementTable, Scene
 from sightplan.plan.checks.battery import Aircraft, Rover, split_by_rover
 from sightplan.plan.checks.feasibility import (
@@ -18,7 +19,6 @@ from sightplan.plan.checks.feasibility import (
     split_by_line_of_sight,
 )
 from sightplan.plan.format import plan_from_dict, plan_to_dict
-from sightplan.plan.poses import R_from_gimbal
 from sightplan.plan.types import Mission, Plan
 
 # a 20 × 10 × 30 m tower: tall enough to hide one side of it from a ground station at the other

@@ -21,8 +21,8 @@ from geoid_support import require_geoid
 from sightplan.errors import PlanError
 from sightplan.export import export_plan
 from sightplan.geo import Georeference
+from sightplan.geometry.poses import gimbal_from_R
 from sightplan.plan.load import detect_format, load_plan
-from sightplan.plan.poses import gimbal_from_R
 from test_exports import GEOREFS, TAKEOFF, angle_diff, facade_plan
 
 GEOD = Geod(ellps="WGS84")

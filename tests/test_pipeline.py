@@ -9,10 +9,10 @@ import trimesh
 from sightplan.camera.models import EquirectangularCamera, PinholeCamera
 from sightplan.errors import ObservationsError, SightplanError
 from sightplan.evaluate import EvaluationSettings, evaluate, pixel_counts
+from sightplan.geometry.poses import R_from_gimbal
 from sightplan.metrics import compute_metrics
 from sightplan.model.scene import ElementTable, Scene
 from sightplan.observations.table import Observations
-from sightplan.plan.poses import R_from_gimbal
 from sightplan.plan.ring import ring_plan
 from sightplan.plan.types import Plan
 

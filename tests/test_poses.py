@@ -8,7 +8,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from sightplan.errors import PlanError
-from sightplan.plan.poses import R_from_gimbal, R_from_quaternion, check_rotations, gimbal_from_R, quaternion_from_R
+from sightplan.geometry.poses import R_from_gimbal, R_from_quaternion, check_rotations, gimbal_from_R, quaternion_from_R
 
 
 @pytest.mark.parametrize(

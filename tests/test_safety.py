@@ -8,9 +8,9 @@ import trimesh
 
 from sightplan.camera.catalogue import get_camera
 from sightplan.errors import PlanError
+from sightplan.geometry.poses import R_from_gimbal
 from sightplan.model.scene import ElementTable, Scene
 from sightplan.plan.checks import check_safety, point_distances, segment_distances
-from sightplan.plan.poses import R_from_gimbal
 from sightplan.plan.templates import facade_grid
 from sightplan.plan.types import Mission, Plan
 

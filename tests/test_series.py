@@ -9,8 +9,8 @@ import trimesh
 from sightplan.camera.models import PinholeCamera
 from sightplan.errors import ScheduleError
 from sightplan.evaluate import EvaluationSettings
+from sightplan.geometry.poses import R_from_gimbal
 from sightplan.model.scene import ElementTable, Scene
-from sightplan.plan.poses import R_from_gimbal
 from sightplan.plan.types import Plan
 from sightplan.series import evaluate_series, schedule_days
 

@@ -11,8 +11,8 @@ import trimesh
 from sightplan.camera.catalogue import get_camera
 from sightplan.errors import PlanError
 from sightplan.evaluate import EvaluationSettings, evaluate
+from sightplan.geometry.poses import gimbal_from_R
 from sightplan.model.scene import ElementTable, Scene
-from sightplan.plan.poses import gimbal_from_R
 from sightplan.plan.templates import facade_grid, indoor_route, indoor_routes, orbit, read_routes, waypoint_spacing
 
 P4P = get_camera("p4p")  # 8.8 mm on 13.2 × 8.8 mm, 5472 × 3648: tan(hfov/2) = 0.75, tan(vfov/2) = 0.5

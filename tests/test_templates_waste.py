@@ -13,11 +13,11 @@ from typer.testing import CliRunner
 
 from sightplan.camera.catalogue import get_camera
 from sightplan.engines import make_engine
+from sightplan.geometry.poses import R_from_gimbal
 from sightplan.model.scene import ElementTable, Scene
 from sightplan.plan.checks import point_distances
 from sightplan.plan.checks.feasibility import FlightSettings, check_plan, plan_flights
 from sightplan.plan.ground import ground_z, targets_only
-from sightplan.plan.poses import R_from_gimbal
 from sightplan.plan.site import with_site
 from sightplan.plan.templates import bridge, facade_grid, lawnmower, orbit
 from sightplan.plan.types import Plan

@@ -11,7 +11,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..camera.models import PinholeCamera
-from ..plan.poses import R_from_gimbal
+from ..geometry.poses import R_from_gimbal
 from .base import Engine
 
 

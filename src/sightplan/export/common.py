@@ -3,7 +3,7 @@
 - Consecutive frames of one mission whose centres lie within 1 cm share one waypoint; each
   frame is one photo action there, in plan order.
 - A photo's heading is the true heading (clockwise from true north, [0, 360)) of the frame's
-  model heading (:func:`~sightplan.plan.poses.gimbal_from_R`, converted with
+  model heading (:func:`~sightplan.geometry.poses.gimbal_from_R`, converted with
   :meth:`~sightplan.geo.Georeference.true_heading`, so a georeference's north offset and grid
   convergence are included); its pitch is the gimbal pitch (up positive, −90 nadir). Drone
   gimbals keep the horizon level, so the flight formats refuse a roll beyond 1° and a pitch
@@ -33,7 +33,7 @@ from numpy.typing import ArrayLike, NDArray
 from ..camera.models import PinholeCamera
 from ..errors import PlanError
 from ..geo import Georeference
-from ..plan.poses import gimbal_from_R
+from ..geometry.poses import gimbal_from_R
 from ..plan.site import mission_takeoffs
 from ..plan.types import Mission, Plan
 

@@ -1,6 +1,6 @@
 """sightplan's own plan file: JSON, format ``"sightplan-plan"``, version 1.
 
-Layout (every axis and angle convention is the one of :mod:`sightplan.plan.poses`)::
+Layout (every axis and angle convention is the one of :mod:`sightplan.geometry.poses`)::
 
     {"format": "sightplan-plan", "version": 1, "units": "m", "frame_convention": "...",
      "cameras": {id: camera dict},                       # Camera.to_dict()
@@ -27,7 +27,7 @@ import numpy as np
 
 from ..camera.models import Camera, camera_from_dict
 from ..errors import CameraError, FormatVersionError, PlanError
-from .poses import R_from_gimbal, R_from_quaternion, check_rotations
+from ..geometry.poses import R_from_gimbal, R_from_quaternion, check_rotations
 from .types import Mission, Plan
 
 FORMAT_NAME = "sightplan-plan"

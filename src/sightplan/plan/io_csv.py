@@ -6,7 +6,7 @@ Columns (case-insensitive; comma, semicolon or tab separated):
 - ``x``, ``y``, ``z``: the camera centre in metres, model frame;
 - one orientation set: ``heading_deg``, ``pitch_deg`` and optional ``roll_deg`` (aliases
   ``yaw``/``yaw_deg``/``heading``, ``pitch``, ``roll``; conventions of
-  :mod:`sightplan.plan.poses`), or ``qw``, ``qx``, ``qy``, ``qz`` (R_world_camera);
+  :mod:`sightplan.geometry.poses`), or ``qw``, ``qx``, ``qy``, ``qz`` (R_world_camera);
 - optional ``camera``: a catalogue name per row (empty: the caller's camera);
 - optional ``time`` (alias ``timestamp``): POSIX seconds or ISO 8601 (UTC unless it says).
 """
@@ -24,8 +24,8 @@ from ..camera.catalogue import get_camera
 from ..camera.files import parse_camera_spec
 from ..camera.models import Camera
 from ..errors import CameraError, PlanError
+from ..geometry.poses import R_from_gimbal
 from .format import checked_rotations, quaternions_to_R
-from .poses import R_from_gimbal
 from .types import Plan
 
 _ALIASES = {

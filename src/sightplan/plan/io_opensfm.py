@@ -24,8 +24,8 @@ import numpy as np
 
 from ..camera.models import Camera, EquirectangularCamera, PinholeCamera
 from ..errors import CameraError, PlanError
+from ..geometry.poses import R_from_rotvec
 from .format import read_json
-from .poses import R_from_rotvec
 from .types import Plan
 
 _SPHERICAL = {"spherical", "equirectangular"}

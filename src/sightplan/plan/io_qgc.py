@@ -53,8 +53,8 @@ from ..camera.files import parse_camera_spec
 from ..camera.models import Camera, PinholeCamera, camera_from_dict
 from ..errors import CameraError, PlanError
 from ..geo import Georeference, GeoreferenceError
+from ..geometry.poses import R_from_gimbal
 from .format import read_json
-from .poses import R_from_gimbal
 from .types import Mission, Plan
 
 NAV_WAYPOINT, NAV_LOITER_UNLIM, NAV_LOITER_TURNS, NAV_LOITER_TIME = 16, 17, 18, 19

@@ -54,8 +54,8 @@ from ..camera.files import parse_camera_spec
 from ..camera.models import Camera
 from ..errors import CameraError, PlanError
 from ..geo import Georeference, GeoreferenceError
+from ..geometry.poses import R_from_gimbal
 from .io_qgc import bearing, differs
-from .poses import R_from_gimbal
 from .types import Mission, Plan
 
 PAYLOADS = {66: "m3e", 42: "h20", 50: "p1"}

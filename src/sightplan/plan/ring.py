@@ -6,8 +6,8 @@ import numpy as np
 
 from ..camera.models import Camera
 from ..errors import PlanError
+from ..geometry.poses import R_from_gimbal
 from ..model.scene import Scene
-from .poses import R_from_gimbal
 from .templates.orbit import ring_poses
 from .types import Mission, Plan
 

@@ -10,7 +10,7 @@ from numpy.typing import NDArray
 
 from ..camera.models import Camera
 from ..errors import PlanError
-from .poses import check_rotations
+from ..geometry.poses import check_rotations
 
 
 @dataclass(frozen=True)

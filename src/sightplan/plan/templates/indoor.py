@@ -11,7 +11,7 @@ from numpy.typing import ArrayLike
 
 from ...camera.models import Camera
 from ...errors import PlanError
-from ..poses import R_from_gimbal
+from ...geometry.poses import R_from_gimbal
 from ..types import Mission, Plan
 
 MAX_ROUTE_FRAMES = 100_000  # a walked capture of more frames is a typo in the step, not a plan

@@ -6,10 +6,10 @@ import numpy as np
 
 from ...camera.models import Camera, PinholeCamera
 from ...errors import PlanError
+from ...geometry.poses import R_from_gimbal
 from ...model.scene import Scene
 from ..aim import drop_blind_frames
 from ..ground import MIN_HEIGHT_M, ground_z, targets_only
-from ..poses import R_from_gimbal
 from ..types import Mission, Plan
 from .facade import _positions, _valid_min_height
 from .spacing import waypoint_spacing
