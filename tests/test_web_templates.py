@@ -111,3 +111,29 @@ def test_the_flight_checks_use_the_settings_the_plan_was_made_with(client):
     assert checks["vlos_radius_m"] == 60 and checks["safety_distance_m"] == 6
     wider = client.get(f"/api/projects/{pid}/plans/{orbit_id}/versions/1/checks", params={"vlos_radius": 400}).json()
     assert wider["vlos_radius_m"] == 400
+
+
+def test_the_command_line_and_the_api_make_the_same_plan(client, tmp_path):
+    """One dispatch (plan.templates.registry) behind `sightplan plan` and POST …/plans: the same orbit around the
+    Duplex, with the same flight settings, has the same frames, missions and take-off point either way."""
+    import json
+
+    from test_cli import run_cli
+
+    out = tmp_path / "orbit.json"
+    res = run_cli("plan", "orbit", "sample", "--radius", "25", "--height", "8", "--step", "30", "-o", str(out),
+                  cwd=tmp_path)
+    assert res.returncode == 0, res.stderr
+    cli = json.loads(out.read_text())
+    pid = client.post("/api/projects", json={"name": "same"}).json()["id"]
+    mid = upload_model(client, pid, sample_model_path())
+    r = client.post(f"/api/projects/{pid}/plans", json={"model_id": mid, "template": "orbit", "radius": [25],
+                                                        "height": [8], "step": 30})
+    assert r.status_code == 201, r.text
+    web = client.get(f"/api/projects/{pid}/plans/{r.json()['id']}/versions/1").json()
+    assert len(cli["frames"]) == len(web["frames"]) == 12
+    assert np.allclose([f["position"] for f in cli["frames"]], [f["position"] for f in web["frames"]])
+    assert [m["frames"] for m in cli["missions"]] == [m["frames"] for m in web["missions"]]
+    assert np.allclose([m["ground_station"] for m in cli["missions"]], [m["ground_station"] for m in web["missions"]])
+    assert cli["parameters"]["takeoff_m"] == pytest.approx(web["parameters"]["takeoff_m"])
+    assert cli["parameters"]["checks"]["settings"] == web["parameters"]["checks"]["settings"]

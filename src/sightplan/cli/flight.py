@@ -78,14 +78,18 @@ def flight_settings(safety_distance: float, vlos_radius: float, ground_station: 
 
 def default_flight_settings(walked: bool, safety_distance: float | None, vlos_radius: float | None,
                             ground_station: list[str] | None, aircraft: str | None, altitude_limit: float | None,
-                            drone_safety_m: float, min_height: float | None = None):
-    """:func:`flight_settings` with the defaults of a drone flight, or of a walked or driven route (no line of sight,
-    no altitude limit, no minimum height, 0.3 m clearance, a walker's battery), for the options not given (None)."""
-    from ..plan.ground import MIN_HEIGHT_M
+                            drone_safety_m: float | None = None, min_height: float | None = None):
+    """:func:`flight_settings` with the defaults of a drone flight, or of a walked or driven route
+    (:func:`~sightplan.plan.templates.registry.default_flight`), for the options not given (None);
+    ``drone_safety_m`` replaces a drone's default distance to the model."""
+    from ..plan.templates.registry import default_flight
 
-    defaults = (0.3, 0.0, "walker-360", 0.0, None) if walked else (drone_safety_m, 500.0, "p4p", 120.0, MIN_HEIGHT_M)
+    d = default_flight(walked)
+    if drone_safety_m is not None and not walked:
+        d["safety_distance_m"] = drone_safety_m
     given = (safety_distance, vlos_radius, aircraft, altitude_limit, min_height)
-    safety, vlos, craft, limit, low = (d if v is None else v for v, d in zip(given, defaults))
+    defaults = (d["safety_distance_m"], d["vlos_radius_m"], d["aircraft"], d["altitude_limit_m"], d["min_height_m"])
+    safety, vlos, craft, limit, low = (x if v is None else v for v, x in zip(given, defaults))
     return flight_settings(safety, vlos, ground_station, craft, limit, low)  # type: ignore[arg-type]
 
 

@@ -90,47 +90,29 @@ def plan_command(
 ) -> None:
     """Make a capture plan from a template around a model, check that it can be flown, and write it."""
     from ..errors import PlanError
-    from ..plan.checks.feasibility import check_plan, plan_flights
-    from ..plan.checks.gate import record_checks
     from ..plan.format import write_plan
-    from ..plan.templates import bridge, facade_grid, indoor_route, indoor_routes, lawnmower, orbit, read_routes
+    from ..plan.templates import read_routes
+    from ..plan.templates.registry import WALKED, TemplateParams, plan_from_template
 
+    if footprint not in ("box", "outline"):  # before the model is loaded
+        raise PlanError(f"--footprint must be 'box' or 'outline', got {footprint!r}")
     cam = cli_camera(camera, focal_mm)
     scene, _ = load_with_progress(console, model, cache)
     scene = dated_scene(console, scene, model, schedule, rules, prefer_actual, date, date_basis, unscheduled)
     obstacles = with_reality(console, scene, reality)  # templates go around the model; checks see everything
-    walked = template == "route"  # walked or driven indoors: no line of sight to keep, no altitude limit
+    walked = template in WALKED
     settings = default_flight_settings(walked, safety_distance, None if walked else vlos_radius,
                                        None if walked else ground_station, aircraft, None if walked else altitude_limit,
-                                       drone_safety_m=10.0, min_height=min_height)
-    safety_distance = settings.safety_distance_m
-    low = settings.min_height_m if settings.min_height_m is not None else 0.0
-    if template == "facade":
-        if footprint not in ("box", "outline"):
-            raise PlanError(f"--footprint must be 'box' or 'outline', got {footprint!r}")
-        plan = facade_grid(scene, cam, safety_distance, overlap, footprint=footprint, min_height_m=low)
-    elif template == "orbit":
-        plan = orbit(scene, cam, radius or None, height or None, step_deg=step, overlap=overlap, aim=aim,  # type: ignore[arg-type]
-                     safety_distance_m=safety_distance, min_height_m=low)
-    elif template == "lawnmower":
-        plan = lawnmower(scene, cam, altitude_m=altitude, gsd_m=gsd, front_overlap=overlap, side_overlap=side_overlap,
-                         oblique_pitch_deg=oblique_pitch, min_height_m=low)
-    elif template == "bridge":
-        if not point or len(point) < 2:
-            raise PlanError("a bridge needs its axis: --point x,y at least twice, in order")
-        axis = [parse_point(p if p.count(",") == 2 else p + ",0", "bridge axis point")[:2] for p in point]
-        plan = bridge(scene, cam, axis, safety_distance, heights_m=height or None, under_deck=under_deck, overlap=overlap,
-                      deck_z=deck_z, min_height_m=low)
-    else:
-        if (not point and routes is None) or step is None:
-            raise PlanError("a route needs --point x,y,z at least twice (or --routes FILE) and --step in metres")
-        if routes is not None:
-            polylines, names = read_routes(routes)
-            plan = indoor_routes(cam, polylines, step, names=names)
-        else:
-            plan = indoor_route(cam, [parse_point(p, "route point") for p in point], step)
-    report = (plan_flights if split else check_plan)(obstacles, plan, settings)
-    plan = record_checks(with_site(report.plan, scene, replace_takeoff=True), report, settings)
+                                       min_height=min_height)
+    params = TemplateParams(
+        overlap=overlap, footprint=footprint, radius_m=tuple(radius or ()), height_m=tuple(height or ()), step=step,
+        aim=aim, altitude_m=altitude, gsd_m=gsd, side_overlap=side_overlap, oblique_pitch_deg=oblique_pitch,
+        axis=tuple(tuple(parse_point(q if q.count(",") == 2 else q + ",0", "bridge axis point")[:2])
+                   for q in (point or ())) if template == "bridge" else (),
+        under_deck=under_deck, deck_z_m=deck_z,
+        points=tuple(tuple(parse_point(q, "route point")) for q in (point or ())) if template == "route" else (),
+        routes=read_routes(routes) if template == "route" and routes is not None else None)
+    plan, report = plan_from_template(template, scene, cam, params, settings, obstacles=obstacles, split=split)
     write_plan(plan, output)
     print_feasibility(console, report, f"{template} plan around {Path(str(model)).name} — {cam.name or camera}")
     if "dropped_frames" in plan.parameters:

@@ -107,17 +107,16 @@ def _aircraft(name: str):
 
 def flight_record(body: TemplatePlanIn) -> dict[str, Any]:
     """The flight settings of a template request, with a drone's defaults or a walker's for a route."""
-    from ..plan.ground import MIN_HEIGHT_M
+    from ..plan.templates.registry import WALKED, default_flight
 
-    walked = body.template == "route"
-    safety, vlos, preset, limit, low = (0.3, 0.0, "walker-360", 0.0, None) if walked else \
-        (10.0, 500.0, "p4p", 120.0, MIN_HEIGHT_M)
-    record = {"safety_distance_m": body.safety_distance if body.safety_distance is not None else safety,
-              "vlos_radius_m": body.vlos_radius if body.vlos_radius is not None else vlos,
-              "altitude_limit_m": body.altitude_limit if body.altitude_limit is not None else limit,
-              "aircraft": body.aircraft if body.aircraft is not None else preset}
+    walked = body.template in WALKED
+    d = default_flight(walked)
+    record = {"safety_distance_m": body.safety_distance if body.safety_distance is not None else d["safety_distance_m"],
+              "vlos_radius_m": body.vlos_radius if body.vlos_radius is not None else d["vlos_radius_m"],
+              "altitude_limit_m": body.altitude_limit if body.altitude_limit is not None else d["altitude_limit_m"],
+              "aircraft": body.aircraft if body.aircraft is not None else d["aircraft"]}
     if not walked:  # a walked route keeps no minimum height
-        record["min_height_m"] = body.min_height if body.min_height is not None else low
+        record["min_height_m"] = body.min_height if body.min_height is not None else d["min_height_m"]
     _aircraft(record["aircraft"])  # an unknown preset is refused before anything is planned
     return record
 
@@ -136,37 +135,20 @@ def flight_settings(record: dict[str, Any], ground_stations=None, **overrides):
 
 
 def template_plan(scene: Scene, body: TemplatePlanIn) -> Plan:
-    """A plan from a template around ``scene``, split into missions and checked as ``sightplan plan`` does."""
+    """A plan from a template around ``scene``, split into missions and checked as ``sightplan plan`` does
+    (:func:`~sightplan.plan.templates.registry.plan_from_template`), with the flight it was made with recorded."""
     from ..camera.catalogue import get_camera
-    from ..plan.checks.feasibility import check_plan, plan_flights
-    from ..plan.checks.gate import record_checks
-    from ..plan.templates import bridge, facade_grid, indoor_route, lawnmower, orbit
+    from ..plan.templates.registry import TemplateParams, plan_from_template
 
-    cam = get_camera(body.camera)
     record = flight_record(body)
-    settings = flight_settings(record, body.ground_station)
-    distance = settings.safety_distance_m
-    low = settings.min_height_m if settings.min_height_m is not None else 0.0
-    if body.template == "facade":
-        plan = facade_grid(scene, cam, distance, body.overlap, footprint=body.footprint, min_height_m=low)
-    elif body.template == "orbit":
-        plan = orbit(scene, cam, body.radius or None, body.height or None, step_deg=body.step, overlap=body.overlap,
-                     aim=body.aim, safety_distance_m=distance, min_height_m=low)
-    elif body.template == "lawnmower":
-        plan = lawnmower(scene, cam, altitude_m=body.altitude, gsd_m=body.gsd, front_overlap=body.overlap,
-                         side_overlap=body.side_overlap, oblique_pitch_deg=body.oblique_pitch, min_height_m=low)
-    elif body.template == "bridge":
-        if len(body.axis) < 2:
-            raise PlanError("a bridge needs its axis: 'axis' with at least two points [x, y], in order")
-        plan = bridge(scene, cam, body.axis, distance, heights_m=body.height or None, under_deck=body.under_deck,
-                      overlap=body.overlap, deck_z=body.deck_z, min_height_m=low)
-    else:
-        if len(body.points) < 2 or body.step is None:
-            raise PlanError("a route needs 'points' (at least two [x, y, z]) and 'step' in metres")
-        plan = indoor_route(cam, body.points, body.step)
-    report = (plan_flights if body.split else check_plan)(scene, plan, settings)
-    planned = record_checks(report.plan, report, settings)
-    return with_site(replace(planned, parameters={**planned.parameters, FLIGHT_KEY: record}), scene)
+    params = TemplateParams(
+        overlap=body.overlap, footprint=body.footprint, radius_m=tuple(body.radius), height_m=tuple(body.height),
+        step=body.step, aim=body.aim, altitude_m=body.altitude, gsd_m=body.gsd, side_overlap=body.side_overlap,
+        oblique_pitch_deg=body.oblique_pitch, axis=tuple(tuple(a) for a in body.axis), under_deck=body.under_deck,
+        deck_z_m=body.deck_z, points=tuple(tuple(q) for q in body.points))
+    plan, _ = plan_from_template(body.template, scene, get_camera(body.camera), params,
+                                 flight_settings(record, body.ground_station), split=body.split)
+    return replace(plan, parameters={**plan.parameters, FLIGHT_KEY: record})
 
 
 def read_uploaded_plan(path: Path, camera: str | None, scene: Scene | None) -> Plan:
