@@ -105,7 +105,7 @@ def test_unreachable_scheduler_is_a_clear_error(duplex):
     t0 = time.perf_counter()
     with pytest.raises(SightplanError, match="127.0.0.1"):
         evaluate_distributed(scene, plan.subset(np.arange(2)), SETTINGS, cluster=address)
-    assert time.perf_counter() - t0 < 20
+    assert time.perf_counter() - t0 < 120  # a guard against hanging on the address, not a speed claim
 
 
 def test_bad_arguments(client, duplex):

@@ -11,7 +11,6 @@ times on the Schependomlaan steel structure with a 2,000-frame plan.
 from __future__ import annotations
 
 import json
-import time
 import zipfile
 from io import BytesIO
 from pathlib import Path
@@ -49,7 +48,6 @@ def test_pilot_walks_from_upload_to_export(browser, server, artifacts):
     from sightplan.report.gltf import traffic_light
     from sightplan.report.overview import OCCLUDER, UNSEEN
 
-    started = time.monotonic()
     ctx, page, problems = open_page(browser, server)
     try:
         assert "no login" in page.inner_text("#mode-badge")
@@ -218,7 +216,6 @@ def test_pilot_walks_from_upload_to_export(browser, server, artifacts):
         assert not [p for p in problems if "page error" in p], problems
     finally:
         ctx.close()
-    assert time.monotonic() - started < 150, "the walk-through took too long"
 
 
 def test_errors_are_shown_as_one_message(browser, server, artifacts):

@@ -84,7 +84,7 @@ def test_cancelling_a_running_evaluation_stops_it_and_leaves_no_result(tmp_path)
         assert r.status_code == 200
         t0 = time.monotonic()
         while (job := c.get(f"/api/jobs/{job_id}").json())["status"] not in ("done", "failed"):
-            assert time.monotonic() - t0 < 10, "the evaluation did not stop"
+            assert time.monotonic() - t0 < 60, "the evaluation did not stop"  # a hang guard, not a speed claim
             time.sleep(0.05)
         assert job["status"] == "failed" and job["error"] == "cancelled" and job["progress_done"] < 216
         pid = c.get("/api/projects").json()[0]["id"]

@@ -3,17 +3,16 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated, Literal
+from typing import Annotated
 
 import typer
 
+from ..formats import Autopilot, ExportFormat
 from .base import app, console
 from .camera_opts import CAMERA_FORMS, FocalOpt, cli_camera
 from .errors import friendly_errors
 from .flight import parse_point
 
-ExportFormat = Literal["qgc", "wpl", "wpml", "litchi", "kml", "geojson"]
-Autopilot = Literal["px4", "ardupilot"]
 MIN_ALTITUDE_M = 2.0
 
 

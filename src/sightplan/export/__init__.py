@@ -17,11 +17,12 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Literal, get_args
 
 from numpy.typing import ArrayLike
 
 from ..errors import PlanError
+from ..formats import EXPORT_FORMATS, ExportFormat
+from ..formats.dji import AIRCRAFT, DjiAircraft
 from ..geo import Georeference
 from ..plan.types import Plan
 from .common import Flight, Photo, Takeoff, Waypoint, build_flight, mission_paths
@@ -29,10 +30,8 @@ from .kml import write_geojson, write_kml
 from .litchi import litchi_aircraft, write_litchi
 from .qgc import AUTOPILOT_LABELS, AUTOPILOTS, DEFAULT_AUTOPILOT, Autopilot, resolve_autopilot, write_qgc
 from .wpl import write_wpl
-from .wpml import AIRCRAFT, AircraftError, DjiAircraft, check_speed, resolve_aircraft, write_wpml
+from .wpml import AircraftError, check_speed, resolve_aircraft, write_wpml
 
-ExportFormat = Literal["qgc", "wpl", "wpml", "litchi", "kml", "geojson"]
-EXPORT_FORMATS: tuple[str, ...] = get_args(ExportFormat)
 EXTENSIONS = {"qgc": ".plan", "wpl": ".waypoints", "wpml": ".kmz", "litchi": ".csv", "kml": ".kml", "geojson": ".geojson"}
 _WRITERS = {"qgc": write_qgc, "wpl": write_wpl, "wpml": write_wpml, "litchi": write_litchi, "kml": write_kml,
             "geojson": write_geojson}
@@ -103,7 +102,7 @@ def export_plan(plan: Plan, fmt: ExportFormat, path: str | Path, georef: Georefe
     autopilot: for ``qgc`` and ``wpl``, the flight controller the file is for, ``"px4"`` or
     ``"ardupilot"`` (they accept different commands and frames; see :mod:`.qgc`); None: PX4 for
     ``qgc``, ArduPilot for ``wpl`` (:data:`DEFAULT_AUTOPILOT`). Ignored by the other formats.
-    aircraft: for ``wpml``, a key of :data:`~sightplan.export.wpml.AIRCRAFT`; None: the aircraft that
+    aircraft: for ``wpml``, a key of :data:`~sightplan.formats.dji.AIRCRAFT`; None: the aircraft that
     carries the plan's camera (a camera none carries is refused, naming the choices).
     report: a list to which an :class:`ExportedFile` is appended per file written.
     Raises :class:`~sightplan.errors.PlanError` naming the frames a drone cannot take in that

@@ -27,9 +27,9 @@ from xml.etree import ElementTree as ET
 
 import numpy as np
 
+from ..formats.kml import KML_NS
 from .common import Flight, Waypoint, footprint
 
-KML_NS = "http://www.opengis.net/kml/2.2"
 FOOTPRINT_NOTE = ("no footprint for these frames: an image-corner ray does not reach the take-off plane "
                   "(or the camera is a 360° camera)")
 

@@ -35,28 +35,29 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
-from typing import Literal
+from typing import get_args
 
 from ..errors import PlanError
+from ..formats import Autopilot
+from ..formats.mavlink import (
+    CONDITION_YAW,
+    DO_MOUNT_CONTROL,
+    FIRMWARE_TYPES,
+    FRAME_GLOBAL_RELATIVE_ALT,
+    FRAME_MISSION,
+    IMAGE_START_CAPTURE,
+    MOUNT_MODE_MAVLINK_TARGETING,
+    NAV_RETURN_TO_LAUNCH,
+    NAV_TAKEOFF,
+    NAV_WAYPOINT,
+)
 from .common import Flight, Photo, Waypoint, mission_paths, same_angle
 
-NAV_WAYPOINT = 16
-NAV_RETURN_TO_LAUNCH = 20
-NAV_TAKEOFF = 22
-CONDITION_YAW = 115
-DO_MOUNT_CONTROL = 205
-IMAGE_START_CAPTURE = 2000
-MOUNT_MODE_MAVLINK_TARGETING = 2
-FRAME_GLOBAL = 0
-FRAME_MISSION = 2
-FRAME_GLOBAL_RELATIVE_ALT = 3
 MIN_TAKEOFF_ALTITUDE_M = 2.0
 ARDUPILOT_STOP_HOLD_S = 4.0  # a 180° turn at Copter's default yaw slew (60°/s) takes 3 s; then the shot
 
-Autopilot = Literal["ardupilot", "px4"]
-AUTOPILOTS: tuple[str, ...] = ("ardupilot", "px4")
+AUTOPILOTS: tuple[str, ...] = tuple(sorted(get_args(Autopilot)))
 AUTOPILOT_LABELS = {"ardupilot": "ArduPilot", "px4": "PX4"}
-FIRMWARE_TYPES = {"ardupilot": 3, "px4": 12}  # MAV_AUTOPILOT_ARDUPILOTMEGA, MAV_AUTOPILOT_PX4
 # QGroundControl is PX4's ground station; a QGC WPL file is Mission Planner's (ArduPilot's) format
 DEFAULT_AUTOPILOT = {"qgc": "px4", "wpl": "ardupilot"}
 

@@ -13,8 +13,9 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from ..formats.mavlink import FRAME_GLOBAL, NAV_WAYPOINT
 from .common import Flight, mission_paths, number_text
-from .qgc import FRAME_GLOBAL, NAV_WAYPOINT, Autopilot, mission_items, resolve_autopilot
+from .qgc import Autopilot, mission_items, resolve_autopilot
 
 
 def _line(seq: int, current: int, frame: int, command: int, params: list[float]) -> str:

@@ -38,18 +38,15 @@ from __future__ import annotations
 import re
 import time
 import zipfile
-from dataclasses import dataclass
 from pathlib import Path
 from xml.etree import ElementTree as ET
 
 from ..camera.catalogue import list_cameras
 from ..errors import PlanError
+from ..formats.dji import AIRCRAFT, KML_NS, WPML_NS, DjiAircraft
 from ..plan.types import Plan
 from .common import Flight, Waypoint, number_text, same_angle, wrap180
 
-KML_NS = "http://www.opengis.net/kml/2.2"
-WPML_NS = "http://www.dji.com/wpmz/1.0.2"
-SPEED_RANGE_M_S = (1.0, 15.0)  # autoFlightSpeed, waypointSpeed and globalTransitionalSpeed
 HEIGHT_RANGE_M = (2.0, 1500.0)  # takeOffSecurityHeight (DJI: 1.2 with a remote controller) and globalRTHHeight
 RTH_MARGIN_M = 10.0
 HEADING_TOLERANCE_DEG = 0.001
@@ -58,34 +55,6 @@ HEADING_TOLERANCE_DEG = 0.001
 class AircraftError(PlanError):
     """A DJI aircraft that cannot fly the plan as asked: unknown, a camera it does not carry, a speed or pitch out of
     its range."""
-
-
-@dataclass(frozen=True)
-class DjiAircraft:
-    """A DJI aircraft and payload for WPML: DJI's enumeration values (``droneEnumValue``, ``droneSubEnumValue``,
-    ``payloadEnumValue``), the catalogue cameras it carries, the gimbal's controllable pitch range (degrees) and the
-    photo lens (``imageFormat``)."""
-
-    key: str
-    name: str
-    drone: int
-    sub: int
-    payload: int
-    cameras: tuple[str, ...]
-    pitch_range: tuple[float, float]
-    image_format: str = "wide"
-    speed_range: tuple[float, float] = SPEED_RANGE_M_S
-
-
-# DJI's enumeration values: Cloud API "Product Support" page (aircraft type/sub_type; camera type-subtype-gimbalindex).
-# Pitch ranges: the manufacturers' gimbal specs (controllable tilt), cut at −90° (sightplan's nadir).
-AIRCRAFT: dict[str, DjiAircraft] = {a.key: a for a in (
-    DjiAircraft("m3e", "DJI Mavic 3 Enterprise", 77, 0, 66, ("m3e",), (-90.0, 35.0)),
-    DjiAircraft("m350-h20", "DJI Matrice 350 RTK with Zenmuse H20", 89, 0, 42, ("h20-wide",), (-90.0, 30.0)),
-    DjiAircraft("m350-p1", "DJI Matrice 350 RTK with Zenmuse P1", 89, 0, 50, ("p1-35",), (-90.0, 40.0)),
-    DjiAircraft("m300-h20", "DJI Matrice 300 RTK with Zenmuse H20", 60, 0, 42, ("h20-wide",), (-90.0, 30.0)),
-    DjiAircraft("m300-p1", "DJI Matrice 300 RTK with Zenmuse P1", 60, 0, 50, ("p1-35",), (-90.0, 40.0)),
-)}
 
 
 def aircraft_choices() -> str:

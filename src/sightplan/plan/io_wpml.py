@@ -53,14 +53,13 @@ from ..camera.catalogue import get_camera
 from ..camera.files import parse_camera_spec
 from ..camera.models import Camera
 from ..errors import CameraError, PlanError
+from ..formats.dji import BUILT_IN_CAMERAS, PAYLOAD_CAMERAS
 from ..geo import Georeference, GeoreferenceError
 from ..geometry.poses import R_from_gimbal
 from .io_qgc import bearing, differs
 from .types import Mission, Plan
 
-PAYLOADS = {66: "m3e", 42: "h20", 50: "p1"}
 AREA_TEMPLATES = {"mapping2d": "area", "mapping3d": "area", "mappingStrip": "strip"}
-DRONES = {(77, 0): "m3e"}
 DEFAULT_PITCH_DEG = -90.0
 ABSOLUTE_HEIGHT_MODES = {"WGS84", "EGM96"}
 
@@ -199,9 +198,9 @@ def _camera(config: ET.Element | None, camera, where: str, warnings: list[str]) 
     drone = _kid(config, "droneInfo")
     key = None
     try:
-        key = PAYLOADS.get(int(payload)) if payload else None
+        key = PAYLOAD_CAMERAS.get(int(payload)) if payload else None
         if key is None and drone is not None:
-            key = DRONES.get((int(_text(drone, "droneEnumValue") or -1), int(_text(drone, "droneSubEnumValue") or 0)))
+            key = BUILT_IN_CAMERAS.get((int(_text(drone, "droneEnumValue") or -1), int(_text(drone, "droneSubEnumValue") or 0)))
     except ValueError:
         key = None
     if key is not None:

@@ -1,0 +1,14 @@
+"""What a flight format is, stated once for its reader (``sightplan.plan.io_*``) and its writer
+(``sightplan.export.*``): MAVLink's command and frame numbers (QGroundControl ``.plan``, QGC WPL), DJI's WPML
+namespaces and aircraft enumerations, KML's namespace; the names of the formats written. Light to import: the
+command line builds its options from it."""
+
+from __future__ import annotations
+
+from typing import Literal, get_args
+
+#: The flight and map formats sightplan writes (``sightplan export --format``, the web API's ``format``).
+ExportFormat = Literal["qgc", "wpl", "wpml", "litchi", "kml", "geojson"]
+EXPORT_FORMATS: tuple[str, ...] = get_args(ExportFormat)
+#: The autopilots a MAVLink file (qgc, wpl) is written for.
+Autopilot = Literal["px4", "ardupilot"]
