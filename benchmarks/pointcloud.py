@@ -5,7 +5,7 @@ of rolling ground, points spread uniformly by area with colours — of 10 and 10
 generated in chunks of 2 million and written as LAS 1.2 (point format 2: millimetre coordinates,
 16-bit colours) with laspy.
 
-Conversion: `sightplan.web.pointtiles.write_point_tiles` reads each LAS file in chunks and writes
+Conversion: `sightplan.report.pointtiles.write_point_tiles` reads each LAS file in chunks and writes
 its 3D Tiles, in a fresh process (`--convert`), so the peak resident memory (ru_maxrss) is the
 conversion's alone ("of which before": the process's memory before it, Python and the imports). Columns:
 seconds, points per second, peak memory, tiles, depth, largest tile.
@@ -80,7 +80,7 @@ def write_las(path: Path, n: int) -> float:
 
 def convert_child(source: str, out: str) -> None:
     """In this process: convert, then emit the summary with the seconds and the peak memory."""
-    from sightplan.web.pointtiles import write_point_tiles
+    from sightplan.report.pointtiles import write_point_tiles
 
     write_point_tiles(np.zeros((1, 3)), Path(out).parent / "warm-up")  # compiles (or loads) the kernels
     shutil.rmtree(Path(out).parent / "warm-up")

@@ -1,4 +1,4 @@
-"""Point clouds as 3D Tiles (web/pointtiles.py) and their streaming viewer (web/static/pointcloud.js).
+"""Point clouds as 3D Tiles (report/pointtiles.py) and their streaming viewer (web/static/pointcloud.js).
 
 The tilesets are read back independently: tileset.json with json, each .glb's chunks with
 struct, accessors decoded by hand from the glTF 2.0 layout (trimesh reads one tile too), and
@@ -26,7 +26,7 @@ import pytest
 from scipy.spatial import cKDTree
 
 from sightplan.errors import ModelError, SightplanError
-from sightplan.web.pointtiles import write_point_tiles
+from sightplan.report.pointtiles import write_point_tiles
 
 ROOT = Path(__file__).resolve().parents[1]
 NODE_MODULES = ROOT / "web" / "node_modules"

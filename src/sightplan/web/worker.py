@@ -324,7 +324,7 @@ class Worker:
         self._check(job_id)
         points = triangles = None
         if kind == "points":
-            from .pointtiles import write_point_tiles
+            from ..report.pointtiles import write_point_tiles
 
             summary = write_point_tiles(source, self.storage.reality_path(view))
             points, (lo, hi) = summary.n_points, summary.bounds

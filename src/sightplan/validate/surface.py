@@ -1,0 +1,134 @@
+"""Surfaces for the validation: points sampled on a mesh, and which points lie near one (exact distances)."""
+
+from __future__ import annotations
+
+import math
+
+import numba as nb
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from ..geometry.distance import point_triangle_sq
+
+CT_DENSITY_PER_M2 = 100.0
+
+CT_MIN_SAMPLES = 20_000
+
+CT_MAX_SAMPLES = 1_000_000
+
+_MAX_PIECES = 1_000_000
+
+_PIECE_LIMIT = 4_000_000
+
+_QUERY_BATCH = 100_000
+
+# =========================================================================== geometry kernels
+@nb.njit(cache=True, nogil=True)
+def _any_within(points, idx, tri, r2):  # pragma: no cover - compiled
+    """(n,) whether any candidate triangle idx[i, :] (index ≥ len(tri): none) lies within √r2 of points[i]."""
+    n, k = idx.shape
+    m = tri.shape[0]
+    out = np.zeros(n, np.bool_)
+    for i in range(n):
+        for j in range(k):
+            f = idx[i, j]
+            if f >= m:
+                break
+            if point_triangle_sq(points[i, 0], points[i, 1], points[i, 2], tri[f]) <= r2:
+                out[i] = True
+                break
+    return out
+
+def _bisect(tri: NDArray[np.float64], max_edge: float, limit: int | None = None) -> NDArray[np.float64] | None:
+    """Triangles (m, 3, 3) split at the midpoint of their longest edge until no edge exceeds ``max_edge``.
+
+    The pieces cover exactly the same surface. None once there would be more than ``limit`` pieces.
+    """
+    done = []
+    n_done = 0
+    while len(tri):
+        e = np.stack([np.linalg.norm(tri[:, 1] - tri[:, 0], axis=1), np.linalg.norm(tri[:, 2] - tri[:, 1], axis=1),
+                      np.linalg.norm(tri[:, 0] - tri[:, 2], axis=1)], axis=1)
+        longest = np.argmax(e, axis=1)
+        split = e[np.arange(len(tri)), longest] > max_edge
+        done.append(tri[~split])
+        n_done += len(done[-1])
+        s, k = tri[split], longest[split]
+        if len(s) == 0:
+            break
+        if limit is not None and n_done + 2 * len(s) > limit:
+            return None
+        order = (np.arange(3)[None, :] + k[:, None]) % 3  # rotate so that the longest edge is v0–v1
+        s = np.take_along_axis(s, order[:, :, None], axis=1)
+        a, b, c = s[:, 0], s[:, 1], s[:, 2]
+        m = 0.5 * (a + b)
+        tri = np.concatenate([np.stack([a, m, c], axis=1), np.stack([m, b, c], axis=1)])
+    return np.concatenate(done) if done else np.zeros((0, 3, 3))
+
+def points_near_mesh(points: ArrayLike, vertices: ArrayLike, faces: ArrayLike, radius: float) -> NDArray[np.bool_]:
+    """(n,) whether each point lies within ``radius`` (m) of the triangle mesh — exact point–triangle distances.
+
+    Triangles are bisected until no edge exceeds L = max(4·radius, √(4·area/10⁶)) (L doubled
+    while that makes over 4·10⁶ pieces, as slivers can); a point's candidates are the pieces
+    whose centroid lies within radius + (largest centroid–vertex distance), found nearest
+    first in a k-d tree (k grows until none is left out).
+    """
+    from scipy.spatial import cKDTree
+
+    pts = np.ascontiguousarray(points, np.float64).reshape(-1, 3)
+    out = np.zeros(len(pts), bool)
+    faces = np.asarray(faces)
+    if len(pts) == 0 or len(faces) == 0:
+        return out
+    tri = np.asarray(vertices, np.float64)[faces]
+    lo, hi = pts.min(axis=0) - radius, pts.max(axis=0) + radius
+    tri = tri[(tri.max(axis=1) >= lo).all(axis=1) & (tri.min(axis=1) <= hi).all(axis=1)]
+    if len(tri) == 0:
+        return out
+    area = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1).sum()
+    edge = max(4.0 * radius, math.sqrt(4.0 * area / _MAX_PIECES), 1e-6)
+    pieces = _bisect(tri, edge, _PIECE_LIMIT)
+    while pieces is None:
+        edge *= 2.0
+        pieces = _bisect(tri, edge, _PIECE_LIMIT)
+    pieces = np.ascontiguousarray(pieces)
+    centroid = pieces.mean(axis=1)
+    reach = math.sqrt(max(float(((pieces[:, j] - centroid) ** 2).sum(axis=1).max()) for j in range(3)))
+    bound = radius + reach + 1e-9 * (1.0 + float(np.abs(centroid).max()))
+    tree = cKDTree(centroid)
+    m = len(pieces)
+    r2 = radius * radius
+    for b0 in range(0, len(pts), _QUERY_BATCH):
+        todo = np.arange(b0, min(b0 + _QUERY_BATCH, len(pts)))
+        k = 8
+        while len(todo):
+            kk = min(k, m)
+            dist, idx = tree.query(pts[todo], k=kk, distance_upper_bound=bound, workers=-1)
+            dist, idx = dist.reshape(len(todo), kk), idx.reshape(len(todo), kk)
+            hit = _any_within(pts[todo], idx.astype(np.int64), pieces, r2)
+            out[todo[hit]] = True
+            if kk == m:
+                break
+            todo = todo[~hit & np.isfinite(dist[:, -1])]  # all kk within reach: there may be more
+            k *= 4
+    return out
+
+def sample_surface(vertices: ArrayLike, faces: ArrayLike, n: int, rng: np.random.Generator
+                   ) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
+    """``n`` points uniformly over the triangles (probability ∝ area, uniform within each) and their face indices."""
+    v = np.asarray(vertices, np.float64)
+    f = np.asarray(faces)
+    tri = v[f]
+    areas = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
+    total = areas.sum()
+    if n <= 0 or total <= 0:
+        return np.zeros((0, 3)), np.zeros(0, np.int64)
+    face = rng.choice(len(areas), size=n, p=areas / total)
+    r1, r2 = rng.random(n), rng.random(n)
+    s = np.sqrt(r1)
+    t = tri[face]
+    pts = (1 - s)[:, None] * t[:, 0] + (s * (1 - r2))[:, None] * t[:, 1] + (s * r2)[:, None] * t[:, 2]
+    return pts, face
+
+def n_samples(area: float, density: float) -> int:
+    return int(np.clip(round(area * density), CT_MIN_SAMPLES, CT_MAX_SAMPLES)) if area > 0 else 0
