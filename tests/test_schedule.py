@@ -16,10 +16,10 @@ import numpy as np
 import pytest
 
 from conftest import shared_file
+from csv_schedule_reference import apply_csv_schedule
 from sightplan.errors import ScheduleError
 from sightplan.model.load import load_model
 from sightplan.model.scene import ElementTable, Scene
-from sightplan.model.schedule_csv import apply_csv_schedule
 from sightplan.schedule import (
     LinkRule,
     Task,

@@ -45,7 +45,7 @@ def artifacts() -> Path:
 
 
 def test_pilot_walks_from_upload_to_export(browser, server, artifacts):
-    from sightplan.report.gltf import traffic_light
+    from sightplan.report.colours import traffic_light
     from sightplan.report.overview import OCCLUDER, UNSEEN
 
     ctx, page, problems = open_page(browser, server)

@@ -171,7 +171,7 @@ def test_checks_find_the_frame_moved_too_close(client, project, plan, scene):
 
 # --------------------------------------------------------------------------- an evaluation
 def test_feedback_matches_the_library(client, project, evaluation, reference):
-    from sightplan.report.gltf import default_bounds, visibility_class
+    from sightplan.report.colours import default_bounds, visibility_class
 
     _, ref = reference
     em, fm = ref.metrics.elements, ref.metrics.frames
@@ -219,7 +219,7 @@ def _rgb(png: bytes) -> np.ndarray:
 
 def test_view_png_is_the_engines_element_image(client, project, evaluation, reference, scene):
     from sightplan.engines.registry import make_engine
-    from sightplan.report.gltf import metric_colours
+    from sightplan.report.colours import metric_colours
 
     data, ref = reference
     frame = 3

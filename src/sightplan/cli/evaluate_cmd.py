@@ -32,7 +32,7 @@ from .loading import georef_kwargs, load_with_progress, print_warnings, warn_if_
 MAX_RING_FRAMES = 100_000  # as many as a route may have: a ring plan is built before anything is cast
 
 if TYPE_CHECKING:
-    from ..report.gltf import ColourBy
+    from ..report.colours import ColourBy
 
 
 def summary_table(ev, title: str) -> Table:
@@ -62,7 +62,8 @@ def _check_report_options(html: Path | None, gltf: Path | None, colour_by: str,
                           bounds: str | None) -> tuple[ColourBy, tuple[float, float] | None]:
     """Refuse a bad --colour-by, --bounds or output path before anything is cast."""
     from ..errors import ReportError
-    from ..report.gltf import check_colour_by, check_writable, parse_bounds
+    from ..report.colours import check_colour_by, parse_bounds
+    from ..report.files import check_writable
 
     colour = check_colour_by(colour_by)
     parsed = None if bounds is None else parse_bounds(bounds)

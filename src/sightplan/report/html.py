@@ -27,21 +27,20 @@ from ..evaluate import Evaluation
 from ..model.scene import Scene
 from ..plan.types import Plan
 from ..version import __version__
-from .gltf import (
+from .colours import (
     COLOUR_BY,
     GRADIENT,
     METRIC_LABELS,
     OCCLUDER,
     UNSEEN,
     ColourBy,
-    ViewerFrame,
     check_colour_by,
     colour_bounds,
     element_values,
-    scene_glb,
     visibility_class,
-    write_bytes,
 )
+from .files import write_bytes
+from .gltf import ViewerFrame, scene_glb
 from .overview import OBSERVED_ONLY, VISIBLE
 
 REPO_ROOT = Path(__file__).resolve().parents[3]

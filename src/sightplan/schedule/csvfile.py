@@ -13,7 +13,7 @@ Text is UTF-8 (BOM allowed), else Windows-1252.
    ``guid``) column *and* a task column (``task``, ``task_id``); ``task_name``, ``start``
    (``task_start``), ``finish`` (``task_finish``), optional actual dates. A task's rows
    must agree on its name and dates.
-3. **Per-element schedule** (the form :mod:`sightplan.model.schedule_csv` reads) — ``global_id``
+3. **Per-element schedule** — ``global_id``
    (or ``guid``) or ``name``, ``start``, ``finish``: every row is a task dating that element
    (or every element of that name); its id is the GlobalId or name.
 

@@ -305,7 +305,7 @@ def plan_checks(project: ProjectRead, plan_id: int, number: int, session: Sessio
 
 # --------------------------------------------------------------------------- an evaluation
 def feedback_dict(state: ServerState, session: Session, ev_row: Evaluation, model: Model) -> dict[str, Any]:
-    from ...report.gltf import GRADIENT, OCCLUDER, UNSEEN
+    from ...report.colours import GRADIENT, OCCLUDER, UNSEEN
     from ...report.html import viewer_data
     from ...report.overview import OBSERVED_ONLY, VISIBLE
 
@@ -421,7 +421,7 @@ def evaluation_view(project: ProjectRead, evaluation_id: int, frame: int, sessio
                     width: Annotated[int, Query(ge=16, le=2000, description="Image width (px)")] = VIEW_WIDTH_PX,
                     shading: Annotated[bool, Query(description="Darken surfaces seen at a grazing angle")] = True,
                     ) -> Response:
-    from ...report.gltf import check_colour_by, metric_colours
+    from ...report.colours import check_colour_by, metric_colours
 
     ev_row = done_evaluation(session, project.id, evaluation_id)
     model = in_project(session, Model, ev_row.model_id, project.id, "model")

@@ -1,4 +1,5 @@
-"""A plain CSV schedule: element GlobalId (or name) → start, finish dates.
+"""A second, independent reader of a per-element CSV schedule (element GlobalId or name → start, finish dates),
+kept beside the tests to cross-check ``sightplan.schedule`` (read_csv + link_schedule) against.
 
 Columns (header row, case-insensitive): ``global_id`` (or ``guid``/``globalid``) or
 ``name``; ``start``; ``finish`` (or ``end``). Dates as ISO ``YYYY-MM-DD`` (a time may
@@ -12,9 +13,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import ScheduleError
-from .dates import parse_datetime
-from .scene import Scene
+from sightplan.errors import ScheduleError
+from sightplan.model.dates import parse_datetime
+from sightplan.model.scene import Scene
 
 _ID_COLS = ("global_id", "globalid", "guid")
 
