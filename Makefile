@@ -28,7 +28,7 @@ $(STAMP): pyproject.toml web/package.json
 	fi
 	$(PY) -m venv $(VENV)
 	$(BIN)/pip install -q --upgrade pip
-	$(BIN)/pip install -q -e '.[dev]'
+	$(BIN)/pip install -q -e '.[all,dev]'
 	@# three.js for the HTML report's 3D view, from the npm registry, pinned by web/package-lock.json
 	if [ -f web/package-lock.json ]; then npm ci --prefix web --no-audit --no-fund; \
 	else npm install --prefix web --no-audit --no-fund; fi

@@ -21,6 +21,7 @@ from .engines import make_engine
 from .engines.base import Engine
 from .errors import SightplanError
 from .evaluate import Evaluation, EvaluationSettings, ProgressCallback, observation_meta, scene_features
+from .extras import require
 from .metrics import compute_metrics
 from .model.scene import Scene
 from .observations.features import FeatureSet
@@ -64,6 +65,7 @@ def observe_batch(scene: Scene, features: FeatureSet, plan: Plan, settings: Eval
 
 def connect(cluster: str, stack: ExitStack) -> Client:
     """A client for ``cluster``: ``local:N`` starts a LocalCluster of N worker processes (closed with ``stack``)."""
+    require("cluster", "--cluster")
     from distributed import Client, LocalCluster
 
     if cluster == "local" or cluster.startswith("local:"):

@@ -9,6 +9,7 @@ from typing import Annotated
 
 import typer
 
+from ..extras import require
 from .base import app, console
 from .errors import friendly_errors
 
@@ -43,6 +44,7 @@ def serve_command(
 
     On the loopback address it runs for you alone, with no login. With --team, or on any other address, every request
     needs an account, and each project is visible to its members only."""
+    require("web", "sightplan serve")
     import uvicorn
 
     from ..web.app import create_app
@@ -102,6 +104,7 @@ app.add_typer(users_app, name="users")
 @contextmanager
 def _accounts(data: Path, database: str | None):
     """A session on the server's database (brought up to date first), committed at the end."""
+    require("web", "sightplan users")
     from ..web.config import ServerConfig
     from ..web.db import Database, upgrade_database
 

@@ -52,6 +52,7 @@ from numpy.typing import NDArray
 
 from ..camera.models import Camera, EquirectangularCamera
 from ..errors import EngineError
+from ..extras import install_hint
 from ..model.ties import TIE_TOL_M
 from ..observations.table import FrameObservation
 from .base import OCCLUSION_TOLERANCE_M, Engine
@@ -448,7 +449,7 @@ def create_context():
     try:
         import moderngl
     except ImportError as exc:
-        raise EngineError(f"the gl engine needs moderngl ({exc}); install it with `pip install moderngl`") from None
+        raise EngineError(f"the gl engine needs moderngl ({exc}): {install_hint('gl')}") from None
     try:
         ctx = moderngl.create_context(standalone=True, backend="egl")
     except Exception as exc:  # noqa: BLE001 - glcontext raises bare Exceptions naming the EGL call
