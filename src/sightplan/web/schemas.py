@@ -294,3 +294,64 @@ class NewShareLinkOut(ShareLinkOut):
 class SharedPlanOut(BaseModel):
     plan: PlanOut
     evaluations: list[EvaluationOut]
+
+
+# --------------------------------------------------------------------------- the viewer's data
+class ElementTableOut(BaseModel):
+    """A model's element table, one list per column, indexed by element."""
+
+    model_id: int
+    count: int = Field(description="Number of elements")
+    global_id: list[str]
+    name: list[str]
+    ifc_class: list[str]
+    discipline: list[str]
+    storey: list[str]
+    target: list[bool] = Field(description="Whether the element counts in the metrics (else an occluder)")
+    triangles: list[int] = Field(description="Triangles of each element")
+
+
+class MissionGeometryOut(BaseModel):
+    name: str
+    start: int = Field(description="First frame (index)")
+    stop: int = Field(description="One past the last frame")
+    ground_station: list[float] | None = Field(description="Pilot position [x, y, z] (model frame, m), if chosen")
+
+
+class PlanGeometryOut(BaseModel):
+    """A plan version's frames and missions, in the model's frame (metres, Z up)."""
+
+    plan_id: int
+    version: int
+    frames: int = Field(description="Number of frames")
+    model_id: int | None
+    name: list[str] = Field(description="Frame names")
+    camera: list[str] = Field(description="Each frame's camera id (a key of `cameras`)")
+    position: list[list[float]] = Field(description="Camera centres [x, y, z] (m)")
+    rotation: list[list[float]] = Field(description="R_world_camera per frame, row-major (9 numbers): columns are "
+                                                    "the camera's right, down and forward axes")
+    cameras: dict[str, dict[str, Any]] = Field(description="Camera models by id, with hfov_deg and vfov_deg for a "
+                                                           "pinhole")
+    missions: list[MissionGeometryOut]
+    waypoints: list[list[float]] = Field(description="Flight waypoints [x, y, z] (m), when they differ from frames")
+    parameters: dict[str, Any] = Field(description="The plan's parameters (template settings, checks, take-off)")
+
+
+class FlightChecksOut(BaseModel):
+    """The flight checks of a plan version's missions as they are, for drawing."""
+
+    plan_id: int
+    version: int
+    model_id: int
+    ok: bool = Field(description="Every check passed")
+    safety_distance_m: float
+    vlos_radius_m: float | None
+    total_time_s: float | None = Field(description="Flight time of all missions (s)")
+    clearance_m: list[float | None] = Field(description="Each waypoint's distance to the model (m)")
+    segment_clearance_m: list[float | None] = Field(description="Each leg's distance to the model (m)")
+    unsafe_frames: list[int] = Field(description="Waypoints closer than the safety distance")
+    unsafe_segments: list[int] = Field(description="Legs closer than the safety distance")
+    in_sight: list[bool] = Field(description="Each waypoint within the VLOS radius of its mission's ground station")
+    missions: list[dict[str, Any]] = Field(description="Per mission: ground station, time, distance and verdicts, "
+                                                       "as `sightplan check --json`")
+    violations: list[str] = Field(description="Every violation, one sentence each")

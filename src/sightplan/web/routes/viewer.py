@@ -25,7 +25,7 @@ from ...errors import ReportError
 from ..deps import ProjectRead, ServerState, SessionDep, StateDep, in_project, ready_model
 from ..models import Evaluation, Model, PlanVersion
 from ..scenes import evaluation_scene
-from ..schemas import ErrorOut
+from ..schemas import ElementTableOut, ErrorOut, FlightChecksOut, MissionGeometryOut, PlanGeometryOut
 from ..services import FLIGHT_KEY, FOURD_KEY, REALITY_KEY, flight_settings, load_scene, rebuilt_evaluation
 from . import evaluations, plans
 
@@ -187,19 +187,19 @@ def model_geometry(project: ProjectRead, model_id: int, request: Request, sessio
     return _compressed(request, raw, gz, GEOMETRY_MEDIA, {"Cache-Control": "private, max-age=3600"})
 
 
-@router.get("/api/projects/{project_id}/models/{model_id}/elements", response_model=dict[str, Any],
+@router.get("/api/projects/{project_id}/models/{model_id}/elements", response_model=ElementTableOut,
             summary="The model's element table, column by column",
             description="One list per column, indexed by element: GlobalId, name, IFC class, discipline, storey, "
                         "whether it is a target (counts in the metrics) and its number of triangles.",
             responses={**NOT_FOUND, **NOT_READY})
-def model_elements(project: ProjectRead, model_id: int, session: SessionDep, state: StateDep) -> dict[str, Any]:
+def model_elements(project: ProjectRead, model_id: int, session: SessionDep, state: StateDep) -> ElementTableOut:
     model = ready_model(session, project.id, model_id)
     scene = load_scene(state.storage, model.stored_name)[0]
     el = scene.elements
-    return {"model_id": model.id, "count": int(scene.n_elements), "global_id": el.global_id.tolist(),
-            "name": el.name.tolist(), "ifc_class": el.ifc_class.tolist(), "discipline": el.discipline.tolist(),
-            "storey": el.storey.tolist(), "target": el.is_target.tolist(),
-            "triangles": np.bincount(scene.face_element, minlength=scene.n_elements).tolist()}
+    return ElementTableOut(model_id=model.id, count=int(scene.n_elements), global_id=el.global_id.tolist(),
+                       name=el.name.tolist(), ifc_class=el.ifc_class.tolist(), discipline=el.discipline.tolist(),
+                       storey=el.storey.tolist(), target=el.is_target.tolist(),
+                       triangles=np.bincount(scene.face_element, minlength=scene.n_elements).tolist())
 
 
 # --------------------------------------------------------------------------- a plan version
@@ -210,13 +210,17 @@ def _num(x: float | None, digits: int = 3) -> float | None:
 def plan_flight(plan) -> dict[str, Any]:
     """The flight settings the plan was made with (a template's), else a drone's defaults with the plan's safety
     distance (or 5 m) and a walker's for an indoor route."""
+    from ...plan.templates.registry import default_flight
+
     recorded = plan.parameters.get(FLIGHT_KEY)
-    if isinstance(recorded, dict) and {"safety_distance_m", "vlos_radius_m", "altitude_limit_m", "aircraft"} <= set(recorded):
+    keys = ("safety_distance_m", "vlos_radius_m", "altitude_limit_m", "aircraft")
+    if isinstance(recorded, dict) and set(keys) <= set(recorded):
         return recorded
-    if plan.parameters.get("template") == "indoor_route":
-        return {"safety_distance_m": 0.3, "vlos_radius_m": 0, "altitude_limit_m": 0, "aircraft": "walker-360"}
-    return {"safety_distance_m": float(plan.parameters.get("safety_distance_m") or 5.0), "vlos_radius_m": 500.0,
-            "altitude_limit_m": 120.0, "aircraft": "p4p"}
+    walked = plan.parameters.get("template") == "indoor_route"
+    flight = {k: v for k, v in default_flight(walked).items() if k in keys}  # no minimum height for a plan read in
+    if not walked:
+        flight["safety_distance_m"] = float(plan.parameters.get("safety_distance_m") or 5.0)
+    return flight
 
 
 def flight_checks(scene, plan, settings) -> dict[str, Any]:
@@ -240,14 +244,14 @@ def flight_checks(scene, plan, settings) -> dict[str, Any]:
     }
 
 
-@router.get("/api/projects/{project_id}/plans/{plan_id}/versions/{number}/geometry", response_model=dict[str, Any],
+@router.get("/api/projects/{project_id}/plans/{plan_id}/versions/{number}/geometry", response_model=PlanGeometryOut,
             summary="A plan version's frames and missions for the 3D viewer",
             description="Frame names, cameras, positions (model frame, metres) and rotations (R_world_camera, "
                         "row-major), the cameras' intrinsics and fields of view, the missions with their ground "
                         "stations, and the waypoints.",
             responses=NOT_FOUND)
 def plan_geometry(project: ProjectRead, plan_id: int, number: int, session: SessionDep, state: StateDep
-                  ) -> dict[str, Any]:
+                  ) -> PlanGeometryOut:
     version = plan_version(session, project.id, plan_id, number)
     plan = read_stored_plan(state, version)
     cameras = {}
@@ -256,20 +260,20 @@ def plan_geometry(project: ProjectRead, plan_id: int, number: int, session: Sess
         if d["model"] == "pinhole":
             d |= {"hfov_deg": cam.hfov_deg, "vfov_deg": cam.vfov_deg}
         cameras[cid] = d
-    return {
-        "plan_id": plan_id, "version": number, "frames": len(plan), "model_id": version.plan.model_id,
-        "name": plan.frame_names.tolist(), "camera": plan.frame_camera.tolist(),
-        "position": plan.C_world.tolist(), "rotation": plan.R_world_camera.reshape(-1, 9).tolist(),
-        "cameras": cameras,
-        "missions": [{"name": m.name, "start": m.start, "stop": m.stop,
-                      "ground_station": None if m.ground_station is None else list(m.ground_station)}
-                     for m in plan.missions],
-        "waypoints": np.asarray(plan.waypoints).reshape(-1, 3).tolist(),
-        "parameters": {k: v for k, v in plan.parameters.items() if k != "georeference"},
-    }
+    return PlanGeometryOut(
+        plan_id=plan_id, version=number, frames=len(plan), model_id=version.plan.model_id,
+        name=plan.frame_names.tolist(), camera=plan.frame_camera.tolist(),
+        position=plan.C_world.tolist(), rotation=plan.R_world_camera.reshape(-1, 9).tolist(),
+        cameras=cameras,
+        missions=[MissionGeometryOut(name=m.name, start=m.start, stop=m.stop,
+                                     ground_station=None if m.ground_station is None else list(m.ground_station))
+                  for m in plan.missions],
+        waypoints=np.asarray(plan.waypoints).reshape(-1, 3).tolist(),
+        parameters={k: v for k, v in plan.parameters.items() if k != "georeference"},
+    )
 
 
-@router.get("/api/projects/{project_id}/plans/{plan_id}/versions/{number}/checks", response_model=dict[str, Any],
+@router.get("/api/projects/{project_id}/plans/{plan_id}/versions/{number}/checks", response_model=FlightChecksOut,
             summary="Can a plan version be flown? Its flight checks against the model",
             description="The checks of `sightplan check` on the version's missions as they are: the clearance of "
                         "every waypoint and segment, the frames and segments closer than the safety distance, line of "
@@ -284,7 +288,7 @@ def plan_checks(project: ProjectRead, plan_id: int, number: int, session: Sessio
                                                                "default: the plan's")] = None,
                 vlos_radius: Annotated[float | None, Query(ge=0, description="Visual line-of-sight radius (m); 0: "
                                                            "none; default: the plan's")] = None,
-                ) -> dict[str, Any]:
+                ) -> FlightChecksOut:
     version = plan_version(session, project.id, plan_id, number)
     model_id = model_id if model_id is not None else version.plan.model_id
     if model_id is None:
@@ -299,8 +303,8 @@ def plan_checks(project: ProjectRead, plan_id: int, number: int, session: Sessio
         scene = load_scene(state.storage, model.stored_name)[0]
         return flight_checks(scene, plan, settings)
 
-    return {"plan_id": plan_id, "version": number, "model_id": model_id,
-            **_checks_cache.get((version.stored_name, model.stored_name, *key), make)}
+    return FlightChecksOut(plan_id=plan_id, version=number, model_id=model_id,
+                           **_checks_cache.get((version.stored_name, model.stored_name, *key), make))
 
 
 # --------------------------------------------------------------------------- an evaluation
