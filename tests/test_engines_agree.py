@@ -39,7 +39,7 @@ def engines(duplex):
 
 @pytest.fixture(scope="module")
 def small_plan(duplex) -> Plan:
-    return ring_plan(duplex, PinholeCamera(64, 48, 60, 60, 32, 24, "tiny"), n_frames=3, distance_m=4)
+    return ring_plan(duplex, PinholeCamera(48, 36, 45, 45, 24, 18, "tiny"), n_frames=3, distance_m=4)
 
 
 def agreement(a, b, *args) -> tuple[float, float, np.ndarray, np.ndarray]:
@@ -72,7 +72,7 @@ def test_metrics_agree_between_engines(duplex, small_plan):
     fs = sample_features(duplex, 0.2, seed=3)
     every = slice(None, None, 8)  # a fixed eighth of the features keeps the numpy tracer quick
     features = FeatureSet(fs.points[every], fs.normals[every], fs.kind[every], fs.element[every], fs.params)
-    params = MetricParams(omega=20, min_track=2, min_features=5)  # 64×48 px, 3 frames: Ω and Y scaled down
+    params = MetricParams(omega=12, min_track=2, min_features=5)  # 48×36 px, 3 frames: Ω and Y scaled down
     ev = {name: evaluate(duplex, small_plan, EvaluationSettings(engine=name, metric=params), features=features,
                          cache_dir=False)
           for name in ("embree", "trimesh")}
