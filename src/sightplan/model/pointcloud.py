@@ -144,9 +144,9 @@ def _check_las_header(path: Path) -> None:
         raise ModelError(f"{path.name} cannot be read as LAS/LAZ: a corrupt header (header size {header_size}, "
                          f"points at byte {offset} of {size}, {n_vlrs} variable-length records)")
 
-def _check_las_size(path: Path) -> int:
-    """The number of points a LAS/LAZ file declares, after checking what they need: a LAZ file's points may
-    unpack to :func:`~sightplan.model.unpack.max_unpacked_bytes` at most, a LAS file's must fit in the file."""
+def _check_las_size(path: Path):
+    """The LAS/LAZ file's header, after checking what its points need: a LAZ file's points may unpack to
+    :func:`~sightplan.model.unpack.max_unpacked_bytes` at most, a LAS file's must fit in the file."""
     import laspy
 
     try:
@@ -163,7 +163,7 @@ def _check_las_size(path: Path) -> int:
     if not compressed and need > path.stat().st_size - offset:
         raise ModelError(f"{path.name} cannot be read as LAS: it declares {count:,} points of {record} bytes, "
                          f"more than the file holds (truncated or corrupt)")
-    return count
+    return header
 
 class PointChunkReader:
     """A PLY or LAS/LAZ point cloud read a chunk at a time, so files larger than memory can be streamed.
@@ -187,15 +187,11 @@ class PointChunkReader:
         self._ply_vertex = None
         self._ply_colours: tuple[str, ...] | None = None
         if ext in POINT_CLOUD_EXTENSIONS:
-            import laspy
 
             _check_las_header(self.path)
-            self.n = _check_las_size(self.path)
-            try:
-                with laspy.open(str(self.path)) as reader:
-                    self.has_colours = {"red", "green", "blue"} <= set(reader.header.point_format.dimension_names)
-            except Exception as exc:  # laspy raises LaspyException, ValueError, OSError, ...
-                raise ModelError(f"{self.name} cannot be read as LAS/LAZ: {type(exc).__name__}: {exc}") from exc
+            header = _check_las_size(self.path)
+            self.n = int(header.point_count)
+            self.has_colours = {"red", "green", "blue"} <= set(header.point_format.dimension_names)
             self._kind = "las"
         elif ext == ".ply":
             from plyfile import PlyData

@@ -24,12 +24,17 @@ _MIX = np.array([0x9E3779B97F4A7C15, 0xC2B2AE3D27D4EB4F, 0x165667B19E3779F9, 0xD
                 dtype=np.uint64).astype(np.int64)  # odd 64-bit constants
 
 
-def canonical_planes(vertices: NDArray, faces: NDArray) -> tuple[NDArray, NDArray, NDArray]:
-    """(F, 3) unit normals turned so that their largest component is positive, (F,) plane offsets n·v0 (vertices
-    taken relative to their box centre), and (F,) bool for faces with an area (degenerate ones have no plane)."""
+def centred(vertices: NDArray) -> NDArray[np.float64]:
+    """The vertices relative to their box centre (plane offsets keep their precision far from the origin)."""
+    v = np.asarray(vertices, np.float64)
+    return v - (v.min(axis=0) + v.max(axis=0)) / 2 if len(v) else v
+
+
+def canonical_planes(v: NDArray, faces: NDArray) -> tuple[NDArray, NDArray, NDArray]:
+    """(F, 3) unit normals turned so that their largest component is positive, (F,) plane offsets n·v0 of the
+    vertices ``v`` (:func:`centred` ones), and (F,) bool for faces with an area (degenerate ones have no plane)."""
     if len(faces) == 0:
         return np.zeros((0, 3)), np.zeros(0), np.zeros(0, bool)
-    v = vertices - (vertices.min(axis=0) + vertices.max(axis=0)) / 2
     a, b, c = v[faces[:, 0]], v[faces[:, 1]], v[faces[:, 2]]
     n = np.cross(b - a, c - a)
     length = np.linalg.norm(n, axis=1)
@@ -48,7 +53,8 @@ def coincident_face_pairs(vertices: NDArray, faces: NDArray, face_element: NDArr
     faces = np.asarray(faces)
     if len(faces) < 2:
         return np.zeros((0, 2), np.int32)
-    n, d, ok = canonical_planes(np.asarray(vertices, np.float64), faces)
+    v = centred(vertices)
+    n, d, ok = canonical_planes(v, faces)
     idx = np.flatnonzero(ok)
     if len(idx) < 2:
         return np.zeros((0, 2), np.int32)
@@ -71,8 +77,6 @@ def coincident_face_pairs(vertices: NDArray, faces: NDArray, face_element: NDArr
     multi = (sizes > 1) & (np.minimum.reduceat(el, starts) != np.maximum.reduceat(el, starts))
     if not multi.any():
         return np.zeros((0, 2), np.int32)
-    v = np.asarray(vertices, np.float64)
-    v = v - (v.min(axis=0) + v.max(axis=0)) / 2
     pairs = _pairs_in_groups(starts[multi], sizes[multi], face.astype(np.int64), v, np.asarray(faces, np.int64),
                              np.asarray(face_element, np.int64), n, d, float(tol))
     if len(pairs) == 0:
