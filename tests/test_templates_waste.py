@@ -240,7 +240,7 @@ def test_web_export_refuses_a_plan_that_fails_its_checks(tmp_path):
         assert wait_job(client, r.json()["job"]["id"])["status"] == "done"
         model = r.json()["model"]["id"]
         r = client.post(f"/api/projects/{project}/plans",
-                        json={"model_id": model, "template": "facade", "safety_distance": 8})
+                        json={"model_id": model, "template": "facade", "safety_distance_m": 8})
         assert r.status_code == 201, r.text
         good = r.json()["id"]
         export = f"/api/projects/{project}/plans/{{}}/versions/1/export"

@@ -72,8 +72,8 @@ def alices(server) -> dict[str, int]:
     assert r.status_code == 202, r.text
     assert wait_job(c, r.json()["job"]["id"])["status"] == "done"
     mid = r.json()["model"]["id"]
-    r = c.post(f"/api/projects/{pid}/plans", json={"model_id": mid, "template": "orbit", "radius": [25],
-                                                   "height": [8.0], "step": 60})
+    r = c.post(f"/api/projects/{pid}/plans", json={"model_id": mid, "template": "orbit", "radius_m": [25],
+                                                   "height_m": [8.0], "step_deg": 60})
     assert r.status_code == 201, r.text
     plan = r.json()["id"]
     r = c.post(f"/api/projects/{pid}/evaluations", json={"plan_id": plan, "settings": {"scale": 0.04}})

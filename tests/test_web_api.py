@@ -96,8 +96,8 @@ def orbit_plans(client, project, model) -> tuple[int, int]:
     ids = []
     for step, height in ((30, 6.0), (45, 12.0)):
         r = client.post(f"/api/projects/{project}/plans", json={
-            "name": f"orbit {step}", "model_id": model, "template": "orbit", "radius": [25], "height": [height],
-            "step": step})
+            "name": f"orbit {step}", "model_id": model, "template": "orbit", "radius_m": [25], "height_m": [height],
+            "step_deg": step})
         assert r.status_code == 201, r.text
         ids.append(r.json()["id"])
     return ids[0], ids[1]
@@ -235,7 +235,7 @@ def test_upload_over_the_limit_is_413(tmp_path):
 # --------------------------------------------------------------------------- plans
 def test_template_plans(client, project, model):
     r = client.post(f"/api/projects/{project}/plans",
-                    json={"model_id": model, "template": "facade", "safety_distance": 8, "camera": "p4p"})
+                    json={"model_id": model, "template": "facade", "safety_distance_m": 8, "camera": "p4p"})
     assert r.status_code == 201, r.text
     facade = r.json()
     # 36 columns of 5 layers from 2 m above the base to the top, and the top row
@@ -245,13 +245,13 @@ def test_template_plans(client, project, model):
     assert plan["format"] == "sightplan-plan" and len(plan["frames"]) == 216
     assert plan["georeference"]["kind"] == "topocentric" and "takeoff_m" in plan["parameters"]
     r = client.post(f"/api/projects/{project}/plans",
-                    json={"model_id": model, "template": "lawnmower", "altitude": 40, "overlap": 0.6, "side_overlap": 0.5})
+                    json={"model_id": model, "template": "lawnmower", "altitude_m": 40, "overlap": 0.6, "side_overlap": 0.5})
     assert r.status_code == 201 and r.json()["versions"][0]["frames"] > 0
     # an orbit without radius and height takes them from the model's box and the safety distance
     r = client.post(f"/api/projects/{project}/plans", json={"model_id": model, "template": "orbit"})
     assert r.status_code == 201 and r.json()["versions"][0]["frames"] > 0
     r = client.post(f"/api/projects/{project}/plans",
-                    json={"model_id": model, "template": "orbit", "radius": [25], "height": [0]})
+                    json={"model_id": model, "template": "orbit", "radius_m": [25], "height_m": [0]})
     assert r.status_code == 422 and "minimum height" in r.json()["detail"]
     r = client.post(f"/api/projects/{project}/plans",
                     json={"model_id": model, "template": "facade", "camera": "no such camera"})
@@ -442,8 +442,8 @@ def test_export_without_georeference_is_422_naming_it(client, project, data_dir)
     mesh = r.json()["model"]["id"]
     assert wait_job(client, r.json()["job"]["id"])["status"] == "done"
     assert client.get(f"/api/projects/{project}/models/{mesh}").json()["georeferenced"] is False
-    r = client.post(f"/api/projects/{project}/plans", json={"model_id": mesh, "template": "orbit", "radius": [10],
-                                                             "height": [2], "step": 90})
+    r = client.post(f"/api/projects/{project}/plans", json={"model_id": mesh, "template": "orbit", "radius_m": [10],
+                                                             "height_m": [2], "step_deg": 90})
     assert r.status_code == 201, r.text
     plan_id = r.json()["id"]
     r = client.get(f"/api/projects/{project}/plans/{plan_id}/versions/1/export", params={"format": "kml"})
@@ -487,8 +487,8 @@ def test_delete_project_removes_its_files(tmp_path):
         r = c.post(f"/api/projects/{pid}/models", files={"file": ("box.obj", CUBE_OBJ.encode())})
         wait_job(c, r.json()["job"]["id"])
         mid = r.json()["model"]["id"]
-        r = c.post(f"/api/projects/{pid}/plans", json={"model_id": mid, "template": "orbit", "radius": [10],
-                                                         "height": [2], "step": 90})
+        r = c.post(f"/api/projects/{pid}/plans", json={"model_id": mid, "template": "orbit", "radius_m": [10],
+                                                         "height_m": [2], "step_deg": 90})
         assert r.status_code == 201
         assert files_under(data / "models") and files_under(data / "plans")
         assert c.delete(f"/api/projects/{pid}").status_code == 204

@@ -295,8 +295,8 @@ def ply_wall(n: int = 200_000) -> bytes:
 def test_reality_captures_are_drawn_beside_the_model_and_occlude(browser, server, artifacts, duplex):
     pytest.importorskip("plyfile")
     project, model = duplex
-    server.request("POST", f"/api/projects/{project}/plans", {"model_id": model, "template": "orbit", "radius": [24],
-                                                              "height": [5.0], "step": 60})
+    server.request("POST", f"/api/projects/{project}/plans", {"model_id": model, "template": "orbit", "radius_m": [24],
+                                                              "height_m": [5.0], "step_deg": 60})
     hoarding = box((2, 2, 3), (-8, -12, -1.5))  # a mesh west of the house
     ctx, page, problems = open_project(browser, server, project)
     try:
@@ -494,7 +494,7 @@ def test_team_mode_login_members_share_links_and_roles(browser, team_server, art
         assert page.is_visible("#members-table") and page.locator("#members-table select").count() == 0
         assert page.is_visible("#export-qgc") and page.is_enabled("#export-qgc")  # reading stays
         refused = page.request.post(f"{server.url}/api/projects/{project}/plans",
-                                    data={"model_id": 1, "template": "orbit", "radius": [9], "height": [2]})
+                                    data={"model_id": 1, "template": "orbit", "radius_m": [9], "height_m": [2]})
         assert refused.status == 403  # what the page does not offer, the API refuses
         shot(page, artifacts, "34-viewer")
 

@@ -64,8 +64,8 @@ def test_the_api_flow_on_postgresql_survives_a_restart(pg_url, tmp_path):
         assert model["targets"] == 154 and model["load_report"]["schema"] == "IFC2X3"  # a JSON column, read back
         plans = []
         for step, height in ((30, 6.0), (45, 12.0)):
-            r = c.post(f"/api/projects/{pid}/plans", json={"model_id": mid, "template": "orbit", "radius": [25],
-                                                           "height": [height], "step": step})
+            r = c.post(f"/api/projects/{pid}/plans", json={"model_id": mid, "template": "orbit", "radius_m": [25],
+                                                           "height_m": [height], "step_deg": step})
             assert r.status_code == 201, r.text
             plans.append(r.json()["id"])
         v1 = c.get(f"/api/projects/{pid}/plans/{plans[0]}/versions/1").json()

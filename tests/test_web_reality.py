@@ -118,7 +118,7 @@ def test_mesh_capture_is_a_y_up_glb_and_occludes_in_evaluations(client, project)
         up = client.post(f"/api/projects/{project}/models", files={"file": ("duplex.ifc", fh)}).json()
     assert wait_job(client, up["job"]["id"])["status"] == "done"
     plan_id = client.post(f"/api/projects/{project}/plans", json={
-        "model_id": up["model"]["id"], "template": "orbit", "radius": [24], "height": [5.0], "step": 30}).json()["id"]
+        "model_id": up["model"]["id"], "template": "orbit", "radius_m": [24], "height_m": [5.0], "step_deg": 30}).json()["id"]
     metrics = {}
     for with_wall in (False, True):
         body = {"plan_id": plan_id, "settings": {"scale": SCALE, "engine": "embree"}}

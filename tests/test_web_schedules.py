@@ -90,8 +90,8 @@ def test_states_at_a_date_follow_the_csv_dates(client, duplex, csv_schedule):
 def test_evaluation_at_a_capture_date_matches_the_library(client, duplex, csv_schedule):
     pid, mid = duplex
     sid, scene, done, busy = csv_schedule
-    r = client.post(f"/api/projects/{pid}/plans", json={"model_id": mid, "template": "orbit", "radius": [22],
-                                                        "height": [6.0], "step": 45})
+    r = client.post(f"/api/projects/{pid}/plans", json={"model_id": mid, "template": "orbit", "radius_m": [22],
+                                                        "height_m": [6.0], "step_deg": 45})
     plan_id = r.json()["id"]
     r = client.post(f"/api/projects/{pid}/evaluations", json={
         "plan_id": plan_id, "settings": {"scale": SCALE, "engine": "embree"}, "date": "2025-01-12",
@@ -116,8 +116,8 @@ def test_evaluation_at_a_capture_date_matches_the_library(client, duplex, csv_sc
     # a date needs a schedule; a schedule needs a date
     other = client.post("/api/projects", json={"name": "no schedule"}).json()["id"]
     cube = upload_model(client, other, sample_model_path(), "duplex.ifc")
-    p2 = client.post(f"/api/projects/{other}/plans", json={"model_id": cube, "template": "orbit", "radius": [22],
-                                                          "height": [6.0], "step": 90}).json()["id"]
+    p2 = client.post(f"/api/projects/{other}/plans", json={"model_id": cube, "template": "orbit", "radius_m": [22],
+                                                          "height_m": [6.0], "step_deg": 90}).json()["id"]
     r = client.post(f"/api/projects/{other}/evaluations", json={"plan_id": p2, "date": "2025-01-12"})
     assert r.status_code == 422 and "schedule" in r.json()["detail"]
     r = client.post(f"/api/projects/{pid}/evaluations", json={"plan_id": plan_id, "schedule_id": sid})
@@ -173,8 +173,8 @@ def test_the_ifc_work_schedule_gives_the_librarys_states(client):
 
 def test_re_evaluating_an_edited_plan_casts_only_the_moved_frame(client, duplex):
     pid, mid = duplex
-    r = client.post(f"/api/projects/{pid}/plans", json={"model_id": mid, "template": "orbit", "radius": [26],
-                                                        "height": [9.0], "step": 30})
+    r = client.post(f"/api/projects/{pid}/plans", json={"model_id": mid, "template": "orbit", "radius_m": [26],
+                                                        "height_m": [9.0], "step_deg": 30})
     plan_id = r.json()["id"]
     first = client.post(f"/api/projects/{pid}/evaluations", json={"plan_id": plan_id, "settings": {"scale": SCALE}})
     assert wait_job(client, first.json()["job"]["id"])["status"] == "done"

@@ -44,8 +44,8 @@ def team(tmp_path_factory):
                 r = c.post(f"/api/projects/{pid}/models", files={"file": ("duplex.ifc", fh)})
             assert wait_job(c, r.json()["job"]["id"])["status"] == "done"
             mid = r.json()["model"]["id"]
-            plan = c.post(f"/api/projects/{pid}/plans", json={"model_id": mid, "template": "orbit", "radius": [25],
-                                                              "height": [8.0], "step": 60}).json()["id"]
+            plan = c.post(f"/api/projects/{pid}/plans", json={"model_id": mid, "template": "orbit", "radius_m": [25],
+                                                              "height_m": [8.0], "step_deg": 60}).json()["id"]
             r = c.post(f"/api/projects/{pid}/evaluations", json={"plan_id": plan, "settings": {"scale": 0.04}})
             job = r.json()["job"]["id"]
             assert wait_job(c, job)["status"] == "done"

@@ -171,8 +171,8 @@ def test_runaway_template_requests_are_422_naming_the_parameter(server):
 
     assert wait_job(server, r.json()["job"]["id"])["status"] == "done"
     mid = r.json()["model"]["id"]
-    for body, words in (({"template": "orbit", "radius": [20], "height": [6], "step": 0.0001}, "step"),
-                        ({"template": "facade", "overlap": 0.99, "safety_distance": 0.5}, "overlap"),
-                        ({"template": "orbit", "radius": [20] * 30, "height": [6] * 30, "step": 0.1}, "frames")):
+    for body, words in (({"template": "orbit", "radius_m": [20], "height_m": [6], "step_deg": 0.0001}, "step"),
+                        ({"template": "facade", "overlap": 0.99, "safety_distance_m": 0.5}, "overlap"),
+                        ({"template": "orbit", "radius_m": [20] * 30, "height_m": [6] * 30, "step_deg": 0.1}, "frames")):
         r = server.post(f"/api/projects/{pid}/plans", json={"model_id": mid, **body}, headers={REQUEST_HEADER: "1"})
         assert r.status_code == 422 and words in r.json()["detail"], (body, r.text)

@@ -48,8 +48,8 @@ def test_bridge_template_gives_the_hand_counted_frames(client):
     mesh.export(buf, file_type="obj")
     mid = upload_model(client, pid, "bridge.obj", data=buf.getvalue())
     r = client.post(f"/api/projects/{pid}/plans", json={
-        "model_id": mid, "template": "bridge", "axis": [[0, 0], [60, 0]], "safety_distance": 15, "height": [],
-        "aircraft": "m300", "vlos_radius": 0, "altitude_limit": 0})
+        "model_id": mid, "template": "bridge", "axis": [[0, 0], [60, 0]], "safety_distance_m": 15, "height_m": [],
+        "aircraft": "m300", "vlos_radius_m": 0, "altitude_limit_m": 0})
     assert r.status_code == 201, r.text
     plan = client.get(f"/api/projects/{pid}/plans/{r.json()['id']}/versions/1").json()
     assert len(plan["frames"]) == 221 and plan["parameters"]["template"] == "bridge"
@@ -64,16 +64,16 @@ def test_route_and_flight_settings_match_the_library(client):
     scene, _ = load_model("sample")
     points = [[2.0, 2.0, 1.6], [12.0, 2.0, 1.6], [12.0, 6.0, 1.6]]
     r = client.post(f"/api/projects/{pid}/plans", json={"model_id": mid, "template": "route", "points": points,
-                                                        "step": 1.0, "camera": "insta360-x3"})
+                                                        "step_m": 1.0, "camera": "insta360-x3"})
     assert r.status_code == 201, r.text
     route = client.get(f"/api/projects/{pid}/plans/{r.json()['id']}/versions/1").json()
     assert len(route["frames"]) == len(indoor_route(get_camera("insta360-x3"), points, 1.0)) == 15  # 14 m at 1 m
     tiny = client.post(f"/api/projects/{pid}/plans", json={"model_id": mid, "template": "route", "points": points,
-                                                           "step": 1e-300})
+                                                           "step_m": 1e-300})
     assert tiny.status_code == 422 and "step" in tiny.json()["detail"]  # the schema bounds the step, as the form does
     # a drone orbit flown from a given pilot position with a short sight line: the library's split
     station = [[-30.0, -30.0, 0.0]]
-    body = {"model_id": mid, "template": "orbit", "radius": [25], "height": [8.0], "step": 10, "vlos_radius": 60,
+    body = {"model_id": mid, "template": "orbit", "radius_m": [25], "height_m": [8.0], "step_deg": 10, "vlos_radius_m": 60,
             "ground_station": station, "aircraft": "m3e"}
     r = client.post(f"/api/projects/{pid}/plans", json=body)
     assert r.status_code == 201, r.text
@@ -86,7 +86,7 @@ def test_route_and_flight_settings_match_the_library(client):
                                       aircraft=AIRCRAFT["m3e"])).plan
     assert [m["frames"] for m in served["missions"]] == [[m.start, m.stop] for m in ref.missions]
     assert served["missions"][0]["ground_station"] == pytest.approx(station[0])
-    for bad, word in (({"aircraft": "jumbo"}, "aircraft"), ({"vlos_radius": 5, "safety_distance": 10}, "VLOS")):
+    for bad, word in (({"aircraft": "jumbo"}, "aircraft"), ({"vlos_radius_m": 5, "safety_distance_m": 10}, "VLOS")):
         r = client.post(f"/api/projects/{pid}/plans", json=body | bad)
         assert r.status_code == 422 and word in r.json()["detail"], r.text
 
@@ -96,7 +96,7 @@ def test_the_flight_checks_use_the_settings_the_plan_was_made_with(client):
     mid = upload_model(client, pid, sample_model_path(), "duplex.ifc")
     points = [[2.0, 2.0, 1.6], [12.0, 2.0, 1.6], [12.0, 6.0, 1.6]]
     route = client.post(f"/api/projects/{pid}/plans", json={"model_id": mid, "template": "route", "points": points,
-                                                            "step": 1.0, "camera": "insta360-x3"}).json()["id"]
+                                                            "step_m": 1.0, "camera": "insta360-x3"}).json()["id"]
     data = client.get(f"/api/projects/{pid}/plans/{route}/versions/1").json()
     assert data["parameters"]["flight"] == {"safety_distance_m": 0.3, "vlos_radius_m": 0.0, "altitude_limit_m": 0.0,
                                             "aircraft": "walker-360"}
@@ -104,12 +104,12 @@ def test_the_flight_checks_use_the_settings_the_plan_was_made_with(client):
     # walked indoors: no line of sight to keep, 0.3 m clearance, a walker's battery
     assert checks["vlos_radius_m"] is None and checks["safety_distance_m"] == 0.3
     assert all(checks["in_sight"]) and not any("sight" in v or "altitude" in v for v in checks["violations"])
-    body = {"model_id": mid, "template": "orbit", "radius": [25], "height": [8.0], "step": 30, "vlos_radius": 60,
-            "safety_distance": 6}
+    body = {"model_id": mid, "template": "orbit", "radius_m": [25], "height_m": [8.0], "step_deg": 30, "vlos_radius_m": 60,
+            "safety_distance_m": 6}
     orbit_id = client.post(f"/api/projects/{pid}/plans", json=body).json()["id"]
     checks = client.get(f"/api/projects/{pid}/plans/{orbit_id}/versions/1/checks").json()
     assert checks["vlos_radius_m"] == 60 and checks["safety_distance_m"] == 6
-    wider = client.get(f"/api/projects/{pid}/plans/{orbit_id}/versions/1/checks", params={"vlos_radius": 400}).json()
+    wider = client.get(f"/api/projects/{pid}/plans/{orbit_id}/versions/1/checks", params={"vlos_radius_m": 400}).json()
     assert wider["vlos_radius_m"] == 400
 
 
@@ -127,8 +127,8 @@ def test_the_command_line_and_the_api_make_the_same_plan(client, tmp_path):
     cli = json.loads(out.read_text())
     pid = client.post("/api/projects", json={"name": "same"}).json()["id"]
     mid = upload_model(client, pid, sample_model_path())
-    r = client.post(f"/api/projects/{pid}/plans", json={"model_id": mid, "template": "orbit", "radius": [25],
-                                                        "height": [8], "step": 30})
+    r = client.post(f"/api/projects/{pid}/plans", json={"model_id": mid, "template": "orbit", "radius_m": [25],
+                                                        "height_m": [8], "step_deg": 30})
     assert r.status_code == 201, r.text
     web = client.get(f"/api/projects/{pid}/plans/{r.json()['id']}/versions/1").json()
     assert len(cli["frames"]) == len(web["frames"]) == 12

@@ -69,8 +69,8 @@ def model(client, project) -> int:
 
 @pytest.fixture(scope="module")
 def plan(client, project, model) -> int:
-    r = client.post(f"/api/projects/{project}/plans", json={"model_id": model, "template": "orbit", "radius": [22],
-                                                             "height": [4.0], "step": 30, "name": "ring"})
+    r = client.post(f"/api/projects/{project}/plans", json={"model_id": model, "template": "orbit", "radius_m": [22],
+                                                             "height_m": [4.0], "step_deg": 30, "name": "ring"})
     assert r.status_code == 201, r.text
     return r.json()["id"]
 
@@ -149,7 +149,7 @@ def test_checks_find_the_frame_moved_too_close(client, project, plan, scene):
     from sightplan.plan.checks.safety import point_distances
 
     js = client.get(f"/api/projects/{project}/plans/{plan}/versions/1").json()
-    c1 = client.get(f"/api/projects/{project}/plans/{plan}/versions/1/checks", params={"safety_distance": 3}).json()
+    c1 = client.get(f"/api/projects/{project}/plans/{plan}/versions/1/checks", params={"safety_distance_m": 3}).json()
     C = np.array([f["position"] for f in js["frames"]])
     assert c1["clearance_m"] == pytest.approx(np.round(point_distances(scene, C), 3).tolist(), abs=1e-3)
     assert c1["ok"] is True and c1["unsafe_frames"] == [] and c1["safety_distance_m"] == 3
@@ -159,14 +159,14 @@ def test_checks_find_the_frame_moved_too_close(client, project, plan, scene):
     edited["frames"][4]["position"] = [float(lo[0]) - 1.0, float((lo[1] + hi[1]) / 2), 3.0]
     r = client.put(f"/api/projects/{project}/plans/{plan}", json=edited, params={"note": "too close"})
     assert r.status_code == 201
-    c2 = client.get(f"/api/projects/{project}/plans/{plan}/versions/2/checks", params={"safety_distance": 3}).json()
+    c2 = client.get(f"/api/projects/{project}/plans/{plan}/versions/2/checks", params={"safety_distance_m": 3}).json()
     clearance = point_distances(scene, np.array(edited["frames"][4]["position"])[None])[0]
     assert clearance < 3 and c2["clearance_m"][4] == pytest.approx(clearance, abs=1e-3)
     assert 4 in c2["unsafe_frames"] and c2["ok"] is False
     assert any("waypoint 4" in v for v in c2["violations"])
     assert set(c2["unsafe_segments"]) >= {3} or set(c2["unsafe_segments"]) >= {4}
-    r = client.get(f"/api/projects/{project}/plans/{plan}/versions/2/checks", params={"safety_distance": -1})
-    assert r.status_code == 422 and "safety_distance" in r.json()["detail"]
+    r = client.get(f"/api/projects/{project}/plans/{plan}/versions/2/checks", params={"safety_distance_m": -1})
+    assert r.status_code == 422 and "safety_distance_m" in r.json()["detail"]
 
 
 # --------------------------------------------------------------------------- an evaluation

@@ -2,13 +2,17 @@
 
 from __future__ import annotations
 
+import inspect
 import json
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Annotated, Literal
+from typing import Annotated, Any, Literal
 
 import typer
 
 from ..plan.site import with_site
+from ..plan.templates.base import ParamInfo, unit_of
+from ..plan.templates.registry import TEMPLATE_NAMES, TEMPLATES, WALKED, plan_from_template
 from .base import app, console
 from .camera_opts import CAMERA_FORMS, FocalOpt, cli_camera
 from .errors import friendly_errors, writable_file
@@ -34,43 +38,99 @@ from .fourd import (
 )
 from .loading import georef_kwargs, load_with_progress, warn_if_far
 
-TemplateName = Literal["facade", "orbit", "lawnmower", "bridge", "route"]
+TemplateName = Literal[TEMPLATE_NAMES]  # type: ignore[valid-type]
 
 
-@app.command("plan")
-@friendly_errors
+@dataclass(frozen=True)
+class TemplateOption:
+    """A command-line option of ``sightplan plan``, shared by the template parameters that carry its name."""
+
+    cli: str
+    kind: str
+    members: tuple[tuple[str, str, ParamInfo, Any], ...]  # (template, field, declaration, default)
+
+    @property
+    def pyname(self) -> str:
+        return self.cli.replace("-", "_")
+
+    def default(self) -> Any:
+        """The parameters' shared default (so help can show it), else None: each template's own."""
+        defaults = {repr(m[3]) for m in self.members}
+        if self.kind == "flag":
+            return self.members[0][3]
+        return self.members[0][3] if len(defaults) == 1 and self.kind in ("number", "choice") else None
+
+    def help(self) -> str:
+        by_text: dict[str, list[str]] = {}
+        for template, name, info, _ in self.members:
+            text = info.help
+            if info.kind == "choice" and not any(f"'{c}'" in info.help for c in info.choices):
+                text += f": {' or '.join(info.choices)}"
+            if info.kind in ("points2", "points3"):
+                text = f"a point '{'x,y' if info.kind == 'points2' else 'x,y,z'}' of {text}"
+            about = "; ".join(b for b in (unit_of(name), info.bounds_text()) if b)
+            by_text.setdefault(text + (f" ({about})" if about else ""), []).append(template)
+        return "; ".join(f"{', '.join(ts)}: {text}" for text, ts in by_text.items())
+
+    def annotation(self) -> Any:
+        tp = {"number": float | None, "numbers": list[float] | None, "choice": str | None, "flag": bool,
+              "points2": list[str] | None, "points3": list[str] | None, "file": Path | None}[self.kind]
+        decl = f"--{self.cli}/--no-{self.cli}" if self.kind == "flag" else f"--{self.cli}"
+        return Annotated[tp, typer.Option(decl, help=self.help())]
+
+    def value(self, template: str, given: Any) -> tuple[str, Any] | None:
+        """(field, value) of ``template``'s parameter for the option's ``given`` value, or None when the template
+        takes no such option or it was not given."""
+        member = next((m for m in self.members if m[0] == template), None)
+        if member is None or given is None or (self.kind == "numbers" and not given):
+            return None
+        _, name, info, _ = member
+        if info.kind == "points2":
+            given = tuple(tuple(parse_point(q if q.count(",") == 2 else q + ",0", "bridge axis point")[:2].tolist())
+                          for q in given)
+        elif info.kind == "points3":
+            given = tuple(tuple(parse_point(q, "route point").tolist()) for q in given)
+        elif info.kind == "numbers":
+            given = tuple(given)
+        elif info.kind == "file":
+            given = str(given)
+        return name, given
+
+    def stray(self, template: str, given: Any) -> bool:
+        """Whether the option was given a value although ``template`` takes no such parameter."""
+        if any(m[0] == template for m in self.members):
+            return False
+        return given not in (None, [], ()) and given != self.default()
+
+
+def template_options() -> list[TemplateOption]:
+    """One option per command-line name among every template's parameters, in declaration order."""
+    groups: dict[str, list[tuple[str, str, ParamInfo, Any]]] = {}
+    for t in TEMPLATES.values():
+        for name, _, info, default in t.fields():
+            cli = info.cli or name.removesuffix("_m_px").removesuffix("_deg").removesuffix("_m").replace("_", "-")
+            groups.setdefault(cli, []).append((t.name, name, info, default))
+    options = []
+    for cli, members in groups.items():
+        kinds = {"points" if m[2].kind.startswith("points") else m[2].kind for m in members}
+        if len(kinds) != 1:
+            raise RuntimeError(f"--{cli} means different kinds of value: {kinds}")
+        options.append(TemplateOption(cli, members[0][2].kind, tuple(members)))
+    return options
+
+
+TEMPLATE_OPTIONS = template_options()
+
+
 def plan_command(
     template: Annotated[TemplateName, typer.Argument(
-        help="facade (grids around the sides), orbit (rings), lawnmower (nadir grid), bridge (passes along an axis) "
-             "or route (indoor polyline)")],
+        help=", ".join(f"{t.name} ({t.summary})" for t in TEMPLATES.values()))],
     model: Annotated[str, typer.Argument(help="IFC or mesh file; 'sample' for the bundled Duplex model")],
     output: Annotated[Path, typer.Option("-o", "--output", help="Plan file to write (sightplan JSON)")] = Path("plan.json"),
     camera: Annotated[str, typer.Option(help="Camera: " + CAMERA_FORMS)] = "p4p",
     focal_mm: FocalOpt = None,
     safety_distance: Annotated[float | None, typer.Option(
         "--safety-distance", help="Least distance g to the model (m); default 10, 0.3 for a route")] = None,
-    overlap: Annotated[float, typer.Option(help="Image overlap l, 0 ≤ l < 1")] = 0.8,
-    radius: Annotated[list[float] | None, typer.Option(
-        help="orbit: ring radius (m), once per ring; default: the targets' half-diagonal + the safety distance")] = None,
-    height: Annotated[list[float] | None, typer.Option(
-        help="orbit: ring height (m), once per ring (default: layers by overlap from the minimum height to the safety "
-             "distance above the top); bridge: height of a side pass (default: layers by overlap)")] = None,
-    step: Annotated[float | None, typer.Option(
-        help="orbit: degrees between frames (default: by overlap); route: metres between frames")] = None,
-    altitude: Annotated[float | None, typer.Option(help="lawnmower: camera height above the model's base (m)")] = None,
-    gsd: Annotated[float | None, typer.Option(help="lawnmower: ground sampling distance on the model's top (m/px)")] = None,
-    side_overlap: Annotated[float, typer.Option(help="lawnmower: overlap between lines")] = 0.7,
-    point: Annotated[list[str] | None, typer.Option(
-        help="route: a point 'x,y,z' of the walked polyline; bridge: a point 'x,y' of the axis; in order")] = None,
-    footprint: Annotated[str, typer.Option(
-        help="facade: grids on the sides of the bounding 'box', or around the model's real 'outline'")] = "box",
-    oblique_pitch: Annotated[float | None, typer.Option(
-        help="lawnmower: add crossed east–west lines with the gimbal at this pitch (e.g. -60): a double grid")] = None,
-    routes: Annotated[Path | None, typer.Option(
-        help="route: polylines from a file (JSON lists of [x, y, z], or CSV route,x,y,z), one mission each")] = None,
-    aim: Annotated[str, typer.Option(help="orbit: aim at the model's 'centre' or its nearest 'surface'")] = "centre",
-    under_deck: Annotated[bool, typer.Option(help="bridge: add a pass under the deck, looking up")] = True,
-    deck_z: Annotated[float | None, typer.Option(help="bridge: height of the deck's underside (default: found)")] = None,
     vlos_radius: VlosOpt = 500.0,
     ground_station: StationOpt = None,
     aircraft: Annotated[str | None, typer.Option(
@@ -87,15 +147,25 @@ def plan_command(
     date_basis: BasisOpt = "finish",
     unscheduled: UnscheduledOpt = "present",
     cache: Annotated[bool, typer.Option(help="Reuse the model cache")] = True,
+    **template_values: Any,
 ) -> None:
-    """Make a capture plan from a template around a model, check that it can be flown, and write it."""
+    """Make a capture plan from a template around a model, check that it can be flown, and write it.
+
+    The template's own options (listed below after the common ones) come from its parameter declarations."""
     from ..errors import PlanError
     from ..plan.format import write_plan
-    from ..plan.templates import read_routes
-    from ..plan.templates.registry import WALKED, TemplateParams, plan_from_template
 
-    if footprint not in ("box", "outline"):  # before the model is loaded
-        raise PlanError(f"--footprint must be 'box' or 'outline', got {footprint!r}")
+    stray = [f"--{o.cli}" for o in TEMPLATE_OPTIONS if o.stray(template, template_values.get(o.pyname))]
+    if stray:
+        takes = [f"--{o.cli}" for o in TEMPLATE_OPTIONS if any(m[0] == template for m in o.members)]
+        raise PlanError(f"the {template} template takes no {', '.join(stray)}; its options are {', '.join(takes)}")
+    values = dict(v for o in TEMPLATE_OPTIONS if (v := o.value(template, template_values.get(o.pyname))) is not None)
+    try:
+        params = TEMPLATES[template].make(values)  # checked before the model is loaded
+    except PlanError as exc:  # name the option, not the parameter
+        field, _, rest = str(exc).partition(" ")
+        cli = next((o.cli for o in TEMPLATE_OPTIONS for m in o.members if m[:2] == (template, field)), None)
+        raise PlanError(f"--{cli} {rest}" if cli else str(exc)) from None
     cam = cli_camera(camera, focal_mm)
     scene, _ = load_with_progress(console, model, cache)
     scene = dated_scene(console, scene, model, schedule, rules, prefer_actual, date, date_basis, unscheduled)
@@ -104,14 +174,6 @@ def plan_command(
     settings = default_flight_settings(walked, safety_distance, None if walked else vlos_radius,
                                        None if walked else ground_station, aircraft, None if walked else altitude_limit,
                                        min_height=min_height)
-    params = TemplateParams(
-        overlap=overlap, footprint=footprint, radius_m=tuple(radius or ()), height_m=tuple(height or ()), step=step,
-        aim=aim, altitude_m=altitude, gsd_m=gsd, side_overlap=side_overlap, oblique_pitch_deg=oblique_pitch,
-        axis=tuple(tuple(parse_point(q if q.count(",") == 2 else q + ",0", "bridge axis point")[:2])
-                   for q in (point or ())) if template == "bridge" else (),
-        under_deck=under_deck, deck_z_m=deck_z,
-        points=tuple(tuple(parse_point(q, "route point")) for q in (point or ())) if template == "route" else (),
-        routes=read_routes(routes) if template == "route" and routes is not None else None)
     plan, report = plan_from_template(template, scene, cam, params, settings, obstacles=obstacles, split=split)
     write_plan(plan, output)
     print_feasibility(console, report, f"{template} plan around {Path(str(model)).name} — {cam.name or camera}")
@@ -120,10 +182,23 @@ def plan_command(
         console.print(f"dropped {dropped} frame(s) of the template: {plan.parameters.get('dropped_reason')}" if dropped
                       else "dropped no frame: every frame of the template has a target of the model in view",
                       highlight=False)
-    params = {k: v for k, v in plan.parameters.items() if k.endswith("_m") and isinstance(v, float)}
-    if params:
-        console.print(", ".join(f"{k.removesuffix('_m').replace('_', ' ')} {v:.3g} m" for k, v in params.items()))
+    lengths = {k: v for k, v in plan.parameters.items() if k.endswith("_m") and isinstance(v, float)}
+    if lengths:
+        console.print(", ".join(f"{k.removesuffix('_m').replace('_', ' ')} {v:.3g} m" for k, v in lengths.items()))
     console.print(f"wrote {output} — evaluate it with `sightplan evaluate {model} {output}`")
+
+
+def _with_template_options(command: Any) -> Any:
+    """``command`` with the templates' options added to its signature, for the command line to parse."""
+    sig = inspect.signature(plan_command, eval_str=True)
+    fixed = [p for p in sig.parameters.values() if p.kind is not inspect.Parameter.VAR_KEYWORD]
+    generated = [inspect.Parameter(o.pyname, inspect.Parameter.KEYWORD_ONLY, default=o.default(),
+                                   annotation=o.annotation()) for o in TEMPLATE_OPTIONS]
+    command.__signature__ = sig.replace(parameters=[*fixed, *generated])
+    return command
+
+
+app.command("plan")(_with_template_options(friendly_errors(plan_command)))
 
 
 @app.command("check")

@@ -9,7 +9,7 @@ from sqlalchemy import select
 
 from .deps import ServerState
 from .models import Job, Model, Plan, Project
-from .schemas import SettingsIn, TemplatePlanIn
+from .schemas import TEMPLATE_REQUESTS, SettingsIn
 
 SAMPLE_PROJECT = "Duplex sample"
 
@@ -41,8 +41,8 @@ def ensure_sample_project(state: ServerState, scale: float = 0.25) -> int | None
         s.commit()
         project_id, model_id, load_id = project.id, model.id, load.id
     state.worker.run(load_id)  # in this thread: the plan needs the model
-    body = TemplatePlanIn(name="facade grid, 8 m", model_id=model_id, template="facade", camera="p4p",
-                          safety_distance=8.0, overlap=0.8)
+    body = TEMPLATE_REQUESTS["facade"](name="facade grid, 8 m", model_id=model_id, template="facade", camera="p4p",
+                                       safety_distance_m=8.0, overlap=0.8)
     with state.db.session() as s:
         if s.get(Model, model_id).status != "ready":  # type: ignore[union-attr]
             return None

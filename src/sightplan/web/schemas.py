@@ -3,9 +3,12 @@
 from __future__ import annotations
 
 import datetime as dt
-from typing import Annotated, Any, Literal
+from typing import Annotated, Any, Literal, Union
 
-from pydantic import AfterValidator, BaseModel, ConfigDict, Field
+from pydantic import AfterValidator, BaseModel, ConfigDict, Field, create_model
+
+from ..plan.templates.base import ParamInfo, Template, unit_of
+from ..plan.templates.registry import TEMPLATES
 
 JobStatus = Literal["queued", "running", "done", "failed"]
 
@@ -99,49 +102,85 @@ Point2 = Annotated[list[float], Field(min_length=2, max_length=2)]
 Point3 = Annotated[list[float], Field(min_length=3, max_length=3)]
 
 
-class TemplatePlanIn(BaseModel):
-    """A plan from a template around one of the project's models (as ``sightplan plan``), split into missions and
-    checked with the flight settings given (defaults: a drone's, or a walker's for a route)."""
+class TemplatePlanBase(BaseModel):
+    """What every template request holds besides the template's own parameters: the model, the camera, and the
+    flight settings the plan is split and checked with (defaults: a drone's, or a walker's for a walked route)."""
 
     model_config = ConfigDict(extra="forbid")
 
     name: str = Field("", max_length=200, description="Default: the template's name")
     model_id: int
-    template: Literal["facade", "orbit", "lawnmower", "bridge", "route"]
     camera: str = Field("p4p", description="A camera of the catalogue (GET /api/cameras)")
-    safety_distance: float | None = Field(None, description="facade and bridge: distance to the model (m); also the "
-                                                            "flight check's least distance. Default 10, 0.3 for a route")
-    overlap: float = Field(0.8, ge=0, le=0.95, description="Image overlap, 0 ≤ l ≤ 0.95 (as the page's form)")
-    footprint: Literal["box", "outline"] = "box"
-    radius: list[float] = Field(default_factory=list, description="orbit: ring radii (m), one per ring (default: the "
-                                                                  "targets' half-diagonal + the safety distance)")
-    height: list[float] = Field(default_factory=list, description="orbit: ring heights (m), one per ring (default: by "
-                                                                  "overlap from the minimum height to the safety "
-                                                                  "distance above the top); bridge: heights of the side "
-                                                                  "passes (default: by overlap)")
-    step: float | None = Field(None, ge=0.01, description="orbit: degrees between frames (default: by overlap); "
-                                                          "route: metres between frames")
-    aim: Literal["centre", "surface"] = "centre"
-    altitude: float | None = Field(None, description="lawnmower: camera height above the model's base (m)")
-    gsd: float | None = Field(None, description="lawnmower: ground sampling distance on the model's top (m/px)")
-    side_overlap: float = Field(0.7, ge=0, le=0.95, description="lawnmower: overlap between lines")
-    oblique_pitch: float | None = Field(None, description="lawnmower: add crossed lines at this gimbal pitch (°)")
-    axis: list[Point2] = Field(default_factory=list, description="bridge: points [x, y] of the axis, in order")
-    under_deck: bool = Field(True, description="bridge: add a pass under the deck, looking up")
-    deck_z: float | None = Field(None, description="bridge: height of the deck's underside (default: found)")
-    points: list[Point3] = Field(default_factory=list, description="route: points [x, y, z] of the walked polyline")
+    safety_distance_m: float | None = Field(None, gt=0, description="Distance to the model the facade and bridge "
+                                                                    "templates keep (m); also the flight check's "
+                                                                    "least distance. Default 10, 0.3 for a route")
     aircraft: str | None = Field(None, description="Aircraft preset (p4p, m3e, m300), rover preset for a route "
                                                    "(walker-360, spot, tracked), or 'none' for no battery check. "
                                                    "Default p4p, walker-360 for a route")
-    vlos_radius: float | None = Field(None, description="Visual line-of-sight radius around the pilot (m); 0: no check. "
-                                                        "Default 500, none for a route")
+    vlos_radius_m: float | None = Field(None, ge=0, description="Visual line-of-sight radius around the pilot (m); 0: "
+                                                                "no check. Default 500, none for a route")
     ground_station: list[Point3] = Field(default_factory=list, description="Pilot positions [x, y, z] to choose from "
                                                                            "(default: the corners of the plan's region)")
-    altitude_limit: float | None = Field(None, description="Altitude limit (m); 0: no check. Default 120, none for a "
-                                                           "route")
-    min_height: float | None = Field(None, ge=0, description="Least height of a waypoint above the ground under it "
-                                                             "(m). Default 2, none for a route")
+    altitude_limit_m: float | None = Field(None, ge=0, description="Altitude limit (m); 0: no check. Default 120, none "
+                                                                   "for a route")
+    min_height_m: float | None = Field(None, ge=0, description="Least height of a waypoint above the ground under it "
+                                                               "(m). Default 2, none for a route")
     split: bool = Field(True, description="Split into missions that keep line of sight and fit a battery")
+
+
+def _param_field(name: str, info: ParamInfo, default: Any) -> tuple[Any, Any]:
+    """The request field of a template parameter: its type, bounds and description from its declaration."""
+    unit = unit_of(name)
+    about = info.help + (f" ({unit})" if unit else "")
+    bounds = {k: v for k in ("ge", "gt", "le", "lt") if (v := getattr(info, k)) is not None}
+    if info.kind == "choice":
+        return Literal[info.choices], Field(default, description=about)  # type: ignore[valid-type]
+    if info.kind == "flag":
+        return bool, Field(default, description=about)
+    if info.kind in ("points2", "points3"):
+        point = Point2 if info.kind == "points2" else Point3
+        return list[point], Field(default_factory=list, description=f"points {'[x, y]' if point is Point2 else '[x, y, z]'} "
+                                                                    f"of {info.help}")
+    if info.kind == "numbers":
+        return list[Annotated[float, Field(**bounds)]], Field(default_factory=list, description=about)
+    return float | None, Field(default, description=about, **bounds)
+
+
+def _template_request(t: Template) -> type[BaseModel]:
+    fields: dict[str, Any] = {"template": (Literal[t.name], Field(description=t.summary))}  # type: ignore[valid-type]
+    for name, _, info, default in t.fields():
+        if info.web:
+            fields[name] = _param_field(name, info, default)
+    return create_model(f"{t.name.capitalize()}PlanIn", __base__=TemplatePlanBase,
+                        __doc__=f"A plan from the {t.name} template ({t.summary}).", **fields)
+
+
+#: A plan from a template around one of the project's models (as ``sightplan plan``): one request body per template,
+#: told apart by ``template``, each generated from the template's parameter declaration
+TEMPLATE_REQUESTS: dict[str, type[BaseModel]] = {n: _template_request(t) for n, t in TEMPLATES.items()}
+TemplatePlanIn = Annotated[Union[tuple(TEMPLATE_REQUESTS.values())], Field(discriminator="template")]  # noqa: UP007
+
+
+class TemplateFieldOut(BaseModel):
+    name: str = Field(description="The request field (its unit in its name: _m, _deg, _m_px)")
+    label: str
+    kind: str = Field(description="number, numbers, choice, flag, points2 or points3")
+    unit: str = Field(description="'m', '°', 'm/px' or ''")
+    help: str
+    default: Any = None
+    ge: float | None = None
+    gt: float | None = None
+    le: float | None = None
+    lt: float | None = None
+    choices: list[str] = Field(default_factory=list)
+
+
+class TemplateOut(BaseModel):
+    name: str
+    summary: str
+    walked: bool = Field(description="Walked or driven indoors: no line of sight, altitude limit or minimum height")
+    safety_distance_m: float = Field(description="The default least distance to the model (m)")
+    fields: list[TemplateFieldOut]
 
 
 class PlanVersionOut(Orm):

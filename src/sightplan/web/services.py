@@ -15,8 +15,9 @@ from ..model.load import IFC_EXTENSIONS
 from ..model.scene import Scene
 from ..model.summary import LoadReport
 from ..plan.site import with_site
+from ..plan.templates.registry import TEMPLATES, WALKED, default_flight, plan_from_template
 from ..plan.types import Plan
-from .schemas import SettingsIn, TemplatePlanIn
+from .schemas import SettingsIn, TemplatePlanBase
 from .storage import Storage
 
 
@@ -105,18 +106,15 @@ def _aircraft(name: str):
     return presets[name]
 
 
-def flight_record(body: TemplatePlanIn) -> dict[str, Any]:
-    """The flight settings of a template request, with a drone's defaults or a walker's for a route."""
-    from ..plan.templates.registry import WALKED, default_flight
-
-    walked = body.template in WALKED
+def flight_record(body: TemplatePlanBase) -> dict[str, Any]:
+    """The flight settings of a template request, with a drone's defaults or a walker's for a walked route."""
+    walked = getattr(body, "template", "") in WALKED
     d = default_flight(walked)
-    record = {"safety_distance_m": body.safety_distance if body.safety_distance is not None else d["safety_distance_m"],
-              "vlos_radius_m": body.vlos_radius if body.vlos_radius is not None else d["vlos_radius_m"],
-              "altitude_limit_m": body.altitude_limit if body.altitude_limit is not None else d["altitude_limit_m"],
-              "aircraft": body.aircraft if body.aircraft is not None else d["aircraft"]}
+    given = {"safety_distance_m": body.safety_distance_m, "vlos_radius_m": body.vlos_radius_m,
+             "altitude_limit_m": body.altitude_limit_m, "aircraft": body.aircraft}
     if not walked:  # a walked route keeps no minimum height
-        record["min_height_m"] = body.min_height if body.min_height is not None else d["min_height_m"]
+        given["min_height_m"] = body.min_height_m
+    record = {k: v if v is not None else d[k] for k, v in given.items()}
     _aircraft(record["aircraft"])  # an unknown preset is refused before anything is planned
     return record
 
@@ -134,19 +132,18 @@ def flight_settings(record: dict[str, Any], ground_stations=None, **overrides):
                           aircraft=_aircraft(r["aircraft"]), min_height_m=r.get("min_height_m"))
 
 
-def template_plan(scene: Scene, body: TemplatePlanIn) -> Plan:
+def template_plan(scene: Scene, body: TemplatePlanBase) -> Plan:
     """A plan from a template around ``scene``, split into missions and checked as ``sightplan plan`` does
-    (:func:`~sightplan.plan.templates.registry.plan_from_template`), with the flight it was made with recorded."""
+    (:func:`~sightplan.plan.templates.registry.plan_from_template`), with the flight it was made with recorded.
+    ``body`` is one of the requests generated from the templates' declarations; its template fields become the
+    template's parameters."""
     from ..camera.catalogue import get_camera
-    from ..plan.templates.registry import TemplateParams, plan_from_template
 
+    name = body.template
     record = flight_record(body)
-    params = TemplateParams(
-        overlap=body.overlap, footprint=body.footprint, radius_m=tuple(body.radius), height_m=tuple(body.height),
-        step=body.step, aim=body.aim, altitude_m=body.altitude, gsd_m=body.gsd, side_overlap=body.side_overlap,
-        oblique_pitch_deg=body.oblique_pitch, axis=tuple(tuple(a) for a in body.axis), under_deck=body.under_deck,
-        deck_z_m=body.deck_z, points=tuple(tuple(q) for q in body.points))
-    plan, _ = plan_from_template(body.template, scene, get_camera(body.camera), params,
+    fields = {f for f, _, info, _ in TEMPLATES[name].fields() if info.web}
+    params = TEMPLATES[name].make({f: getattr(body, f) for f in fields})
+    plan, _ = plan_from_template(name, scene, get_camera(body.camera), params,
                                  flight_settings(record, body.ground_station), split=body.split)
     return replace(plan, parameters={**plan.parameters, FLIGHT_KEY: record})
 

@@ -31,6 +31,7 @@ to pass (a snake), the first pass from the axis's first point.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -43,6 +44,7 @@ from ..aim import drop_blind_frames
 from ..checks.safety import point_distances, segment_distances
 from ..ground import MIN_HEIGHT_M, ground_z, targets_only
 from ..types import Mission, Plan
+from .base import Params, Template, param
 from .facade import _positions, _valid_min_height, layer_heights
 from .spacing import waypoint_spacing
 
@@ -221,3 +223,24 @@ def _under_deck(scene: Scene, camera: PinholeCamera, P: NDArray, u: NDArray, ove
     h = np.degrees(np.arctan2(u[k, 0], u[k, 1])) % 360.0
     params.update({"deck_z": float(deck_z), "under_deck_z": z, "clearance_below_m": float(clearance), "spacing_under_m": step})
     return "bridge under deck", C, h, np.full(len(C), 90.0), (h + 180.0) % 360.0
+
+
+@dataclass(frozen=True)
+class BridgeParams(Params):
+    axis: tuple[tuple[float, float], ...] = param((), "the axis, in order", kind="points2",
+                                                  cli="point", label="Axis")
+    overlap: float = param(0.8, "image overlap l between neighbouring frames", ge=0, le=0.95)
+    height_m: tuple[float, ...] = param((), "height of a side pass, once per pass (default: layers by overlap)",
+                                        kind="numbers", label="Pass heights")
+    under_deck: bool = param(True, "add a pass under the deck, looking up")
+    deck_z_m: float | None = param(None, "height of the deck's underside (default: found)", label="Deck underside z")
+
+
+def _build(scene: Scene, camera: Camera, p: BridgeParams, safety_distance_m: float, min_height_m: float) -> Plan:
+    if len(p.axis) < 2:
+        raise PlanError("a bridge needs its axis: at least two points (x, y), in order")
+    return bridge(scene, camera, [list(a) for a in p.axis], safety_distance_m, heights_m=list(p.height_m) or None,
+                  under_deck=p.under_deck, overlap=p.overlap, deck_z=p.deck_z_m, min_height_m=min_height_m)
+
+
+TEMPLATE = Template("bridge", "passes along an axis", BridgeParams, _build, order=3)

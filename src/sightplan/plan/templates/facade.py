@@ -30,6 +30,7 @@ bottom row stands ``min_height_m`` above the highest ground under its columns.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from typing import Literal
 
 import numpy as np
@@ -42,6 +43,7 @@ from ...model.scene import Scene
 from ..aim import drop_blind_frames
 from ..ground import MIN_HEIGHT_M, height_floor, targets_only
 from ..types import Mission, Plan
+from .base import Params, Template, param
 from .spacing import check_frame_budget, waypoint_spacing
 
 OBLIQUE_DEG = 45.0
@@ -253,3 +255,17 @@ def facade_grid(scene: Scene, camera: Camera, safety_distance_m: float, overlap:
                                   "oblique_edges": oblique_edges, "footprint": footprint, "min_height_m": min_h,
                                   "bottom_row_z_m": float(min(floors))})
     return drop_blind_frames(scene, plan, "facade grid") if drop_blind else plan
+
+
+@dataclass(frozen=True)
+class FacadeParams(Params):
+    overlap: float = param(0.8, "image overlap l between neighbouring frames", ge=0, le=0.95)
+    footprint: str = param("box", "grids on the sides of the bounding 'box', or around the model's real 'outline'",
+                           choices=("box", "outline"))
+
+
+def _build(scene: Scene, camera: Camera, p: FacadeParams, safety_distance_m: float, min_height_m: float) -> Plan:
+    return facade_grid(scene, camera, safety_distance_m, p.overlap, footprint=p.footprint, min_height_m=min_height_m)
+
+
+TEMPLATE = Template("facade", "grids around the sides", FacadeParams, _build, order=0)

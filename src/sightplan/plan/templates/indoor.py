@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import csv
 import json
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -12,7 +13,9 @@ from numpy.typing import ArrayLike
 from ...camera.models import Camera
 from ...errors import PlanError
 from ...geometry.poses import R_from_gimbal
+from ...model.scene import Scene
 from ..types import Mission, Plan
+from .base import Params, Template, param
 
 MAX_ROUTE_FRAMES = 100_000  # a walked capture of more frames is a typo in the step, not a plan
 
@@ -99,3 +102,24 @@ def read_routes(path: str | Path) -> tuple[list[np.ndarray], list[str]]:
         except (TypeError, ValueError):
             raise PlanError(f"{path.name}, line {line}: x, y, z must be numbers") from None
     return [np.asarray(v) for v in routes.values()], list(routes)
+
+
+@dataclass(frozen=True)
+class RouteParams(Params):
+    points: tuple[tuple[float, float, float], ...] = param((), "the walked polyline, in order",
+                                                           kind="points3", cli="point", label="Route")
+    step_m: float | None = param(None, "metres between frames", gt=0, cli="step", label="Step")
+    routes_file: str | None = param(None, "polylines from a file (JSON: lists of x, y, z points; or CSV: route, x, y, z), one "
+                                    "mission each, instead of the points", kind="file", cli="routes", web=False)
+
+
+def _build(scene: Scene, camera: Camera, p: RouteParams, safety_distance_m: float, min_height_m: float) -> Plan:
+    if (len(p.points) < 2 and p.routes_file is None) or p.step_m is None:
+        raise PlanError("a route needs at least two points (x, y, z), or a routes file, and a step in metres")
+    if p.routes_file is not None:
+        polylines, names = read_routes(p.routes_file)
+        return indoor_routes(camera, polylines, p.step_m, names=names)
+    return indoor_route(camera, [list(q) for q in p.points], p.step_m)
+
+
+TEMPLATE = Template("route", "indoor polyline, walked or driven", RouteParams, _build, walked=True, order=4)

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from ...camera.models import Camera, PinholeCamera
@@ -11,6 +13,7 @@ from ...model.scene import Scene
 from ..aim import drop_blind_frames
 from ..ground import MIN_HEIGHT_M, ground_z, targets_only
 from ..types import Mission, Plan
+from .base import Params, Template, param
 from .facade import _positions, _valid_min_height
 from .spacing import waypoint_spacing
 
@@ -85,3 +88,22 @@ def lawnmower(scene: Scene, camera: Camera, altitude_m: float | None = None, gsd
         parameters["oblique_pitch_deg"] = float(oblique_pitch_deg)
     plan = Plan.build(camera, R, C, missions=tuple(missions), waypoints=C, parameters=parameters)
     return drop_blind_frames(scene, plan, "lawn-mower grid") if drop_blind else plan
+
+
+@dataclass(frozen=True)
+class LawnmowerParams(Params):
+    overlap: float = param(0.8, "image overlap along a line", ge=0, le=0.95)
+    altitude_m: float | None = param(None, "camera height above the model's base", gt=0, label="Altitude")
+    gsd_m_px: float | None = param(None, "ground sampling distance on the model's top (instead of the altitude)",
+                                   gt=0, cli="gsd", label="GSD")
+    side_overlap: float = param(0.7, "overlap between lines", ge=0, le=0.95)
+    oblique_pitch_deg: float | None = param(None, "add crossed east–west lines with the gimbal at this pitch "
+                                            "(e.g. -60): a double grid", ge=-90, lt=0, label="Oblique pitch")
+
+
+def _build(scene: Scene, camera: Camera, p: LawnmowerParams, safety_distance_m: float, min_height_m: float) -> Plan:
+    return lawnmower(scene, camera, altitude_m=p.altitude_m, gsd_m=p.gsd_m_px, front_overlap=p.overlap,
+                     side_overlap=p.side_overlap, oblique_pitch_deg=p.oblique_pitch_deg, min_height_m=min_height_m)
+
+
+TEMPLATE = Template("lawnmower", "nadir grid", LawnmowerParams, _build, order=2)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from typing import Literal
 
 import numpy as np
@@ -15,6 +16,7 @@ from ...model.scene import Scene
 from ..aim import drop_blind_frames
 from ..ground import MIN_HEIGHT_M, ground_z, targets_only
 from ..types import Mission, Plan
+from .base import Params, Template, param
 from .facade import _valid_min_height, layer_heights
 from .spacing import check_frame_budget, waypoint_spacing
 
@@ -133,3 +135,23 @@ def _toward(C: NDArray, target: NDArray) -> tuple[NDArray, NDArray]:
     """(n,) heading and pitch in degrees that aim from each of C at the matching target (or at one (3,) target)."""
     v = target - C
     return np.degrees(np.arctan2(v[:, 0], v[:, 1])), np.degrees(np.arctan2(v[:, 2], np.hypot(v[:, 0], v[:, 1])))
+
+
+@dataclass(frozen=True)
+class OrbitParams(Params):
+    overlap: float = param(0.8, "image overlap l between neighbouring frames", ge=0, le=0.95)
+    radius_m: tuple[float, ...] = param((), "ring radius, once per ring (default: the targets' half-diagonal + the "
+                                        "safety distance)", gt=0, kind="numbers", label="Radii")
+    height_m: tuple[float, ...] = param((), "ring height, once per ring (default: layers by overlap from the minimum "
+                                        "height to the safety distance above the top)", kind="numbers", label="Heights")
+    step_deg: float | None = param(None, "degrees between frames (default: by overlap)", ge=0.01, le=180, cli="step",
+                                   label="Step")
+    aim: str = param("centre", "aim at the model's 'centre' or its nearest 'surface'", choices=("centre", "surface"))
+
+
+def _build(scene: Scene, camera: Camera, p: OrbitParams, safety_distance_m: float, min_height_m: float) -> Plan:
+    return orbit(scene, camera, list(p.radius_m) or None, list(p.height_m) or None, step_deg=p.step_deg,
+                 overlap=p.overlap, aim=p.aim, safety_distance_m=safety_distance_m, min_height_m=min_height_m)
+
+
+TEMPLATE = Template("orbit", "rings", OrbitParams, _build, order=1)

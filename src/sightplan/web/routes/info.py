@@ -6,9 +6,11 @@ from fastapi import APIRouter
 
 from ...export import EXPORT_FORMATS
 from ...plan.checks import battery
+from ...plan.templates.base import label_of, unit_of
+from ...plan.templates.registry import TEMPLATES, default_flight
 from ...version import __version__
 from ..deps import StateDep
-from ..schemas import CameraOut, InfoOut
+from ..schemas import CameraOut, InfoOut, TemplateFieldOut, TemplateOut
 
 router = APIRouter(prefix="/api", tags=["server"])
 SINGLE_USER = "single-user mode on the loopback address: no login; anyone on this machine can use it"
@@ -22,9 +24,24 @@ def info(state: StateDep) -> InfoOut:
     return InfoOut(version=__version__, mode="team" if cfg.team else "single-user", login=cfg.team,
                    message=TEAM if cfg.team else SINGLE_USER, database=database,
                    data_dir="" if cfg.team else str(cfg.data_dir),
-                   max_upload_bytes=cfg.max_upload_bytes, templates=["facade", "orbit", "lawnmower", "bridge", "route"],
+                   max_upload_bytes=cfg.max_upload_bytes, templates=list(TEMPLATES),
                    export_formats=list(EXPORT_FORMATS),
                    aircraft={k: v.name for k, v in {**battery.AIRCRAFT, **battery.ROVERS}.items()})
+
+
+@router.get("/templates", response_model=list[TemplateOut], summary="The plan templates and their parameters")
+def templates() -> list[TemplateOut]:
+    """Every template with its parameters as declared once in the library (name with its unit, kind, bounds,
+    default, help): the page builds its form from this, as the command line builds ``sightplan plan``'s options."""
+    out = []
+    for t in TEMPLATES.values():
+        fields = [TemplateFieldOut(name=name, label=label_of(name, info), kind=info.kind,
+                                   unit=unit_of(name), help=info.help, default=default if default != () else None,
+                                   ge=info.ge, gt=info.gt, le=info.le, lt=info.lt, choices=list(info.choices))
+                  for name, _, info, default in t.fields() if info.web]
+        out.append(TemplateOut(name=t.name, summary=t.summary, walked=t.walked,
+                               safety_distance_m=default_flight(t.walked)["safety_distance_m"], fields=fields))
+    return out
 
 
 @router.get("/cameras", response_model=list[CameraOut], summary="The built-in camera catalogue")

@@ -17,6 +17,7 @@ from starlette.concurrency import run_in_threadpool
 from ...errors import PlanError, SightplanError
 from ...export import ExportFormat
 from ...model.scene import Scene
+from ...plan.templates.registry import TEMPLATES
 from ...plan.types import Plan as PlanData
 from ..deps import PROJECT_ACCESS, ServerState, SessionDep, StateDep, in_project, ready_model
 from ..models import Job, Model, Plan, PlanVersion
@@ -68,7 +69,7 @@ def commit_version(state: ServerState, session: Session, plan_row: Plan, data: P
 
 
 @router.post("", response_model=PlanOut, status_code=201, summary="Create a plan from a template",
-             description="facade, orbit, lawnmower, bridge or route around one of the project's models, split into missions and "
+             description=f"{', '.join(TEMPLATES)} around one of the project's models, split into missions and "
                          "checked as `sightplan plan` does; the model's georeference is recorded for exports.",
              responses={**NOT_FOUND, **BAD_PLAN, **NOT_READY})
 def create_from_template(project_id: int, body: TemplatePlanIn, session: SessionDep, state: StateDep) -> PlanOut:

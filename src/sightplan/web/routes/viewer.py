@@ -284,10 +284,10 @@ def plan_geometry(project: ProjectRead, plan_id: int, number: int, session: Sess
 def plan_checks(project: ProjectRead, plan_id: int, number: int, session: SessionDep, state: StateDep,
                 model_id: Annotated[int | None, Query(description="Model to check against (default: the plan's)")]
                 = None,
-                safety_distance: Annotated[float | None, Query(gt=0, description="Least distance to the model (m); "
-                                                               "default: the plan's")] = None,
-                vlos_radius: Annotated[float | None, Query(ge=0, description="Visual line-of-sight radius (m); 0: "
-                                                           "none; default: the plan's")] = None,
+                safety_distance_m: Annotated[float | None, Query(gt=0, description="Least distance to the model (m); "
+                                                                 "default: the plan's")] = None,
+                vlos_radius_m: Annotated[float | None, Query(ge=0, description="Visual line-of-sight radius (m); 0: "
+                                                             "none; default: the plan's")] = None,
                 ) -> FlightChecksOut:
     version = plan_version(session, project.id, plan_id, number)
     model_id = model_id if model_id is not None else version.plan.model_id
@@ -295,7 +295,7 @@ def plan_checks(project: ProjectRead, plan_id: int, number: int, session: Sessio
         raise HTTPException(422, f"plan {plan_id} is for no model: give model_id")
     model = ready_model(session, project.id, model_id)
     plan = read_stored_plan(state, version)
-    settings = flight_settings(plan_flight(plan), safety_distance_m=safety_distance, vlos_radius_m=vlos_radius)
+    settings = flight_settings(plan_flight(plan), safety_distance_m=safety_distance_m, vlos_radius_m=vlos_radius_m)
     key = (settings.safety_distance_m, settings.vlos_radius_m, settings.altitude_limit_m,
            getattr(settings.aircraft, "name", None))
 

@@ -532,35 +532,36 @@ function templateBody() {
   if (!S.model || S.model.status !== 'ready') throw new Error('upload a model and wait until it is loaded');
   const body = {
     model_id: S.model.id, template, name: $('#plan-name').value.trim(), camera: $('#plan-camera').value,
-    safety_distance: num('#plan-safety'), overlap: num('#plan-overlap'), split: $('#plan-split').checked,
+    safety_distance_m: num('#plan-safety'), split: $('#plan-split').checked,
   };
+  if (template !== 'route') body.overlap = num('#plan-overlap');
   if (template === 'facade') body.footprint = $('#plan-footprint').value;
   if (template === 'orbit') {
-    Object.assign(body, { radius: list('#plan-radius'), height: list('#plan-height'), aim: $('#plan-aim').value });
-    if (num('#plan-step') !== null) body.step = num('#plan-step');
+    Object.assign(body, { radius_m: list('#plan-radius'), height_m: list('#plan-height'), aim: $('#plan-aim').value });
+    if (num('#plan-step') !== null) body.step_deg = num('#plan-step');
   }
   if (template === 'lawnmower') {
     Object.assign(body, { side_overlap: num('#plan-side-overlap') });
-    if (num('#plan-gsd') !== null) body.gsd = num('#plan-gsd');
-    else body.altitude = num('#plan-altitude');
-    if (num('#plan-oblique') !== null) body.oblique_pitch = num('#plan-oblique');
+    if (num('#plan-gsd') !== null) body.gsd_m_px = num('#plan-gsd');
+    else body.altitude_m = num('#plan-altitude');
+    if (num('#plan-oblique') !== null) body.oblique_pitch_deg = num('#plan-oblique');
   }
   if (template === 'bridge') {
     body.axis = parsePoints($('#plan-axis').value, 2, 'axis point');
     if (body.axis.length < 2) throw new Error('the bridge axis needs at least two points x, y (typed, or picked in 3D)');
-    if (list('#plan-bridge-height').length) body.height = list('#plan-bridge-height');
-    if (num('#plan-deck-z') !== null) body.deck_z = num('#plan-deck-z');
+    if (list('#plan-bridge-height').length) body.height_m = list('#plan-bridge-height');
+    if (num('#plan-deck-z') !== null) body.deck_z_m = num('#plan-deck-z');
     body.under_deck = $('#plan-under-deck').checked;
   }
   if (template === 'route') {
     body.points = parsePoints($('#plan-points').value, 3, 'route point');
     if (body.points.length < 2) throw new Error('a route needs at least two points x, y, z (typed, or picked in 3D)');
-    body.step = num('#plan-route-step');
+    body.step_m = num('#plan-route-step');
   }
   // the flight settings every template takes; left empty, the server's defaults (a walker's for a route)
   if ($('#plan-aircraft').value) body.aircraft = $('#plan-aircraft').value;
-  body.vlos_radius = num('#plan-vlos');
-  body.altitude_limit = num('#plan-alt-limit');
+  body.vlos_radius_m = num('#plan-vlos');
+  body.altitude_limit_m = num('#plan-alt-limit');
   const stations = parsePoints($('#plan-stations').value, 3, 'ground station');
   if (stations.length) body.ground_station = stations;
   for (const [k, v] of Object.entries(body)) if (v === null || Number.isNaN(v)) delete body[k];

@@ -1,0 +1,170 @@
+"""What a template is, as data: its parameters (a frozen dataclass whose fields carry their unit, bounds and help) and
+the function that makes its frames.
+
+A template module declares one :class:`Template`; :mod:`.registry` finds it. The command line's options
+(:mod:`sightplan.cli.plan_cmd`), the web API's request schema (a union on ``template``) and the page's form
+(``GET /api/templates``) are all generated from these declarations, so a template is described in one place.
+
+A parameter is declared with :func:`param`::
+
+    @dataclass(frozen=True)
+    class OrbitParams(Params):
+        step_deg: float | None = param(None, "degrees between frames (default: by overlap)", gt=0, le=180, cli="step")
+
+Field names carry their unit (``_m``, ``_deg``, ``_m_px``); ``cli`` names the command-line option when several
+templates share one (``--step`` is an orbit's degrees and a route's metres). Constructing a parameter object checks
+every bound and choice and raises :class:`~sightplan.errors.PlanError` naming the parameter.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import types
+import typing
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any, Literal
+
+from ...camera.models import Camera
+from ...errors import PlanError
+from ...model.scene import Scene
+from ..types import Plan
+
+#: How a parameter is entered (the page's form and the command line read it):
+#: number, numbers (a list), choice, flag, points2 / points3 (picked or typed points), file (command line only).
+Kind = Literal["number", "numbers", "choice", "flag", "points2", "points3", "file"]
+
+
+@dataclass(frozen=True)
+class ParamInfo:
+    """A parameter's description: help text, unit, bounds, choices, how it is entered, and its command-line name."""
+
+    help: str
+    unit: str = ""
+    ge: float | None = None
+    gt: float | None = None
+    le: float | None = None
+    lt: float | None = None
+    kind: Kind = "number"
+    choices: tuple[str, ...] = ()
+    cli: str | None = None  # the option's name without dashes; default: the field's name without its unit
+    web: bool = True  # False: command line only (a local file)
+    label: str = ""  # the form's label; default from the name
+
+    def bounds_text(self) -> str:
+        parts = [f"≥ {self.ge:g}" if self.ge is not None else "", f"> {self.gt:g}" if self.gt is not None else "",
+                 f"≤ {self.le:g}" if self.le is not None else "", f"< {self.lt:g}" if self.lt is not None else ""]
+        return ", ".join(p for p in parts if p)
+
+
+_UNITS = {"_deg": "°", "_m_px": "m/px", "_m": "m"}
+
+
+def unit_of(name: str) -> str:
+    """The unit a field's name ends with ('' for none)."""
+    return next((u for suffix, u in _UNITS.items() if name.endswith(suffix)), "")
+
+
+def label_of(name: str, info: ParamInfo) -> str:
+    """A parameter's label on a form: its declared one, else its name without the unit ("deck_z_m" → "Deck z")."""
+    if info.label:
+        return info.label
+    bare = next((name.removesuffix(s) for s in _UNITS if name.endswith(s)), name)
+    return bare.replace("_", " ").capitalize()
+
+
+def param(default: Any, help: str, *, ge: float | None = None, gt: float | None = None, le: float | None = None,
+          lt: float | None = None, choices: tuple[str, ...] = (), kind: Kind | None = None, cli: str | None = None,
+          web: bool = True, label: str = "") -> Any:
+    """A dataclass field holding a template parameter; a list or tuple default becomes an empty-tuple default."""
+    if kind is None:
+        kind = "choice" if choices else "flag" if isinstance(default, bool) else "number"
+    info = ParamInfo(help=help, ge=ge, gt=gt, le=le, lt=lt, kind=kind, choices=tuple(choices), cli=cli, web=web,
+                     label=label)
+    return dataclasses.field(default=default, metadata={"param": info})
+
+
+@dataclass(frozen=True)
+class Params:
+    """Base of every template's parameter dataclass: construction checks each value against its declaration."""
+
+    def __post_init__(self) -> None:
+        for f in dataclasses.fields(self):
+            check_value(f.name, getattr(self, f.name), info_of(f))
+
+
+def info_of(f: dataclasses.Field) -> ParamInfo:
+    return f.metadata["param"]
+
+
+def check_value(name: str, value: Any, info: ParamInfo) -> None:
+    """A PlanError naming ``name`` when ``value`` breaks its bounds, choices or shape (None passes: the default)."""
+    if value is None:
+        return
+    if info.kind == "choice":
+        if value not in info.choices:
+            raise PlanError(f"{name} must be one of {', '.join(repr(c) for c in info.choices)}, got {value!r}")
+        return
+    if info.kind in ("flag", "file"):
+        return
+    if info.kind in ("points2", "points3"):
+        n = 2 if info.kind == "points2" else 3
+        for q in value:
+            if len(q) != n or not all(math.isfinite(float(c)) for c in q):
+                raise PlanError(f"each point of {name} must be {n} finite numbers, got {list(q)}")
+        return
+    for v in (value if info.kind == "numbers" else (value,)):
+        if not math.isfinite(float(v)):
+            raise PlanError(f"{name} must be a finite number, got {v}")
+        if ((info.ge is not None and v < info.ge) or (info.gt is not None and v <= info.gt)
+                or (info.le is not None and v > info.le) or (info.lt is not None and v >= info.lt)):
+            raise PlanError(f"{name} must be {info.bounds_text()}, got {v:g}")
+
+
+def base_type(tp: Any) -> Any:
+    """``float`` for ``float | None``; the annotation itself otherwise."""
+    if typing.get_origin(tp) in (typing.Union, types.UnionType):
+        args = [a for a in typing.get_args(tp) if a is not type(None)]
+        return args[0] if len(args) == 1 else tp
+    return tp
+
+
+def field_types(cls: type) -> dict[str, Any]:
+    """The resolved annotations of a parameter dataclass."""
+    return typing.get_type_hints(cls)
+
+
+#: builds a template's frames: (scene, camera, parameters, safety distance (m), least height (m)) → Plan
+Builder = Callable[[Scene, Camera, Any, float, float], Plan]
+
+
+@dataclass(frozen=True)
+class Template:
+    """A template: its name, a one-line summary, its parameter dataclass, its builder, whether it is walked (no
+    line of sight, altitude limit or minimum height to keep), and its place in lists (``order``)."""
+
+    name: str
+    summary: str
+    params: type[Params]
+    build: Builder
+    walked: bool = False
+    order: int = 100
+
+    def fields(self) -> list[tuple[str, Any, ParamInfo, Any]]:
+        """(name, type, declaration, default) per parameter, in declaration order."""
+        hints = field_types(self.params)
+        return [(f.name, hints[f.name], info_of(f), f.default) for f in dataclasses.fields(self.params)]
+
+    def make(self, values: dict[str, Any]) -> Params:
+        """The parameters from ``values`` (unknown names refused; missing ones take their defaults), checked."""
+        known = {f.name for f in dataclasses.fields(self.params)}
+        unknown = sorted(set(values) - known)
+        if unknown:
+            raise PlanError(f"the {self.name} template takes no {', '.join(unknown)}: it takes {', '.join(sorted(known))}")
+        return self.params(**{k: _frozen(v) for k, v in values.items()})
+
+
+def _frozen(v: Any) -> Any:
+    """Lists (of lists) as tuples, so a parameter object stays hashable and immutable."""
+    return tuple(_frozen(x) for x in v) if isinstance(v, (list, tuple)) else v
