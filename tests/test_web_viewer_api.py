@@ -185,6 +185,11 @@ def test_feedback_matches_the_library(client, project, evaluation, reference):
     assert fb["labels"]["vr"]["higher_better"] is True and fb["labels"]["ssd"]["higher_better"] is False
     assert fb["params"]["min_features"] == 50 and fb["plan_version"] == 1
     assert sum(fb["elements"]["target"]) == 154 and len(fb["metrics"]["visibility"]) == 215
+    # the cached JSON is exactly the documented response: every key typed, nothing left over
+    from sightplan.web.schemas import FeedbackOut
+
+    typed = FeedbackOut.model_validate(fb)
+    assert typed.model_dump(exclude_unset=True) == fb
 
 
 def test_element_values_and_best_frames(client, project, evaluation, reference):
@@ -345,3 +350,16 @@ def test_openapi_documents_the_viewer_routes(client):
     for path in viewer:
         op = schema["paths"][path]["get"]
         assert op["summary"] and "404" in op["responses"], path
+
+
+def test_every_json_response_is_a_named_model(client):
+    """The contract the page's types are generated from: no JSON answer is an untyped object."""
+    schema = client.get("/openapi.json").json()
+    for path, ops in schema["paths"].items():
+        for method, op in ops.items():
+            for code, response in op["responses"].items():
+                body = response.get("content", {}).get("application/json", {}).get("schema")
+                if body is None or not code.startswith("2"):
+                    continue
+                ref = body.get("$ref") or body.get("items", {}).get("$ref")
+                assert ref, (method, path, code, body)

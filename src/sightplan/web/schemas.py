@@ -143,7 +143,7 @@ def _param_field(name: str, info: ParamInfo, default: Any) -> tuple[Any, Any]:
                                                                     f"of {info.help}")
     if info.kind == "numbers":
         return list[Annotated[float, Field(**bounds)]], Field(default_factory=list, description=about)
-    return float | None, Field(default, description=about, **bounds)
+    return (float if default is not None else float | None), Field(default, description=about, **bounds)
 
 
 def _template_request(t: Template) -> type[BaseModel]:
@@ -394,3 +394,160 @@ class FlightChecksOut(BaseModel):
     missions: list[dict[str, Any]] = Field(description="Per mission: ground station, time, distance and verdicts, "
                                                        "as `sightplan check --json`")
     violations: list[str] = Field(description="Every violation, one sentence each")
+
+
+# --------------------------------------------------------------------------- plan files, evaluations' feedback
+class PlanCameraOut(BaseModel):
+    model: Literal["pinhole", "equirectangular"]
+    name: str = ""
+    width: int = Field(description="Image width (px)")
+    height: int = Field(description="Image height (px)")
+    fx: float | None = Field(None, description="Focal length (px), pinhole only")
+    fy: float | None = Field(None, description="Focal length (px), pinhole only")
+    cx: float | None = Field(None, description="Principal point (px), pinhole only")
+    cy: float | None = Field(None, description="Principal point (px), pinhole only")
+
+
+class PlanFrameOut(BaseModel):
+    name: str
+    camera: str = Field(description="Id of the frame's camera in 'cameras'")
+    position: list[float] = Field(description="Camera centre [x, y, z] (model frame, m)")
+    rotation: list[list[float]] = Field(description="World-from-camera rotation, 3 × 3, OpenCV camera axes")
+    time: float | None = Field(None, description="Capture time (s, POSIX), when known")
+
+
+class PlanMissionOut(BaseModel):
+    name: str
+    frames: list[int] = Field(description="[start, stop): the mission's frames")
+    ground_station: list[float] | None = Field(None, description="Pilot position [x, y, z] (model frame, m)")
+
+
+class PlanFileOut(BaseModel):
+    """A plan in sightplan's JSON plan format, version 1 (as ``sightplan plan`` writes it)."""
+
+    model_config = ConfigDict(extra="allow")
+
+    format: str
+    version: int
+    units: Literal["m"]
+    frame_convention: str
+    cameras: dict[str, PlanCameraOut]
+    missions: list[PlanMissionOut]
+    frames: list[PlanFrameOut]
+    waypoints: list[list[float]] = Field(description="Flight waypoints [x, y, z] (model frame, m)")
+    parameters: dict[str, Any] = Field(description="The template's settings, the checks, the take-off point; keys "
+                                                   "carry their unit")
+    georeference: dict[str, Any] | None = None
+
+
+class MetricLabelOut(BaseModel):
+    label: str
+    unit: str
+    higher_better: bool
+    bounds: list[float] | None = Field(description="Default colour bounds [low, high] in the metric's unit")
+    classes: list[str] | None = None
+
+
+class FeedbackElementsOut(BaseModel):
+    global_id: list[str]
+    name: list[str]
+    ifc_class: list[str]
+    storey: list[str]
+    target: list[bool]
+
+
+class FeedbackMetricsOut(BaseModel):
+    visibility: list[int] = Field(description="0 visible (≥ Ω px), 1 observed only, 2 unseen, 3 occluder")
+    vr: list[int | None] = Field(description="VR_i: frames that see the element by ≥ Ω px")
+    ssd: list[float | None] = Field(description="R_i: surface sampling distance (m/px)")
+    orientation: list[float | None] = Field(description="O_i: mean angle to the surface (°)")
+    frames_observed: list[int]
+    pixels_total: list[float | None] = Field(description="Pixels on the element over all frames")
+
+
+class FeedbackColoursOut(BaseModel):
+    gradient: list[str] = Field(description="Traffic-light gradient, worst to best, as #rrggbb")
+    unseen: str
+    occluder: str
+    classes: list[str]
+    gradient_rgb: list[list[float]] = Field(description="The same colours as sRGB floats 0–1")
+    unseen_rgb: list[float]
+    occluder_rgb: list[float]
+    classes_rgb: list[list[float]]
+
+
+class FeedbackFramesOut(BaseModel):
+    name: list[str]
+    nu: list[float] = Field(description="ν_f: the frame's stability (share of its features on stable tracks)")
+    stable: list[bool] = Field(description="ν_f ≥ Λ")
+    features_observed: list[int]
+    elements_visible: list[int]
+    pixels_on_targets: list[float | None]
+
+
+class FeedbackParamsOut(BaseModel):
+    omega: float = Field(description="Visibility threshold Ω (px)")
+    k: int
+    min_track: int
+    min_features: int
+
+
+class FeedbackMissionOut(BaseModel):
+    name: str
+    start: int
+    stop: int
+
+
+class FeedbackOut(BaseModel):
+    """Everything the viewer colours from: per-element and per-frame values of an evaluation."""
+
+    colour_by: str
+    elements: FeedbackElementsOut
+    metrics: FeedbackMetricsOut
+    labels: dict[str, MetricLabelOut] = Field(description="Per colour metric: label, unit, direction, bounds")
+    colours: FeedbackColoursOut
+    cameras: list[list[float]] = Field(description="Camera centres in the viewer's frame (Y up, m)")
+    frames: FeedbackFramesOut
+    params: FeedbackParamsOut
+    plan_metrics: dict[str, Any] | None = Field(description="The plan metrics, as report.json's 'metrics'")
+    missions: list[FeedbackMissionOut]
+    evaluation_id: int
+    plan_id: int
+    plan_version: int
+    model_id: int | None
+
+
+class ElementRowOut(BaseModel):
+    """An element's row of the per-element metrics (the columns of elements.csv); null values for an occluder."""
+
+    model_config = ConfigDict(extra="allow")
+
+    index: int
+    global_id: str
+    name: str
+    ifc_class: str
+    storey: str
+    visibility: str
+    VR_i: int | None
+    R_i_m_per_px: float | None
+    O_i_deg: float | None
+    frames_observed: int | None
+    pixels_total: float | None
+
+
+class BestFrameOut(BaseModel):
+    frame: int
+    name: str
+    pixels: float = Field(description="Pixels of the element in the frame")
+    ssd_m_per_px: float
+    angle_deg: float
+    depth_m: float
+    counts: bool = Field(description="Whether the frame sees the element by ≥ Ω px")
+
+
+class ElementDetailOut(BaseModel):
+    evaluation_id: int
+    element: ElementRowOut
+    target: bool
+    omega_px: float
+    best_frames: list[BestFrameOut]

@@ -21,7 +21,7 @@ from ...plan.templates.registry import TEMPLATES
 from ...plan.types import Plan as PlanData
 from ..deps import PROJECT_ACCESS, ServerState, SessionDep, StateDep, in_project, ready_model
 from ..models import Job, Model, Plan, PlanVersion
-from ..schemas import ErrorOut, PlanOut, PlanVersionOut, TemplatePlanIn
+from ..schemas import ErrorOut, PlanFileOut, PlanOut, PlanVersionOut, TemplatePlanIn
 from ..services import checked_plan_json, load_scene, read_uploaded_plan, template_plan
 from ..storage import PLAN_SUFFIXES, display_name
 from ..uploads import receive_upload
@@ -130,7 +130,7 @@ def get_version(session: Session, project_id: int, plan_id: int, number: int) ->
     raise HTTPException(404, f"plan {plan_id} has no version {number} (it has 1 to {len(plan.versions)})")
 
 
-@router.get("/{plan_id}/versions/{number}", response_model=dict[str, Any],
+@router.get("/{plan_id}/versions/{number}", response_model=PlanFileOut, response_model_exclude_unset=True,
             summary="Get a version's plan JSON (sightplan plan format, version 1)", responses=NOT_FOUND)
 def read_version(project_id: int, plan_id: int, number: int, session: SessionDep, state: StateDep) -> dict[str, Any]:
     version = get_version(session, project_id, plan_id, number)

@@ -14,7 +14,7 @@ from ...export import ExportFormat
 from ..auth import digest
 from ..deps import SessionDep, StateDep
 from ..models import Evaluation, Plan, PlanVersion, ShareLink
-from ..schemas import ErrorOut, EvaluationOut, SharedPlanOut
+from ..schemas import ErrorOut, EvaluationOut, PlanFileOut, SharedPlanOut
 from . import evaluations, plans
 
 router = APIRouter(prefix="/api/shared/{token}", tags=["members and sharing"])
@@ -45,7 +45,8 @@ def read_shared(token: str, session: SessionDep) -> SharedPlanOut:
     return SharedPlanOut(plan=plans.plan_out(plan), evaluations=[evaluations.evaluation_out(e) for e in rows])
 
 
-@router.get("/versions/{number}", response_model=dict[str, Any], summary="A version's plan JSON", responses=NOT_FOUND)
+@router.get("/versions/{number}", response_model=PlanFileOut, response_model_exclude_unset=True,
+            summary="A version's plan JSON", responses=NOT_FOUND)
 def read_shared_version(token: str, number: int, session: SessionDep, state: StateDep) -> dict[str, Any]:
     plan = shared_plan(session, token)
     return plans.read_version(plan.project_id, plan.id, number, session, state)

@@ -25,7 +25,15 @@ from ...errors import ReportError
 from ..deps import ProjectRead, ServerState, SessionDep, StateDep, in_project, ready_model
 from ..models import Evaluation, Model, PlanVersion
 from ..scenes import evaluation_scene
-from ..schemas import ElementTableOut, ErrorOut, FlightChecksOut, MissionGeometryOut, PlanGeometryOut
+from ..schemas import (
+    ElementDetailOut,
+    ElementTableOut,
+    ErrorOut,
+    FeedbackOut,
+    FlightChecksOut,
+    MissionGeometryOut,
+    PlanGeometryOut,
+)
 from ..services import FLIGHT_KEY, FOURD_KEY, REALITY_KEY, flight_settings, load_scene, rebuilt_evaluation
 from . import evaluations, plans
 
@@ -336,7 +344,7 @@ def feedback_dict(state: ServerState, session: Session, ev_row: Evaluation, mode
     return data
 
 
-@router.get("/api/projects/{project_id}/evaluations/{evaluation_id}/feedback", response_model=dict[str, Any],
+@router.get("/api/projects/{project_id}/evaluations/{evaluation_id}/feedback", response_model=FeedbackOut,
             summary="Everything the viewer colours from: per-element and per-frame values of an evaluation",
             description="Per element (all of the model's, by index): visibility class (0 visible, 1 observed only, "
                         "2 unseen, 3 occluder), VR_i, R_i (SSD, m/px), O_i (°), frames observed, pixels; the metrics' "
@@ -352,7 +360,7 @@ def evaluation_feedback(project: ProjectRead, evaluation_id: int, session: Sessi
     return Response(body, media_type="application/json")
 
 
-@router.get("/api/projects/{project_id}/evaluations/{evaluation_id}/elements/{index}", response_model=dict[str, Any],
+@router.get("/api/projects/{project_id}/evaluations/{evaluation_id}/elements/{index}", response_model=ElementDetailOut,
             summary="One element's values and the frames that see it best",
             description="The element's row of the per-element metrics (null values for an occluder), then up to "
                         "`limit` frames: first those that see it by ≥ Ω px, finest surface sampling distance first "
@@ -360,7 +368,7 @@ def evaluation_feedback(project: ProjectRead, evaluation_id: int, session: Sessi
             responses={**NOT_FOUND, **NOT_READY})
 def evaluation_element(project: ProjectRead, evaluation_id: int, index: int, session: SessionDep, state: StateDep,
                        limit: Annotated[int, Query(ge=1, le=100, description="How many frames")] = 5
-                       ) -> dict[str, Any]:
+                       ) -> ElementDetailOut:
     ev_row = done_evaluation(session, project.id, evaluation_id)
     model = in_project(session, Model, ev_row.model_id, project.id, "model")
     scene = evaluation_scene(state.storage, session, model.stored_name, ev_row.settings, ev_row.project_id)
@@ -385,8 +393,8 @@ def evaluation_element(project: ProjectRead, evaluation_id: int, index: int, ses
                "pixels": round(float(pixels[j]), 1), "ssd_m_per_px": float(ssd[j]),
                "angle_deg": float(obs.angle_mean[sel[j]]), "depth_m": float(obs.depth_mean[sel[j]]),
                "counts": bool(counted[j])} for j in order]
-    return {"evaluation_id": ev_row.id, "element": row, "target": bool(el.is_target[index]),
-            "omega_px": ev.metrics.params.omega, "best_frames": frames}
+    return ElementDetailOut(evaluation_id=ev_row.id, element=row, target=bool(el.is_target[index]),
+                            omega_px=ev.metrics.params.omega, best_frames=frames)
 
 
 # --------------------------------------------------------------------------- simulated views

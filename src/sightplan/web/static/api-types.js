@@ -1,0 +1,702 @@
+// The request and response types of sightplan's REST API, generated from its OpenAPI document by
+// `python -m sightplan.web.jstypes`; do not edit by hand. Modules name them in JSDoc comments, e.g.
+//   /** @param {import('./api-types.js').PlanOut} plan */
+
+
+/**
+ * @typedef {object} BestFrameOut
+ * @property {number} frame Frame
+ * @property {string} name Name
+ * @property {number} pixels Pixels of the element in the frame
+ * @property {number} ssd_m_per_px Ssd M Per Px
+ * @property {number} angle_deg Angle Deg
+ * @property {number} depth_m Depth M
+ * @property {boolean} counts Whether the frame sees the element by ≥ Ω px
+ */
+
+/**
+ * @typedef {object} Body_add_schedule_api_projects__project_id__schedules_post
+ * @property {number} model_id The project's model the schedule builds
+ * @property {(string|null)} [file] The schedule; none: the model's own IfcWorkSchedule
+ * @property {(string|null)} [rules] TOML link rules
+ * @property {boolean} [prefer_actual] Actual dates win over planned ones
+ */
+
+/**
+ * @typedef {object} Body_upload_model_api_projects__project_id__models_post
+ * @property {string} file IFC (.ifc, .ifczip) or mesh (.obj, .ply, .stl, .gltf, .glb) file
+ */
+
+/**
+ * @typedef {object} Body_upload_plan_api_projects__project_id__plans_upload_post
+ * @property {string} file The plan file
+ * @property {string} [name] Default: the file's name
+ * @property {(number|null)} [model_id] The project's model the plan is for
+ * @property {(string|null)} [camera] Camera of a poses CSV or a flight-app mission
+ */
+
+/**
+ * @typedef {object} Body_upload_reality_api_projects__project_id__reality_post
+ * @property {string} file The capture
+ */
+
+/**
+ * A plan from the bridge template (passes along an axis).
+ * @typedef {object} BridgePlanIn
+ * @property {string} [name] Default: the template's name
+ * @property {number} model_id Model Id
+ * @property {string} [camera] A camera of the catalogue (GET /api/cameras)
+ * @property {(number|null)} [safety_distance_m] Distance to the model the facade and bridge templates keep (m); also the flight check's least distance. Default 10, 0.3 for a route
+ * @property {(string|null)} [aircraft] Aircraft preset (p4p, m3e, m300), rover preset for a route (walker-360, spot, tracked), or 'none' for no battery check. Default p4p, walker-360 for a route
+ * @property {(number|null)} [vlos_radius_m] Visual line-of-sight radius around the pilot (m); 0: no check. Default 500, none for a route
+ * @property {Array<Array<number>>} [ground_station] Pilot positions [x, y, z] to choose from (default: the corners of the plan's region)
+ * @property {(number|null)} [altitude_limit_m] Altitude limit (m); 0: no check. Default 120, none for a route
+ * @property {(number|null)} [min_height_m] Least height of a waypoint above the ground under it (m). Default 2, none for a route
+ * @property {boolean} [split] Split into missions that keep line of sight and fit a battery
+ * @property {'bridge'} template passes along an axis
+ * @property {Array<Array<number>>} [axis] points [x, y] of the axis, in order
+ * @property {number} [overlap] image overlap l between neighbouring frames
+ * @property {Array<number>} [height_m] height of a side pass, once per pass (default: layers by overlap) (m)
+ * @property {boolean} [under_deck] add a pass under the deck, looking up
+ * @property {(number|null)} [deck_z_m] height of the deck's underside (default: found) (m)
+ */
+
+/**
+ * @typedef {object} CameraOut
+ * @property {string} id Id
+ * @property {string} name Name
+ * @property {'pinhole'|'equirectangular'} model Model
+ * @property {number} width Width
+ * @property {number} height Height
+ */
+
+/**
+ * @typedef {object} ElementDetailOut
+ * @property {number} evaluation_id Evaluation Id
+ * @property {ElementRowOut} element
+ * @property {boolean} target Target
+ * @property {number} omega_px Omega Px
+ * @property {Array<BestFrameOut>} best_frames Best Frames
+ */
+
+/**
+ * An element's row of the per-element metrics (the columns of elements.csv); null values for an occluder.
+ * @typedef {object} ElementRowOut
+ * @property {number} index Index
+ * @property {string} global_id Global Id
+ * @property {string} name Name
+ * @property {string} ifc_class Ifc Class
+ * @property {string} storey Storey
+ * @property {string} visibility Visibility
+ * @property {(number|null)} VR_i Vr I
+ * @property {(number|null)} R_i_m_per_px R I M Per Px
+ * @property {(number|null)} O_i_deg O I Deg
+ * @property {(number|null)} frames_observed Frames Observed
+ * @property {(number|null)} pixels_total Pixels Total
+ */
+
+/**
+ * A model's element table, one list per column, indexed by element.
+ * @typedef {object} ElementTableOut
+ * @property {number} model_id Model Id
+ * @property {number} count Number of elements
+ * @property {Array<string>} global_id Global Id
+ * @property {Array<string>} name Name
+ * @property {Array<string>} ifc_class Ifc Class
+ * @property {Array<string>} discipline Discipline
+ * @property {Array<string>} storey Storey
+ * @property {Array<boolean>} target Whether the element counts in the metrics (else an occluder)
+ * @property {Array<number>} triangles Triangles of each element
+ */
+
+/**
+ * @typedef {object} ElementsOut
+ * @property {number} evaluation_id Evaluation Id
+ * @property {Array<Object<string, *>>} elements One row per target element, the columns of elements.csv
+ */
+
+/**
+ * @typedef {object} ErrorOut
+ * @property {string} detail One readable message
+ */
+
+/**
+ * @typedef {object} EvaluationIn
+ * @property {number} plan_id Plan Id
+ * @property {(number|null)} [version] Default: the plan's latest version
+ * @property {(number|null)} [model_id] Default: the plan's model
+ * @property {SettingsIn} [settings]
+ * @property {(string|null)} [date] Capture date YYYY-MM-DD: only the elements built by the end of it exist (needs a linked schedule)
+ * @property {(number|null)} [schedule_id] Schedule dating the elements (default: the model's latest)
+ * @property {'finish'|'start'} [date_basis] Which schedule date builds an element
+ * @property {'present'|'absent'} [unscheduled] Elements no schedule dates
+ * @property {(number|null)} [reality_id] A reality capture of the site (scaffolding, neighbours, what stands): it hides what is behind it, and is not scored
+ */
+
+/**
+ * @typedef {object} EvaluationOut
+ * @property {number} id Id
+ * @property {number} project_id Project Id
+ * @property {number} plan_id Plan Id
+ * @property {number} plan_version Plan Version
+ * @property {number} model_id Model Id
+ * @property {'queued'|'running'|'done'|'failed'} status Status
+ * @property {number} progress_done Progress Done
+ * @property {number} progress_total Progress Total
+ * @property {Object<string, *>} settings Settings
+ * @property {(Object<string, *>|null)} metrics The plan metrics (as report.json's 'metrics') once done
+ * @property {(string|null)} error Error
+ * @property {string} created_at Created At
+ * @property {(string|null)} started_at Started At
+ * @property {(string|null)} finished_at Finished At
+ */
+
+/**
+ * @typedef {object} EvaluationStartOut
+ * @property {EvaluationOut} evaluation
+ * @property {JobOut} job
+ */
+
+/**
+ * A plan from the facade template (grids around the sides).
+ * @typedef {object} FacadePlanIn
+ * @property {string} [name] Default: the template's name
+ * @property {number} model_id Model Id
+ * @property {string} [camera] A camera of the catalogue (GET /api/cameras)
+ * @property {(number|null)} [safety_distance_m] Distance to the model the facade and bridge templates keep (m); also the flight check's least distance. Default 10, 0.3 for a route
+ * @property {(string|null)} [aircraft] Aircraft preset (p4p, m3e, m300), rover preset for a route (walker-360, spot, tracked), or 'none' for no battery check. Default p4p, walker-360 for a route
+ * @property {(number|null)} [vlos_radius_m] Visual line-of-sight radius around the pilot (m); 0: no check. Default 500, none for a route
+ * @property {Array<Array<number>>} [ground_station] Pilot positions [x, y, z] to choose from (default: the corners of the plan's region)
+ * @property {(number|null)} [altitude_limit_m] Altitude limit (m); 0: no check. Default 120, none for a route
+ * @property {(number|null)} [min_height_m] Least height of a waypoint above the ground under it (m). Default 2, none for a route
+ * @property {boolean} [split] Split into missions that keep line of sight and fit a battery
+ * @property {'facade'} template grids around the sides
+ * @property {number} [overlap] image overlap l between neighbouring frames
+ * @property {'box'|'outline'} [footprint] grids on the sides of the bounding 'box', or around the model's real 'outline'
+ */
+
+/**
+ * @typedef {object} FeedbackColoursOut
+ * @property {Array<string>} gradient Traffic-light gradient, worst to best, as #rrggbb
+ * @property {string} unseen Unseen
+ * @property {string} occluder Occluder
+ * @property {Array<string>} classes Classes
+ * @property {Array<Array<number>>} gradient_rgb The same colours as sRGB floats 0–1
+ * @property {Array<number>} unseen_rgb Unseen Rgb
+ * @property {Array<number>} occluder_rgb Occluder Rgb
+ * @property {Array<Array<number>>} classes_rgb Classes Rgb
+ */
+
+/**
+ * @typedef {object} FeedbackElementsOut
+ * @property {Array<string>} global_id Global Id
+ * @property {Array<string>} name Name
+ * @property {Array<string>} ifc_class Ifc Class
+ * @property {Array<string>} storey Storey
+ * @property {Array<boolean>} target Target
+ */
+
+/**
+ * @typedef {object} FeedbackFramesOut
+ * @property {Array<string>} name Name
+ * @property {Array<number>} nu ν_f: the frame's stability (share of its features on stable tracks)
+ * @property {Array<boolean>} stable ν_f ≥ Λ
+ * @property {Array<number>} features_observed Features Observed
+ * @property {Array<number>} elements_visible Elements Visible
+ * @property {Array<(number|null)>} pixels_on_targets Pixels On Targets
+ */
+
+/**
+ * @typedef {object} FeedbackMetricsOut
+ * @property {Array<number>} visibility 0 visible (≥ Ω px), 1 observed only, 2 unseen, 3 occluder
+ * @property {Array<(number|null)>} vr VR_i: frames that see the element by ≥ Ω px
+ * @property {Array<(number|null)>} ssd R_i: surface sampling distance (m/px)
+ * @property {Array<(number|null)>} orientation O_i: mean angle to the surface (°)
+ * @property {Array<number>} frames_observed Frames Observed
+ * @property {Array<(number|null)>} pixels_total Pixels on the element over all frames
+ */
+
+/**
+ * @typedef {object} FeedbackMissionOut
+ * @property {string} name Name
+ * @property {number} start Start
+ * @property {number} stop Stop
+ */
+
+/**
+ * Everything the viewer colours from: per-element and per-frame values of an evaluation.
+ * @typedef {object} FeedbackOut
+ * @property {string} colour_by Colour By
+ * @property {FeedbackElementsOut} elements
+ * @property {FeedbackMetricsOut} metrics
+ * @property {Object<string, MetricLabelOut>} labels Per colour metric: label, unit, direction, bounds
+ * @property {FeedbackColoursOut} colours
+ * @property {Array<Array<number>>} cameras Camera centres in the viewer's frame (Y up, m)
+ * @property {FeedbackFramesOut} frames
+ * @property {FeedbackParamsOut} params
+ * @property {(Object<string, *>|null)} plan_metrics The plan metrics, as report.json's 'metrics'
+ * @property {Array<FeedbackMissionOut>} missions Missions
+ * @property {number} evaluation_id Evaluation Id
+ * @property {number} plan_id Plan Id
+ * @property {number} plan_version Plan Version
+ * @property {(number|null)} model_id Model Id
+ */
+
+/**
+ * @typedef {object} FeedbackParamsOut
+ * @property {number} omega Visibility threshold Ω (px)
+ * @property {number} k K
+ * @property {number} min_track Min Track
+ * @property {number} min_features Min Features
+ */
+
+/**
+ * The flight checks of a plan version's missions as they are, for drawing.
+ * @typedef {object} FlightChecksOut
+ * @property {number} plan_id Plan Id
+ * @property {number} version Version
+ * @property {number} model_id Model Id
+ * @property {boolean} ok Every check passed
+ * @property {number} safety_distance_m Safety Distance M
+ * @property {(number|null)} vlos_radius_m Vlos Radius M
+ * @property {(number|null)} total_time_s Flight time of all missions (s)
+ * @property {Array<(number|null)>} clearance_m Each waypoint's distance to the model (m)
+ * @property {Array<(number|null)>} segment_clearance_m Each leg's distance to the model (m)
+ * @property {Array<number>} unsafe_frames Waypoints closer than the safety distance
+ * @property {Array<number>} unsafe_segments Legs closer than the safety distance
+ * @property {Array<boolean>} in_sight Each waypoint within the VLOS radius of its mission's ground station
+ * @property {Array<Object<string, *>>} missions Per mission: ground station, time, distance and verdicts, as `sightplan check --json`
+ * @property {Array<string>} violations Every violation, one sentence each
+ */
+
+/**
+ * @typedef {object} HTTPValidationError
+ * @property {Array<ValidationError>} [detail] Detail
+ */
+
+/**
+ * @typedef {object} InfoOut
+ * @property {string} [name] Name
+ * @property {string} version Version
+ * @property {'single-user'|'team'} [mode] Mode
+ * @property {boolean} [login] Whether requests need a login (never in single-user mode, always in team mode)
+ * @property {string} message Message
+ * @property {string} database 'embedded SQLite' or the database's dialect
+ * @property {string} data_dir Data Dir
+ * @property {number} max_upload_bytes Max Upload Bytes
+ * @property {Array<string>} templates Templates
+ * @property {Array<string>} export_formats Export Formats
+ * @property {Object<string, string>} [aircraft] Aircraft and rover presets of the plan form: id → name
+ */
+
+/**
+ * @typedef {object} JobOut
+ * @property {number} id Id
+ * @property {number} project_id Project Id
+ * @property {'load_model'|'evaluate'|'link_schedule'|'prep_reality'} kind Kind
+ * @property {(number|null)} model_id Model Id
+ * @property {(number|null)} evaluation_id Evaluation Id
+ * @property {(number|null)} [schedule_id] Schedule Id
+ * @property {(number|null)} [reality_id] Reality Id
+ * @property {'queued'|'running'|'done'|'failed'} status Status
+ * @property {number} progress_done Progress Done
+ * @property {number} progress_total Progress Total
+ * @property {string} message Message
+ * @property {(string|null)} error Error
+ * @property {string} created_at Created At
+ * @property {(string|null)} started_at Started At
+ * @property {(string|null)} finished_at Finished At
+ */
+
+/**
+ * A plan from the lawnmower template (nadir grid).
+ * @typedef {object} LawnmowerPlanIn
+ * @property {string} [name] Default: the template's name
+ * @property {number} model_id Model Id
+ * @property {string} [camera] A camera of the catalogue (GET /api/cameras)
+ * @property {(number|null)} [safety_distance_m] Distance to the model the facade and bridge templates keep (m); also the flight check's least distance. Default 10, 0.3 for a route
+ * @property {(string|null)} [aircraft] Aircraft preset (p4p, m3e, m300), rover preset for a route (walker-360, spot, tracked), or 'none' for no battery check. Default p4p, walker-360 for a route
+ * @property {(number|null)} [vlos_radius_m] Visual line-of-sight radius around the pilot (m); 0: no check. Default 500, none for a route
+ * @property {Array<Array<number>>} [ground_station] Pilot positions [x, y, z] to choose from (default: the corners of the plan's region)
+ * @property {(number|null)} [altitude_limit_m] Altitude limit (m); 0: no check. Default 120, none for a route
+ * @property {(number|null)} [min_height_m] Least height of a waypoint above the ground under it (m). Default 2, none for a route
+ * @property {boolean} [split] Split into missions that keep line of sight and fit a battery
+ * @property {'lawnmower'} template nadir grid
+ * @property {number} [overlap] image overlap along a line
+ * @property {(number|null)} [altitude_m] camera height above the model's base (m)
+ * @property {(number|null)} [gsd_m_px] ground sampling distance on the model's top (instead of the altitude) (m/px)
+ * @property {number} [side_overlap] overlap between lines
+ * @property {(number|null)} [oblique_pitch_deg] add crossed east–west lines with the gimbal at this pitch (e.g. -60): a double grid (°)
+ */
+
+/**
+ * @typedef {object} LoginIn
+ * @property {string} username Username
+ * @property {string} password Password
+ */
+
+/**
+ * @typedef {object} MemberIn
+ * @property {string} username Username
+ * @property {'viewer'|'editor'|'owner'} role Role
+ */
+
+/**
+ * @typedef {object} MemberOut
+ * @property {number} user_id User Id
+ * @property {string} username Username
+ * @property {'viewer'|'editor'|'owner'} role Role
+ */
+
+/**
+ * @typedef {object} MetricLabelOut
+ * @property {string} label Label
+ * @property {string} unit Unit
+ * @property {boolean} higher_better Higher Better
+ * @property {(Array<number>|null)} bounds Default colour bounds [low, high] in the metric's unit
+ * @property {(Array<string>|null)} [classes] Classes
+ */
+
+/**
+ * @typedef {object} MissionGeometryOut
+ * @property {string} name Name
+ * @property {number} start First frame (index)
+ * @property {number} stop One past the last frame
+ * @property {(Array<number>|null)} ground_station Pilot position [x, y, z] (model frame, m), if chosen
+ */
+
+/**
+ * @typedef {object} ModelDetailOut
+ * @property {number} id Id
+ * @property {number} project_id Project Id
+ * @property {string} original_name The uploaded file's name, kept as metadata only
+ * @property {number} size_bytes Size Bytes
+ * @property {'queued'|'loading'|'ready'|'failed'} status Status
+ * @property {(string|null)} error Error
+ * @property {(number|null)} elements Elements
+ * @property {(number|null)} targets Targets
+ * @property {(number|null)} triangles Triangles
+ * @property {(number|null)} skipped Products without usable geometry (see load_report)
+ * @property {(boolean|null)} georeferenced Georeferenced
+ * @property {string} created_at Created At
+ * @property {(Object<string, *>|null)} load_report Load Report
+ */
+
+/**
+ * @typedef {object} ModelOut
+ * @property {number} id Id
+ * @property {number} project_id Project Id
+ * @property {string} original_name The uploaded file's name, kept as metadata only
+ * @property {number} size_bytes Size Bytes
+ * @property {'queued'|'loading'|'ready'|'failed'} status Status
+ * @property {(string|null)} error Error
+ * @property {(number|null)} elements Elements
+ * @property {(number|null)} targets Targets
+ * @property {(number|null)} triangles Triangles
+ * @property {(number|null)} skipped Products without usable geometry (see load_report)
+ * @property {(boolean|null)} georeferenced Georeferenced
+ * @property {string} created_at Created At
+ */
+
+/**
+ * @typedef {object} ModelUploadOut
+ * @property {ModelOut} model
+ * @property {JobOut} job
+ */
+
+/**
+ * @typedef {object} NewShareLinkOut
+ * @property {number} id Id
+ * @property {number} plan_id Plan Id
+ * @property {string} created_at Created At
+ * @property {(string|null)} revoked_at Revoked At
+ * @property {string} token The link's secret, shown once
+ * @property {string} url Read-only address of the shared plan (no login needed)
+ */
+
+/**
+ * @typedef {object} NewTokenOut
+ * @property {number} id Id
+ * @property {string} name Name
+ * @property {string} created_at Created At
+ * @property {(string|null)} last_used_at Last Used At
+ * @property {string} token The secret: shown once, send it as 'Authorization: Bearer <token>'
+ */
+
+/**
+ * A plan from the orbit template (rings).
+ * @typedef {object} OrbitPlanIn
+ * @property {string} [name] Default: the template's name
+ * @property {number} model_id Model Id
+ * @property {string} [camera] A camera of the catalogue (GET /api/cameras)
+ * @property {(number|null)} [safety_distance_m] Distance to the model the facade and bridge templates keep (m); also the flight check's least distance. Default 10, 0.3 for a route
+ * @property {(string|null)} [aircraft] Aircraft preset (p4p, m3e, m300), rover preset for a route (walker-360, spot, tracked), or 'none' for no battery check. Default p4p, walker-360 for a route
+ * @property {(number|null)} [vlos_radius_m] Visual line-of-sight radius around the pilot (m); 0: no check. Default 500, none for a route
+ * @property {Array<Array<number>>} [ground_station] Pilot positions [x, y, z] to choose from (default: the corners of the plan's region)
+ * @property {(number|null)} [altitude_limit_m] Altitude limit (m); 0: no check. Default 120, none for a route
+ * @property {(number|null)} [min_height_m] Least height of a waypoint above the ground under it (m). Default 2, none for a route
+ * @property {boolean} [split] Split into missions that keep line of sight and fit a battery
+ * @property {'orbit'} template rings
+ * @property {number} [overlap] image overlap l between neighbouring frames
+ * @property {Array<number>} [radius_m] ring radius, once per ring (default: the targets' half-diagonal + the safety distance) (m)
+ * @property {Array<number>} [height_m] ring height, once per ring (default: layers by overlap from the minimum height to the safety distance above the top) (m)
+ * @property {(number|null)} [step_deg] degrees between frames (default: by overlap) (°)
+ * @property {'centre'|'surface'} [aim] aim at the model's 'centre' or its nearest 'surface'
+ */
+
+/**
+ * @typedef {object} PasswordIn
+ * @property {string} old_password Old Password
+ * @property {string} new_password New Password
+ */
+
+/**
+ * @typedef {object} PlanCameraOut
+ * @property {'pinhole'|'equirectangular'} model Model
+ * @property {string} [name] Name
+ * @property {number} width Image width (px)
+ * @property {number} height Image height (px)
+ * @property {(number|null)} [fx] Focal length (px), pinhole only
+ * @property {(number|null)} [fy] Focal length (px), pinhole only
+ * @property {(number|null)} [cx] Principal point (px), pinhole only
+ * @property {(number|null)} [cy] Principal point (px), pinhole only
+ */
+
+/**
+ * A plan in sightplan's JSON plan format, version 1 (as ``sightplan plan`` writes it).
+ * @typedef {object} PlanFileOut
+ * @property {string} format Format
+ * @property {number} version Version
+ * @property {'m'} units Units
+ * @property {string} frame_convention Frame Convention
+ * @property {Object<string, PlanCameraOut>} cameras Cameras
+ * @property {Array<PlanMissionOut>} missions Missions
+ * @property {Array<PlanFrameOut>} frames Frames
+ * @property {Array<Array<number>>} waypoints Flight waypoints [x, y, z] (model frame, m)
+ * @property {Object<string, *>} parameters The template's settings, the checks, the take-off point; keys carry their unit
+ * @property {(Object<string, *>|null)} [georeference] Georeference
+ */
+
+/**
+ * @typedef {object} PlanFrameOut
+ * @property {string} name Name
+ * @property {string} camera Id of the frame's camera in 'cameras'
+ * @property {Array<number>} position Camera centre [x, y, z] (model frame, m)
+ * @property {Array<Array<number>>} rotation World-from-camera rotation, 3 × 3, OpenCV camera axes
+ * @property {(number|null)} [time] Capture time (s, POSIX), when known
+ */
+
+/**
+ * A plan version's frames and missions, in the model's frame (metres, Z up).
+ * @typedef {object} PlanGeometryOut
+ * @property {number} plan_id Plan Id
+ * @property {number} version Version
+ * @property {number} frames Number of frames
+ * @property {(number|null)} model_id Model Id
+ * @property {Array<string>} name Frame names
+ * @property {Array<string>} camera Each frame's camera id (a key of `cameras`)
+ * @property {Array<Array<number>>} position Camera centres [x, y, z] (m)
+ * @property {Array<Array<number>>} rotation R_world_camera per frame, row-major (9 numbers): columns are the camera's right, down and forward axes
+ * @property {Object<string, Object<string, *>>} cameras Camera models by id, with hfov_deg and vfov_deg for a pinhole
+ * @property {Array<MissionGeometryOut>} missions Missions
+ * @property {Array<Array<number>>} waypoints Flight waypoints [x, y, z] (m), when they differ from frames
+ * @property {Object<string, *>} parameters The plan's parameters (template settings, checks, take-off)
+ */
+
+/**
+ * @typedef {object} PlanMissionOut
+ * @property {string} name Name
+ * @property {Array<number>} frames [start, stop): the mission's frames
+ * @property {(Array<number>|null)} [ground_station] Pilot position [x, y, z] (model frame, m)
+ */
+
+/**
+ * @typedef {object} PlanOut
+ * @property {number} id Id
+ * @property {number} project_id Project Id
+ * @property {(number|null)} model_id Model Id
+ * @property {string} name Name
+ * @property {string} source Source
+ * @property {string} created_at Created At
+ * @property {number} latest_version Latest Version
+ * @property {Array<PlanVersionOut>} versions Versions
+ */
+
+/**
+ * @typedef {object} PlanVersionOut
+ * @property {number} number Number
+ * @property {number} frames Frames
+ * @property {number} missions Missions
+ * @property {string} note Note
+ * @property {string} created_at Created At
+ */
+
+/**
+ * @typedef {object} ProjectIn
+ * @property {string} name Name
+ */
+
+/**
+ * @typedef {object} ProjectOut
+ * @property {number} id Id
+ * @property {string} name Name
+ * @property {string} created_at Created At
+ * @property {('viewer'|'editor'|'owner'|null)} [role] Your role (team mode)
+ */
+
+/**
+ * @typedef {object} RealityOut
+ * @property {number} id Id
+ * @property {number} project_id Project Id
+ * @property {string} name Name
+ * @property {'points'|'mesh'} kind Kind
+ * @property {number} size_bytes Size Bytes
+ * @property {'queued'|'preparing'|'ready'|'failed'} status Status
+ * @property {(string|null)} error Error
+ * @property {(number|null)} points Points
+ * @property {(number|null)} triangles Triangles
+ * @property {(Object<string, *>|null)} bounds {"lo": [x, y, z], "hi": [x, y, z]} in the model frame (m)
+ * @property {(string|null)} view_url tileset.json of a point cloud, or the GLB of a mesh (glTF's Y up: model (x, y, z) is (x, z, −y))
+ * @property {string} created_at Created At
+ */
+
+/**
+ * @typedef {object} RealityUploadOut
+ * @property {RealityOut} reality
+ * @property {JobOut} job
+ */
+
+/**
+ * @typedef {object} RoleIn
+ * @property {'viewer'|'editor'|'owner'} role Role
+ */
+
+/**
+ * A plan from the route template (indoor polyline, walked or driven).
+ * @typedef {object} RoutePlanIn
+ * @property {string} [name] Default: the template's name
+ * @property {number} model_id Model Id
+ * @property {string} [camera] A camera of the catalogue (GET /api/cameras)
+ * @property {(number|null)} [safety_distance_m] Distance to the model the facade and bridge templates keep (m); also the flight check's least distance. Default 10, 0.3 for a route
+ * @property {(string|null)} [aircraft] Aircraft preset (p4p, m3e, m300), rover preset for a route (walker-360, spot, tracked), or 'none' for no battery check. Default p4p, walker-360 for a route
+ * @property {(number|null)} [vlos_radius_m] Visual line-of-sight radius around the pilot (m); 0: no check. Default 500, none for a route
+ * @property {Array<Array<number>>} [ground_station] Pilot positions [x, y, z] to choose from (default: the corners of the plan's region)
+ * @property {(number|null)} [altitude_limit_m] Altitude limit (m); 0: no check. Default 120, none for a route
+ * @property {(number|null)} [min_height_m] Least height of a waypoint above the ground under it (m). Default 2, none for a route
+ * @property {boolean} [split] Split into missions that keep line of sight and fit a battery
+ * @property {'route'} template indoor polyline, walked or driven
+ * @property {Array<Array<number>>} [points] points [x, y, z] of the walked polyline, in order
+ * @property {(number|null)} [step_m] metres between frames (m)
+ */
+
+/**
+ * @typedef {object} ScheduleOut
+ * @property {number} id Id
+ * @property {number} project_id Project Id
+ * @property {number} model_id Model Id
+ * @property {string} name The uploaded file's name, or 'model' for the model's own IfcWorkSchedule
+ * @property {'queued'|'linking'|'ready'|'failed'} status Status
+ * @property {(string|null)} error Error
+ * @property {boolean} prefer_actual Prefer Actual
+ * @property {(string|null)} first_date Earliest start of a linked element (YYYY-MM-DD)
+ * @property {(string|null)} last_date Latest finish of a linked element
+ * @property {(Object<string, *>|null)} report The link report: lines as `sightplan evaluate --schedule` prints them, tasks, linked, unlinked, targets, dated, warnings
+ * @property {string} created_at Created At
+ */
+
+/**
+ * @typedef {object} ScheduleUploadOut
+ * @property {ScheduleOut} schedule
+ * @property {JobOut} job
+ */
+
+/**
+ * Evaluation settings (``sightplan evaluate``'s options of the same names).
+ * @typedef {object} SettingsIn
+ * @property {'auto'|'embree'|'gl'|'trimesh'} [engine] Engine
+ * @property {number} [scale] Resolution scale s
+ * @property {number} [omega] Visibility threshold Ω (px)
+ * @property {number} [k] K
+ * @property {number} [min_track] Min Track
+ * @property {number} [min_features] Min Features
+ * @property {number} [feature_density] Simulated features per m² of surface
+ * @property {number} [seed] Seed
+ * @property {number} [d_max] Farthest distance a frame sees (m)
+ */
+
+/**
+ * @typedef {object} ShareLinkOut
+ * @property {number} id Id
+ * @property {number} plan_id Plan Id
+ * @property {string} created_at Created At
+ * @property {(string|null)} revoked_at Revoked At
+ */
+
+/**
+ * @typedef {object} SharedPlanOut
+ * @property {PlanOut} plan
+ * @property {Array<EvaluationOut>} evaluations Evaluations
+ */
+
+/**
+ * @typedef {object} StatesOut
+ * @property {string} date Date
+ * @property {number} schedule_id Schedule Id
+ * @property {'finish'|'start'} basis Basis
+ * @property {Object<string, 'built'|'in_progress'|'not_yet'>} states Each element (by index) at the end of the date
+ * @property {Object<string, number>} counts Counts
+ */
+
+/**
+ * @typedef {object} TemplateFieldOut
+ * @property {string} name The request field (its unit in its name: _m, _deg, _m_px)
+ * @property {string} label Label
+ * @property {string} kind number, numbers, choice, flag, points2 or points3
+ * @property {string} unit 'm', '°', 'm/px' or ''
+ * @property {string} help Help
+ * @property {*} [default] Default
+ * @property {(number|null)} [ge] Ge
+ * @property {(number|null)} [gt] Gt
+ * @property {(number|null)} [le] Le
+ * @property {(number|null)} [lt] Lt
+ * @property {Array<string>} [choices] Choices
+ */
+
+/**
+ * @typedef {object} TemplateOut
+ * @property {string} name Name
+ * @property {string} summary Summary
+ * @property {boolean} walked Walked or driven indoors: no line of sight, altitude limit or minimum height
+ * @property {number} safety_distance_m The default least distance to the model (m)
+ * @property {Array<TemplateFieldOut>} fields Fields
+ */
+
+/**
+ * @typedef {object} TokenIn
+ * @property {string} [name] What the token is for
+ */
+
+/**
+ * @typedef {object} TokenOut
+ * @property {number} id Id
+ * @property {string} name Name
+ * @property {string} created_at Created At
+ * @property {(string|null)} last_used_at Last Used At
+ */
+
+/**
+ * @typedef {object} UserOut
+ * @property {string} username Username
+ * @property {Object<string, 'viewer'|'editor'|'owner'>} [projects] Your role in each project you belong to
+ */
+
+/**
+ * @typedef {object} ValidationError
+ * @property {Array<(string|number)>} loc Location
+ * @property {string} msg Message
+ * @property {string} type Error Type
+ * @property {*} [input] Input
+ * @property {Object<string, *>} [ctx] Context
+ */
+
+export {};
