@@ -136,6 +136,156 @@ def _overlap_share(a: NDArray, b: NDArray, margin: float) -> float:
     hi = np.minimum(a[1], b[1]) + margin
     return float(np.prod(np.clip(hi - lo, 0, None) / (a[1] - a[0] + 2 * margin)))
 
+@dataclass
+class PixelSums:
+    """Per-element and overall pixel counts of the cast frames (METRICS.md §7): back-projected (``back``), complete
+    within λ, hit on both models (``both``) with the sum of |dΓ − dΨ| over them; totals of model, both and far pixels;
+    samples of the differences and ratios for the sanity checks."""
+
+    back: NDArray[np.int64]
+    complete: NDArray[np.int64]
+    both: NDArray[np.int64]
+    diff_sum: NDArray[np.float64]
+    n_model: int = 0
+    n_both: int = 0
+    n_far: int = 0
+    diffs: list = field(default_factory=list)
+    ratios: list = field(default_factory=list)
+
+    @classmethod
+    def zeros(cls, z: int) -> PixelSums:
+        return cls(np.zeros(z, np.int64), np.zeros(z, np.int64), np.zeros(z, np.int64), np.zeros(z, np.float64))
+
+    def add(self, part: tuple) -> None:
+        """Add one chunk of :meth:`FrameCaster.frame`."""
+        self.back += part[0]
+        self.complete += part[1]
+        self.both += part[2]
+        self.diff_sum += part[3]
+        self.n_model += part[4]
+        self.n_both += part[5]
+        self.n_far += part[6]
+        self.diffs += part[7]
+        self.ratios += part[8]
+
+    def medians(self) -> tuple[float | None, float | None]:
+        """Median |dΓ − dΨ| and median dΨ/dΓ over the sampled pixels hit on both models."""
+        d = np.concatenate(self.diffs) if self.diffs else np.zeros(0)
+        r = np.concatenate(self.ratios) if self.ratios else np.zeros(0)
+        return (float(np.median(d)) if len(d) else None), (float(np.median(r)) if len(r) else None)
+
+
+def _checked_numbers(registration_error_m: float, ct_density_per_m2: float) -> float:
+    e = float(registration_error_m)
+    if not (e >= 0 and math.isfinite(e)):
+        raise SightplanError(f"the registration error must be a number of metres ≥ 0, got {registration_error_m!r}")
+    if not (ct_density_per_m2 > 0 and math.isfinite(ct_density_per_m2)):
+        raise SightplanError(f"the Ct sampling density must be a positive number per m², got {ct_density_per_m2!r}")
+    return e
+
+
+def _cloud_index(cloud: NDArray | None, point_spacing_m: float | None, lam: float, seed: int,
+                 warnings: list[str]) -> tuple[object | None, float]:
+    """The cloud's k-d tree and its spacing (given or estimated), with a warning when it is coarser than λ."""
+    if cloud is None:
+        return None, 0.0
+    from scipy.spatial import cKDTree
+
+    tree = cKDTree(cloud)
+    spacing = float(point_spacing_m) if point_spacing_m is not None else point_spacing(cloud, tree, seed=seed)
+    if not (spacing >= 0 and math.isfinite(spacing)):
+        raise SightplanError(f"point spacing must be a number of metres ≥ 0, got {point_spacing_m!r}")
+    if spacing > lam:
+        warnings.append(f"the point cloud's spacing ({spacing:.3g} m) exceeds λ = {lam:.3g} m: Ct (recall) is "
+                        "limited by the sampling, while splatted pixels still fill its surfaces")
+    return tree, spacing
+
+
+def _cast(scene: Scene, plan: Plan, psi_scene: Scene | None, cloud: NDArray | None, spacing: float,
+          is_target: NDArray, lam: float, settings: EvaluationSettings, threads: int,
+          progress: ProgressCallback | None) -> tuple[PixelSums, str]:
+    """Every frame cast on Γ and on Ψ (mesh rays or splatted points), summed; and the ray engine's name."""
+    sums = PixelSums.zeros(scene.n_elements)
+    rays = ray_engine_name(settings.engine)  # the validation casts its own rays: a ray caster, never a rasteriser
+    gamma = make_engine(rays, scene, d_max=settings.d_max, threads=1)
+    psi_engine = make_engine(rays, psi_scene, threads=1) if psi_scene is not None else None
+    caster = FrameCaster(gamma, psi_engine, cloud, spacing, is_target, lam, threads)
+    try:
+        for f in range(len(plan)):
+            for part in caster.frame(plan.camera_of(f), plan.R_world_camera[f], plan.C_world[f], settings.scale):
+                sums.add(part)
+            if progress is not None:
+                progress(f + 1, len(plan))
+    finally:
+        caster.close()
+        gamma.close()
+        if psi_engine is not None:
+            psi_engine.close()
+    return sums, gamma.name
+
+
+def _recall(scene: Scene, is_target: NDArray, psi_scene: Scene | None, tree, lam: float, density: float,
+            rng: np.random.Generator) -> tuple[NDArray, NDArray]:
+    """Ct: samples of Γ's target surfaces (``density`` per m²) and whether Ψ lies within λ of each."""
+    tgt_faces = scene.faces[is_target[scene.face_element]]
+    area = float(scene.face_areas()[is_target[scene.face_element]].sum())
+    gamma_pts, _ = sample_surface(scene.vertices, tgt_faces, n_samples(area, density), rng)
+    if tree is not None:
+        d, _ = tree.query(gamma_pts, k=1, distance_upper_bound=np.nextafter(lam, np.inf), workers=-1)
+        return gamma_pts, np.isfinite(d)
+    return gamma_pts, points_near_mesh(gamma_pts, psi_scene.vertices, psi_scene.faces, lam)
+
+
+def _precision(scene: Scene, psi_scene: Scene | None, cloud: NDArray | None, lam: float, density: float,
+               rng: np.random.Generator) -> tuple[NDArray, NDArray]:
+    """Precision: samples of Ψ within Γ's box grown by λ (the cloud's points, or its surfaces at ``density`` per m²)
+    and whether Γ lies within λ of each."""
+    box = scene.bounds()
+    lo, hi = box[0] - lam, box[1] + lam
+    if cloud is not None:
+        psi_pts = cloud[((cloud >= lo) & (cloud <= hi)).all(axis=1)]
+        if len(psi_pts) > CT_MAX_SAMPLES:
+            psi_pts = psi_pts[np.sort(rng.choice(len(psi_pts), CT_MAX_SAMPLES, replace=False))]
+    else:
+        tri = psi_scene.vertices[psi_scene.faces]
+        inside = (tri.max(axis=1) >= lo).all(axis=1) & (tri.min(axis=1) <= hi).all(axis=1)
+        area_in = float(psi_scene.face_areas()[inside].sum())
+        psi_pts, _ = sample_surface(psi_scene.vertices, psi_scene.faces[inside], n_samples(area_in, density), rng)
+        psi_pts = psi_pts[((psi_pts >= lo) & (psi_pts <= hi)).all(axis=1)]
+    return psi_pts, points_near_mesh(psi_pts, scene.vertices, scene.faces, lam)
+
+
+def _sanity(scene: Scene, psi_scene: Scene | None, cloud: NDArray | None, sums: PixelSums, lam: float,
+            warnings: list[str]) -> dict:
+    """Warnings when Ψ looks misregistered or in another unit (far pixels, no common pixel, little box overlap), and
+    the numbers behind them."""
+    med_diff, med_ratio = sums.medians()
+    box = scene.bounds()
+    psi_box = psi_scene.bounds() if psi_scene is not None else np.stack([cloud.min(axis=0), cloud.max(axis=0)])
+    diag_g = float(np.linalg.norm(box[1] - box[0]))
+    diag_p = float(np.linalg.norm(psi_box[1] - psi_box[0]))
+    size_ratio = diag_p / diag_g if diag_g > 0 else None
+    hint = _unit_hint(med_ratio) if med_ratio is not None else ""
+    hint = hint or (_unit_hint(size_ratio) if size_ratio is not None else "")
+    box_text = "" if size_ratio is None else f"bounding-box size ratio Ψ/Γ {size_ratio:.4g}"
+    n_both, n_far, n_model = sums.n_both, sums.n_far, sums.n_model
+    if n_both and n_far > FAR_SHARE_WARNING * n_both:
+        warnings.append(
+            f"{n_far / n_both:.0%} of the {n_both:,} pixels where both models are hit differ by more than λ = {lam:.3g} m "
+            f"(median |dΓ − dΨ| = {med_diff:.3g} m): the reality looks badly registered or in another unit; "
+            f"scale ratio estimate median(dΨ/dΓ) = {med_ratio:.4g}" + (f", {box_text}" if box_text else "") + hint)
+    elif n_model and not n_both:
+        warnings.append(f"the reality is hit on none of the {n_model:,} pixels where the model is: is it in the model's "
+                        "frame and unit?" + (f" ({box_text}{_unit_hint(size_ratio)})" if box_text else ""))
+    share = _overlap_share(box, psi_box, max(lam, 0.01 * diag_g))
+    if share < OVERLAP_WARNING:
+        warnings.append(f"the reality's bounding box covers only {share:.0%} of the model's"
+                        + (f" ({box_text}{_unit_hint(size_ratio)})" if box_text else "")
+                        + ": is it registered to the model, in the same frame and unit?")
+    return {"median_abs_diff_m": med_diff, "median_ratio": med_ratio, "box_size_ratio": size_ratio,
+            "box_overlap_share": share}
+
+
 def validate(
     scene: Scene,
     plan: Plan,
@@ -159,11 +309,7 @@ def validate(
     """
     t_start = time.perf_counter()
     settings = settings or EvaluationSettings()
-    e = float(registration_error_m)
-    if not (e >= 0 and math.isfinite(e)):
-        raise SightplanError(f"the registration error must be a number of metres ≥ 0, got {registration_error_m!r}")
-    if not (ct_density_per_m2 > 0 and math.isfinite(ct_density_per_m2)):
-        raise SightplanError(f"the Ct sampling density must be a positive number per m², got {ct_density_per_m2!r}")
+    e = _checked_numbers(registration_error_m, ct_density_per_m2)
     lam = LAMBDA_PER_E * e
     psi_scene, cloud = _reality_arrays(reality)
     timings: dict[str, float] = {}
@@ -180,56 +326,14 @@ def validate(
     VR = em.VR.astype(np.int64)
     visible = em.visible & is_target
     threads = max(1, settings.threads or min(32, os.cpu_count() or 1))
-
     warnings: list[str] = []
-    spacing = 0.0
-    tree = None
-    if cloud is not None:
-        from scipy.spatial import cKDTree
+    tree, spacing = _cloud_index(cloud, point_spacing_m, lam, seed, warnings)
 
-        tree = cKDTree(cloud)
-        spacing = float(point_spacing_m) if point_spacing_m is not None else point_spacing(cloud, tree, seed=seed)
-        if not (spacing >= 0 and math.isfinite(spacing)):
-            raise SightplanError(f"point spacing must be a number of metres ≥ 0, got {point_spacing_m!r}")
-        if spacing > lam:
-            warnings.append(f"the point cloud's spacing ({spacing:.3g} m) exceeds λ = {lam:.3g} m: Ct (recall) is "
-                            "limited by the sampling, while splatted pixels still fill its surfaces")
-
-    # ---- pixels
+    # ---- pixels: A, Ce, Cv
     t0 = time.perf_counter()
-    z = scene.n_elements
-    back = np.zeros(z, np.int64)
-    complete = np.zeros(z, np.int64)
-    both_n = np.zeros(z, np.int64)
-    diff_sum = np.zeros(z, np.float64)
-    n_model = n_both = n_far = 0
-    diffs: list[NDArray] = []
-    ratios: list[NDArray] = []
-    rays = ray_engine_name(settings.engine)  # the validation casts its own rays: a ray caster, never a rasteriser
-    gamma = make_engine(rays, scene, d_max=settings.d_max, threads=1)
-    psi_engine = make_engine(rays, psi_scene, threads=1) if psi_scene is not None else None
-    caster = FrameCaster(gamma, psi_engine, cloud, spacing, is_target, lam, threads)
-    try:
-        for f in range(len(plan)):
-            for part in caster.frame(plan.camera_of(f), plan.R_world_camera[f], plan.C_world[f], settings.scale):
-                back += part[0]
-                complete += part[1]
-                both_n += part[2]
-                diff_sum += part[3]
-                n_model += part[4]
-                n_both += part[5]
-                n_far += part[6]
-                diffs += part[7]
-                ratios += part[8]
-            if progress is not None:
-                progress(f + 1, len(plan))
-    finally:
-        caster.close()
-        gamma.close()
-        if psi_engine is not None:
-            psi_engine.close()
+    sums, engine_name = _cast(scene, plan, psi_scene, cloud, spacing, is_target, lam, settings, threads, progress)
     timings["cast_s"] = time.perf_counter() - t0
-
+    back, complete, both_n, diff_sum = sums.back, sums.complete, sums.both, sums.diff_sum
     c = np.where(back > 0, complete / np.maximum(back, 1), 0.0) * is_target
     with np.errstate(invalid="ignore", divide="ignore"):
         A_i = np.where(both_n > 0, diff_sum / np.maximum(both_n, 1), np.nan)
@@ -241,34 +345,13 @@ def validate(
     Cv = float(c[visible].mean()) if V else None
 
     # ---- surfaces: Ct (recall) and precision
-    t0 = time.perf_counter()
     rng = np.random.default_rng(seed)
-    tgt_faces = scene.faces[is_target[scene.face_element]]
-    area = float(scene.face_areas()[is_target[scene.face_element]].sum())
-    n_ct = n_samples(area, ct_density_per_m2)
-    gamma_pts, _ = sample_surface(scene.vertices, tgt_faces, n_ct, rng)
-    if cloud is not None:
-        d, _ = tree.query(gamma_pts, k=1, distance_upper_bound=np.nextafter(lam, np.inf), workers=-1)
-        near = np.isfinite(d)
-    else:
-        near = points_near_mesh(gamma_pts, psi_scene.vertices, psi_scene.faces, lam)
+    t0 = time.perf_counter()
+    gamma_pts, near = _recall(scene, is_target, psi_scene, tree, lam, ct_density_per_m2, rng)
     Ct = float(near.mean()) if len(gamma_pts) else None
     timings["ct_s"] = time.perf_counter() - t0
-
     t0 = time.perf_counter()
-    box = scene.bounds()
-    lo, hi = box[0] - lam, box[1] + lam
-    if cloud is not None:
-        psi_pts = cloud[((cloud >= lo) & (cloud <= hi)).all(axis=1)]
-        if len(psi_pts) > CT_MAX_SAMPLES:
-            psi_pts = psi_pts[np.sort(rng.choice(len(psi_pts), CT_MAX_SAMPLES, replace=False))]
-    else:
-        tri = psi_scene.vertices[psi_scene.faces]
-        inside = (tri.max(axis=1) >= lo).all(axis=1) & (tri.min(axis=1) <= hi).all(axis=1)
-        area_in = float(psi_scene.face_areas()[inside].sum())
-        psi_pts, _ = sample_surface(psi_scene.vertices, psi_scene.faces[inside], n_samples(area_in, ct_density_per_m2), rng)
-        psi_pts = psi_pts[((psi_pts >= lo) & (psi_pts <= hi)).all(axis=1)]
-    prec_hit = points_near_mesh(psi_pts, scene.vertices, scene.faces, lam)
+    psi_pts, prec_hit = _precision(scene, psi_scene, cloud, lam, ct_density_per_m2, rng)
     precision = float(prec_hit.mean()) if len(psi_pts) else None
     timings["precision_s"] = time.perf_counter() - t0
     recall = Ct
@@ -277,39 +360,13 @@ def validate(
     else:
         F = 2 * precision * recall / (precision + recall) if precision + recall > 0 else 0.0
 
-    # ---- sanity
-    d_sample = np.concatenate(diffs) if diffs else np.zeros(0)
-    r_sample = np.concatenate(ratios) if ratios else np.zeros(0)
-    med_diff = float(np.median(d_sample)) if len(d_sample) else None
-    med_ratio = float(np.median(r_sample)) if len(r_sample) else None
-    psi_box = psi_scene.bounds() if psi_scene is not None else np.stack([cloud.min(axis=0), cloud.max(axis=0)])
-    diag_g = float(np.linalg.norm(box[1] - box[0]))
-    diag_p = float(np.linalg.norm(psi_box[1] - psi_box[0]))
-    size_ratio = diag_p / diag_g if diag_g > 0 else None
-    hint = _unit_hint(med_ratio) if med_ratio is not None else ""
-    hint = hint or (_unit_hint(size_ratio) if size_ratio is not None else "")
-    box_text = "" if size_ratio is None else f"bounding-box size ratio Ψ/Γ {size_ratio:.4g}"
-    if n_both and n_far > FAR_SHARE_WARNING * n_both:
-        warnings.append(
-            f"{n_far / n_both:.0%} of the {n_both:,} pixels where both models are hit differ by more than λ = {lam:.3g} m "
-            f"(median |dΓ − dΨ| = {med_diff:.3g} m): the reality looks badly registered or in another unit; "
-            f"scale ratio estimate median(dΨ/dΓ) = {med_ratio:.4g}" + (f", {box_text}" if box_text else "") + hint)
-    elif n_model and not n_both:
-        warnings.append(f"the reality is hit on none of the {n_model:,} pixels where the model is: is it in the model's "
-                        "frame and unit?" + (f" ({box_text}{_unit_hint(size_ratio)})" if box_text else ""))
-    share = _overlap_share(box, psi_box, max(lam, 0.01 * diag_g))
-    if share < OVERLAP_WARNING:
-        warnings.append(f"the reality's bounding box covers only {share:.0%} of the model's"
-                        + (f" ({box_text}{_unit_hint(size_ratio)})" if box_text else "")
-                        + ": is it registered to the model, in the same frame and unit?")
-
+    sanity = _sanity(scene, psi_scene, cloud, sums, lam, warnings)
     timings["total_s"] = time.perf_counter() - t_start
-    counts = {"pixels_model": n_model, "pixels_targets": int(back.sum()), "pixels_both": n_both,
-              "pixels_both_targets": int(both_n.sum()), "pixels_far": n_far, "pixels_complete": int(complete.sum()),
-              "median_abs_diff_m": med_diff, "median_ratio": med_ratio, "box_size_ratio": size_ratio,
-              "box_overlap_share": share, "ct_samples": int(len(gamma_pts)), "ct_hits": int(near.sum()),
+    counts = {"pixels_model": sums.n_model, "pixels_targets": int(back.sum()), "pixels_both": sums.n_both,
+              "pixels_both_targets": int(both_n.sum()), "pixels_far": sums.n_far, "pixels_complete": int(complete.sum()),
+              **sanity, "ct_samples": int(len(gamma_pts)), "ct_hits": int(near.sum()),
               "precision_samples": int(len(psi_pts)), "precision_hits": int(prec_hit.sum())}
-    parameters = {"scale": settings.scale, "engine": gamma.name, "d_max_m": settings.d_max,
+    parameters = {"scale": settings.scale, "engine": engine_name, "d_max_m": settings.d_max,
                   "omega": evaluation.settings.metric.omega, "ct_density_per_m2": ct_density_per_m2,
                   "ct_samples_min": CT_MIN_SAMPLES, "ct_samples_max": CT_MAX_SAMPLES, "seed": seed,
                   "point_spacing_m": spacing if cloud is not None else None,
