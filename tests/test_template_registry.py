@@ -137,3 +137,26 @@ def test_parameters_given_as_a_dict_build_the_same_plan_as_the_dataclass():
                        10.0, 2.0)
     assert len(a) == len(b) == 12  # 360° / 30°
     assert all(math.isclose(x, y) for x, y in zip(a.C_world.ravel(), b.C_world.ravel(), strict=True))
+
+
+def test_a_new_template_with_a_one_value_radius_shares_the_repeated_option(monkeypatch):
+    """A template added beside the orbit, whose radius is one number, shares --radius: one value for it, several for
+    the orbit."""
+    from dataclasses import dataclass
+
+    from sightplan.cli import plan_cmd
+    from sightplan.plan.templates.base import Params, Template, param
+
+    @dataclass(frozen=True)
+    class SpiralParams(Params):
+        radius_m: float | None = param(None, "radius of the spiral", gt=0)
+
+    spiral = Template("spiral", "a descending spiral", SpiralParams, lambda *a: None, order=5)
+    monkeypatch.setattr(plan_cmd, "TEMPLATES", {**TEMPLATES, "spiral": spiral})
+    radius = next(o for o in plan_cmd.template_options() if o.cli == "radius")
+    assert radius.kind == "numbers" and [m[0] for m in radius.members] == ["orbit", "spiral"]
+    assert radius.value("spiral", [30.0]) == ("radius_m", 30.0)
+    assert radius.value("orbit", [30.0, 40.0]) == ("radius_m", (30.0, 40.0))
+    with pytest.raises(PlanError, match="--radius takes one value for the spiral template"):
+        radius.value("spiral", [30.0, 40.0])
+    assert "spiral: radius of the spiral (m; > 0)" in radius.help()

@@ -10,6 +10,7 @@ from typing import Annotated, Any, Literal
 
 import typer
 
+from ..errors import PlanError
 from ..plan.site import with_site
 from ..plan.templates.base import ParamInfo, unit_of
 from ..plan.templates.registry import TEMPLATE_NAMES, TEMPLATES, WALKED, plan_from_template
@@ -84,6 +85,7 @@ class TemplateOption:
         member = next((m for m in self.members if m[0] == template), None)
         if member is None or given is None or (self.kind == "numbers" and not given):
             return None
+
         _, name, info, _ = member
         if info.kind == "points2":
             given = tuple(tuple(parse_point(q if q.count(",") == 2 else q + ",0", "bridge axis point")[:2].tolist())
@@ -92,6 +94,10 @@ class TemplateOption:
             given = tuple(tuple(parse_point(q, "route point").tolist()) for q in given)
         elif info.kind == "numbers":
             given = tuple(given)
+        elif self.kind == "numbers":  # a one-value parameter behind an option other templates repeat
+            if len(given) != 1:
+                raise PlanError(f"--{self.cli} takes one value for the {template} template, got {len(given)}")
+            given = given[0]
         elif info.kind == "file":
             given = str(given)
         return name, given
@@ -113,9 +119,12 @@ def template_options() -> list[TemplateOption]:
     options = []
     for cli, members in groups.items():
         kinds = {"points" if m[2].kind.startswith("points") else m[2].kind for m in members}
+        if kinds == {"number", "numbers"}:  # one template takes one value, another several: the option repeats
+            kinds = {"numbers"}
         if len(kinds) != 1:
             raise RuntimeError(f"--{cli} means different kinds of value: {kinds}")
-        options.append(TemplateOption(cli, members[0][2].kind, tuple(members)))
+        kind = "numbers" if "numbers" in kinds else members[0][2].kind
+        options.append(TemplateOption(cli, kind, tuple(members)))
     return options
 
 
@@ -152,7 +161,6 @@ def plan_command(
     """Make a capture plan from a template around a model, check that it can be flown, and write it.
 
     The template's own options (listed below after the common ones) come from its parameter declarations."""
-    from ..errors import PlanError
     from ..plan.format import write_plan
 
     stray = [f"--{o.cli}" for o in TEMPLATE_OPTIONS if o.stray(template, template_values.get(o.pyname))]
