@@ -3,7 +3,18 @@ on :data:`app` (defined in :mod:`.base`, which the command modules import)."""
 
 from __future__ import annotations
 
-from . import cameras_cmd, evaluate_cmd, export_cmd, info_cmd, plan_cmd, progress_cmd, serve_cmd, study_cmd, validate_cmd  # noqa: F401  (registers the commands)
+from . import (  # noqa: F401  (registers the commands)
+    cameras_cmd,
+    evaluate_cmd,
+    export_cmd,
+    info_cmd,
+    optimize_cmd,
+    plan_cmd,
+    progress_cmd,
+    serve_cmd,
+    study_cmd,
+    validate_cmd,
+)
 from .base import app
 
 __all__ = ["app", "main"]

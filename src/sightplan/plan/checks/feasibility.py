@@ -21,7 +21,7 @@ from ..ground import MIN_HEIGHT_M, ground_z, has_terrain, targets_only, without_
 from ..types import Mission, Plan
 from .airspace import FAA_LIMIT_M, AltitudeReport, check_altitude, sight_lines
 from .battery import AIRCRAFT, Aircraft, Rover, mission_time, split_by_battery, split_by_rover
-from .safety import SafetyReport, check_safety
+from .safety import SafetyReport, check_safety, segment_distances
 
 GROUND_STATION_HEIGHT_M = 1.5
 
@@ -189,16 +189,25 @@ def split_by_line_of_sight(scene: Scene, plan: Plan, radius_m: float, stations: 
     return replace(plan, missions=tuple(missions))
 
 
-def merge_single_frames(plan: Plan) -> Plan:
+def merge_single_frames(plan: Plan, obstacles: Scene | None = None, safety_distance_m: float | None = None) -> Plan:
     """Each one-frame mission joined to the mission before it (else after it) when that one has the same ground
-    station: flying on to one more waypoint needs no flight of its own. The joined mission keeps the other's name."""
+    station: flying on to one more waypoint needs no flight of its own. The joined mission keeps the other's name.
+    With ``obstacles``, only where the leg that joins them keeps ``safety_distance_m`` from them."""
     missions = list(plan.missions)
+
+    def safe(a: int, b: int) -> bool:
+        if obstacles is None or safety_distance_m is None:
+            return True
+        leg = segment_distances(obstacles, plan.C_world[a:a + 1], plan.C_world[b:b + 1])
+        return bool(leg[0] >= safety_distance_m)
+
     k = 0
     while k < len(missions):
         m = missions[k]
         if m.stop - m.start == 1 and m.ground_station is not None:
             for j in (k - 1, k + 1):
-                if 0 <= j < len(missions) and missions[j].ground_station == m.ground_station:
+                if (0 <= j < len(missions) and missions[j].ground_station == m.ground_station
+                        and safe(*((missions[j].stop - 1, m.start) if j < k else (m.start, missions[j].start)))):
                     o = missions[j]
                     missions[min(j, k)] = Mission(o.name, min(o.start, m.start), max(o.stop, m.stop), o.ground_station)
                     del missions[max(j, k)]
@@ -242,7 +251,8 @@ def plan_flights(scene: Scene, plan: Plan, settings: FlightSettings) -> Feasibil
     """Split ``plan`` into missions that keep line of sight and fit a battery, then check it."""
     stations = _stations(scene, plan, settings)
     if settings.vlos_radius_m is not None:
-        plan = merge_single_frames(split_by_line_of_sight(scene, plan, settings.vlos_radius_m, stations))
+        plan = merge_single_frames(split_by_line_of_sight(scene, plan, settings.vlos_radius_m, stations),
+                                   without_terrain(scene), settings.safety_distance_m)
     if isinstance(settings.aircraft, Rover):
         plan = split_by_rover(plan, settings.aircraft)[0]
     elif settings.aircraft is not None:

@@ -1,0 +1,118 @@
+"""Flying the chosen views: their order, by LKH (``elkai``), then missions by the flight checks' own split.
+
+The views and the take-off point are the cities of a closed tour whose edge costs are the aircraft's flight times
+(:func:`~sightplan.plan.checks.battery.legs_time`: horizontal and vertical speeds with acceleration). A leg of the
+tour that passes nearer the model than the safety distance (exact segment–triangle distances) is forbidden (its cost
+set far above any tour) and the tour solved again, until no leg of it breaks the distance. The tour, cut at the
+take-off point, is then split into missions that keep line of sight and fit a battery by
+:func:`~sightplan.plan.checks.feasibility.plan_flights`, exactly as a template's frames are.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..engines import make_engine
+from ..model.scene import Scene
+from ..plan.checks.battery import AIRCRAFT, Aircraft, legs_time
+from ..plan.checks.safety import segment_distances
+from ..plan.ground import without_terrain
+from ..plan.types import Mission, Plan
+
+FORBIDDEN_S = 1e7  # a forbidden leg's cost: more than any tour
+MAX_ROUNDS = 60
+TUBE_RAYS = 7  # rays per leg in the pre-test: the axis and six lines around it at the safety distance
+
+
+def blocked_legs(scene: Scene, P: NDArray, radius_m: float) -> NDArray[np.bool_]:
+    """(n, n) legs between the (n, 3) points ``P`` that certainly come within ``radius_m`` of the model: the
+    segment, or one of six parallel lines ``radius_m`` around it, hits a triangle (Embree occlusion rays). A leg
+    this passes may still come too near between the lines: the tour's legs are then measured exactly."""
+    n = len(P)
+    i, j = np.triu_indices(n, 1)
+    out = np.zeros((n, n), bool)
+    if not len(i) or not len(scene.faces):
+        return out
+    d = P[j] - P[i]
+    length = np.linalg.norm(d, axis=1)
+    u = d / np.maximum(length, 1e-12)[:, None]
+    helper = np.where(np.abs(u[:, 2:3]) < 0.9, np.array([[0.0, 0.0, 1.0]]), np.array([[1.0, 0.0, 0.0]]))
+    a = np.cross(u, helper)
+    a /= np.maximum(np.linalg.norm(a, axis=1, keepdims=True), 1e-12)  # a zero-length leg: only its axis ray, empty
+    b = np.cross(u, a)
+    offsets = [np.zeros_like(a)] + [radius_m * (math.cos(t) * a + math.sin(t) * b)
+                                    for t in np.linspace(0, 2 * math.pi, TUBE_RAYS - 1, endpoint=False)]
+    with make_engine("embree", scene, threads=1) as engine:
+        hit = np.zeros(len(i), bool)
+        for o in offsets:
+            origin = (P[i] + o - engine.centre).astype(np.float32)
+            hit |= ~engine.unoccluded_rays(origin, u.astype(np.float32), length.astype(np.float32))
+    out[i[hit], j[hit]] = out[j[hit], i[hit]] = True
+    return out
+
+
+def _tour(cost: NDArray, runs: int) -> list[int]:
+    import elkai
+
+    n = len(cost)
+    if n <= 3:
+        return list(range(n))
+    tour = elkai.DistanceMatrix(cost.tolist()).solve_tsp(runs=runs)
+    return tour[:-1] if tour[-1] == tour[0] else tour
+
+
+def order_views(scene: Scene, C: NDArray, takeoff: NDArray, safety_distance_m: float,
+                aircraft: Aircraft | None = None, runs: int = 4) -> tuple[NDArray[np.int64], NDArray[np.int64], int]:
+    """The order to fly the (n, 3) view positions ``C`` in from ``takeoff`` and back; the places in that order
+    where no safe leg was left (a new mission starts there: the aircraft lands and takes off again); and how many
+    legs were forbidden for passing within ``safety_distance_m`` of the model."""
+    n = len(C)
+    if n == 0:
+        return np.zeros(0, np.int64), np.zeros(0, np.int64), 0
+    ac = aircraft or AIRCRAFT["p4p"]
+    P = np.vstack([np.asarray(takeoff, float).reshape(1, 3), np.asarray(C, float)])
+    i, j = np.triu_indices(n + 1, 1)
+    cost = np.zeros((n + 1, n + 1))
+    cost[i, j] = cost[j, i] = legs_time(P[i], P[j], ac)
+    obstacles = without_terrain(scene)
+    blocked = blocked_legs(obstacles, P, safety_distance_m)
+    blocked[0, :] = blocked[:, 0] = False  # take-off and landing legs climb and descend: the checks skip them
+    cost[blocked] = FORBIDDEN_S
+    forbidden = int(blocked.sum() // 2)
+    good: set[tuple[int, int]] = set()
+    bad: set[tuple[int, int]] = set()
+    tour = list(range(n + 1))
+    for _ in range(MAX_ROUNDS):
+        tour = _tour(cost, runs)
+        start = tour.index(0)
+        tour = tour[start:] + tour[:start]
+        legs = [(min(a, b), max(a, b)) for a, b in zip(tour[1:-1], tour[2:])]
+        new = [leg for leg in legs if leg not in good and leg not in bad]
+        if not new:
+            break
+        a = np.array([p for p, _ in new])
+        b = np.array([q for _, q in new])
+        near = segment_distances(obstacles, P[a], P[b]) < safety_distance_m * (1 - 1e-9)
+        good.update(leg for leg, x in zip(new, near) if not x)
+        bad.update(leg for leg, x in zip(new, near) if x)
+        forbidden += int(near.sum())
+        cost[a[near], b[near]] = cost[b[near], a[near]] = FORBIDDEN_S
+    legs = [(min(a, b), max(a, b)) for a, b in zip(tour[1:-1], tour[2:])]
+    cuts = np.array([k + 1 for k, leg in enumerate(legs) if leg in bad or blocked[leg]], np.int64)
+    return np.array(tour[1:], np.int64) - 1, cuts, forbidden
+
+
+def ordered_plan(views: Plan, order: NDArray, cuts: NDArray | None = None, name: str = "optimised") -> Plan:
+    """``views`` in ``order``, one mission between consecutive ``cuts`` (the flight checks split them further),
+    each frame its own waypoint."""
+    p = views.subset(np.asarray(order, np.int64))
+    names = [f"view_{k + 1:04d}" for k in range(len(p))]
+    bounds = [0, *sorted(int(c) for c in (cuts if cuts is not None else ()) if 0 < c < len(p)), len(p)]
+    parts = list(zip(bounds[:-1], bounds[1:]))
+    missions = tuple(Mission(name if len(parts) == 1 else f"{name} {k + 1}", a, b) for k, (a, b) in enumerate(parts))
+    return replace(p, missions=missions, waypoints=p.C_world.copy(),
+                   frame_names=np.array(names + [None], dtype=object)[:-1])

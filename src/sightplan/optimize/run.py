@@ -1,0 +1,267 @@
+"""``optimize``: the plan with the fewest views, minutes and batteries that meets the user's targets.
+
+1. Candidates (:mod:`.candidates`) are cast once, through the per-frame cache, at ``scale``: a second run with other
+   targets or budgets casts nothing.
+2. The lazy-greedy selection (:mod:`.select`) chooses views under the frame budget, then drops redundant ones.
+3. The views are ordered (:mod:`.route`), split into missions and checked by the flight checks.
+4. Under a budget of minutes or batteries, the longest prefix of the greedy order whose flight fits is kept
+   (bisection: the flight time grows with the prefix).
+5. Frames that would not register (ν_f < Λ along the flown order) are reported.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.sparse import csr_matrix
+
+from ..camera.models import Camera, PinholeCamera
+from ..errors import PlanError
+from ..evaluate import EvaluationSettings, evaluate
+from ..metrics import MetricParams, compute_metrics
+from ..model.scene import Scene
+from ..observations.table import Observations
+from ..plan.checks.battery import Aircraft
+from ..plan.checks.feasibility import FeasibilityReport, FlightSettings, corner_stations, plan_flights
+from ..plan.checks.gate import record_checks
+from ..plan.site import with_site
+from ..plan.types import Mission, Plan
+from .candidates import CandidateSet, candidate_views
+from .route import order_views, ordered_plan
+from .select import CoverageTable, greedy
+from .targets import SSD_SLACK, ElementTargets, Targets
+
+Progress = Callable[[str, int, int], None]
+REPAIR_ROUNDS = 6
+
+
+@dataclass(frozen=True)
+class Budget:
+    """At most ``frames`` views, ``minutes`` of flight, or ``batteries`` charges (None: no limit)."""
+
+    frames: int | None = None
+    minutes: float | None = None
+    batteries: int | None = None
+
+    def __post_init__(self) -> None:
+        for name, low in (("frames", 1), ("minutes", 0), ("batteries", 1)):
+            v = getattr(self, name)
+            if v is not None and not (isinstance(v, (int, float)) and math.isfinite(v) and v >= low and v > 0):
+                raise PlanError(f"the budget's {name} must be a positive number, got {v!r}")
+
+
+@dataclass(frozen=True)
+class OptimizeSettings:
+    """How candidates are made and cast: ``scale`` of the cast (default 0.25), ``engine``, candidate ``spacing_m``
+    and ``distances_m`` (defaults in :mod:`.candidates`), ``oblique_deg``, ``cache_dir`` of the per-frame cache
+    (None: the default one, False: none), LKH ``runs``."""
+
+    scale: float = 0.25
+    engine: str = "auto"
+    spacing_m: float | None = None
+    distances_m: tuple[float, ...] | None = None
+    oblique_deg: float = 30.0
+    threads: int | None = None
+    cache_dir: object = None
+    runs: int = 4
+
+
+@dataclass(frozen=True)
+class OptimizeResult:
+    """The optimised plan (split and checked), its flight report, and what the optimisation found: per element
+    (z,) ``met``; the targets; candidate counts; the views chosen and removed; unstable frames; timings (s)."""
+
+    plan: Plan
+    report: FeasibilityReport
+    targets: ElementTargets
+    met: NDArray[np.bool_]
+    candidates: int
+    candidates_dropped: dict
+    candidates_blind: int
+    removed: int
+    forbidden_legs: int
+    unstable_frames: int
+    timings: dict = field(default_factory=dict)
+
+    @property
+    def n_met(self) -> int:
+        return int(self.met.sum())
+
+    def summary(self) -> dict:
+        r = self.report
+        return {"frames": len(self.plan), "missions": len(self.plan.missions), "batteries": r.batteries,
+                "minutes": None if r.total_time_s is None else round(r.total_time_s / 60, 2),
+                "targets": self.targets.n_active, "met": self.n_met, "candidates": self.candidates,
+                "candidates_blind": self.candidates_blind, "removed": self.removed,
+                "forbidden_legs": self.forbidden_legs, "unstable_frames": self.unstable_frames, "ok": r.ok,
+                "violations": list(r.violations), "timings_s": {k: round(v, 3) for k, v in self.timings.items()}}
+
+
+def default_ssd(camera: Camera, safety_distance_m: float) -> float:
+    """The default SSD bound: the camera's head-on SSD at the safety distance × 1.5 (m/px)."""
+    return safety_distance_m / camera.sampling_focal_px * SSD_SLACK
+
+
+def _fits(report: FeasibilityReport, budget: Budget) -> bool:
+    if budget.minutes is not None and (report.total_time_s or 0.0) > budget.minutes * 60:
+        return False
+    return not (budget.batteries is not None and (report.batteries or 0) > budget.batteries)
+
+
+def optimize(scene: Scene, camera: Camera, targets: Targets | None = None, budget: Budget | None = None, *,
+             flight: FlightSettings | None = None, settings: OptimizeSettings | None = None,
+             start: Plan | None = None, progress: Progress | None = None) -> OptimizeResult:
+    """The plan that meets the most ``targets`` (weighted) within ``budget`` with the fewest views (see the module
+    docstring). ``flight``: the safety distance, line of sight, aircraft, limits the plan must keep (default: a
+    drone's, 10 m from the model). ``start``: a plan to improve — its frames are candidates chosen first, and any
+    that prove redundant are removed."""
+    if not isinstance(camera, PinholeCamera):
+        raise PlanError("optimised plans need a perspective (pinhole) camera")
+    targets = targets or Targets()
+    budget = budget or Budget()
+    flight = flight or FlightSettings(safety_distance_m=10.0)
+    settings = settings or OptimizeSettings()
+    timings: dict[str, float] = {}
+    g = flight.safety_distance_m
+    et = targets.resolve(scene, default_ssd(camera, g))
+    if et.n_active == 0:
+        raise PlanError("no element is a target of the optimisation: check the targets' rules")
+
+    t0 = time.perf_counter()
+    cands = candidate_views(scene, camera, g, distances_m=list(settings.distances_m) if settings.distances_m else None,
+                            max_ssd_m_px=float(np.median(et.max_ssd_m_px[et.active])), spacing_m=settings.spacing_m,
+                            oblique_deg=settings.oblique_deg, min_height_m=flight.min_height_m,
+                            altitude_limit_m=flight.altitude_limit_m)
+    pool, n_start = _with_start(cands, start)
+    timings["candidates_s"] = time.perf_counter() - t0
+
+    t0 = time.perf_counter()
+    metric = MetricParams(omega=targets.omega_px, k=targets.k, min_track=targets.min_track,
+                          min_features=targets.min_features)
+    ev = evaluate(scene, pool, EvaluationSettings(engine=settings.engine, scale=settings.scale,  # type: ignore[arg-type]
+                                                  threads=settings.threads, metric=metric),
+                  cache_dir=settings.cache_dir,
+                  progress=None if progress is None else (lambda i, n: progress("casting candidates", i, n)))
+    timings["cast_s"] = time.perf_counter() - t0
+    obs = ev.observations
+
+    t0 = time.perf_counter()
+    table = CoverageTable.build(obs, et)
+    blind = int(sum(len(table.sees(f)) == 0 for f in range(n_start, table.n_views)))
+    sel = greedy(table, budget.frames, start=np.arange(n_start) if n_start else None)
+    timings["select_s"] = time.perf_counter() - t0
+    if progress is not None:
+        progress("selecting", 1, 1)
+
+    t0 = time.perf_counter()
+    takeoff = (flight.ground_stations[0] if flight.ground_stations is not None
+               else corner_stations(scene, pool.subset(sel.views) if len(sel.views) else pool)[0])
+
+    def flown(views: NDArray) -> tuple[FeasibilityReport, NDArray, int]:
+        order, cuts, forbidden = order_views(scene, pool.C_world[views], takeoff, g, _aircraft(flight), settings.runs)
+        report = plan_flights(scene, ordered_plan(pool, views[order], cuts), flight)
+        return report, views[order], forbidden
+
+    views = sel.views
+    if not len(views):
+        raise PlanError("no candidate view serves any target: lower the targets or the safety distance")
+    report, flown_views, forbidden = flown(views)
+    if (budget.minutes is not None or budget.batteries is not None) and not _fits(report, budget):
+        lo, hi = 1, len(views)  # the longest prefix of the greedy order that fits
+        best = None
+        while lo < hi:
+            mid = (lo + hi) // 2
+            r = flown(views[:mid])
+            if _fits(r[0], budget):
+                lo, best = mid + 1, (mid, r)
+            else:
+                hi = mid
+        if best is None:
+            raise PlanError("not even one view fits the budget of minutes or batteries")
+        views = views[:best[0]]
+        report, flown_views, forbidden = best[1]
+    timings["route_s"] = time.perf_counter() - t0
+    if progress is not None:
+        progress("routing", 1, 1)
+
+    t0 = time.perf_counter()
+    report, flown_views, forbidden, views = _repair_stability(obs, metric, views, report, flown_views, forbidden,
+                                                              flown, budget, pool_size=len(pool))
+    timings["stability_s"] = time.perf_counter() - t0
+    unstable = int((~compute_metrics(obs.select_frames(flown_views), metric).frames.stable).sum())
+    met = table.met(views)
+    params = {"template": "optimised", "safety_distance_m": g, "targets": _targets_record(targets, et),
+              "budget": {"frames": budget.frames, "minutes": budget.minutes, "batteries": budget.batteries},
+              "candidates": len(pool), "met": int(met.sum()), "scale": settings.scale}
+    plan = record_checks(report.plan, report, flight)
+    plan = with_site(replace(plan, parameters={**plan.parameters, **params}), scene, replace_takeoff=True)
+    report = replace(report, plan=plan)
+    return OptimizeResult(plan, report, et, met, len(cands.plan), cands.dropped, blind, len(sel.removed), forbidden,
+                          unstable, timings)
+
+
+def _repair_stability(obs: Observations, metric: MetricParams, views: NDArray, report: FeasibilityReport,
+                      flown_views: NDArray, forbidden: int, flown: Callable, budget: Budget, pool_size: int,
+                      rounds: int = REPAIR_ROUNDS) -> tuple[FeasibilityReport, NDArray, int, NDArray]:
+    """Views added for frames that would not register: for each frame with ν_f < Λ along the flown order, the
+    unchosen candidate sharing the most features with it, then the route again; a round is kept only when fewer
+    frames are unstable and the budget still holds."""
+    F = csr_matrix((np.ones(len(obs.feature_frame)), (obs.feature_frame, obs.feature_id)),
+                   shape=(pool_size, max(obs.n_features, 1)))
+    best = (report, flown_views, forbidden, views)
+    n_unstable = int((~compute_metrics(obs.select_frames(flown_views), metric).frames.stable).sum())
+    for _ in range(rounds):
+        if n_unstable == 0 or (budget.frames is not None and len(best[3]) >= budget.frames):
+            break
+        stable = compute_metrics(obs.select_frames(best[1]), metric).frames.stable
+        shared = (F @ F[best[1][~stable]].T).toarray()  # (pool, unstable): features in common
+        shared[best[3]] = -1
+        add = np.unique(shared.argmax(axis=0)[shared.max(axis=0) > 0])
+        if budget.frames is not None:
+            add = add[: budget.frames - len(best[3])]
+        if not len(add):
+            break
+        candidate = np.concatenate([best[3], add])
+        r, fv, fb = flown(candidate)
+        count = int((~compute_metrics(obs.select_frames(fv), metric).frames.stable).sum())
+        if count >= n_unstable or not _fits(r, budget):
+            break
+        best, n_unstable = (r, fv, fb, candidate), count
+    return best
+
+
+def _aircraft(flight: FlightSettings) -> Aircraft | None:
+    return flight.aircraft if isinstance(flight.aircraft, Aircraft) else None
+
+
+def _with_start(cands: CandidateSet, start: Plan | None) -> tuple[Plan, int]:
+    """The candidates, after the frames of ``start`` (if any): one plan to cast."""
+    if start is None:
+        return cands.plan, 0
+    c = cands.plan
+    cams = {**c.cameras, **start.cameras}
+    n = len(start)
+    merged = Plan(cameras=cams, frame_camera=np.concatenate([start.frame_camera, c.frame_camera]),
+                  R_world_camera=np.concatenate([start.R_world_camera, c.R_world_camera]),
+                  C_world=np.concatenate([start.C_world, c.C_world]),
+                  frame_names=np.concatenate([start.frame_names, c.frame_names]),
+                  capture_time=np.concatenate([start.capture_time, c.capture_time]),
+                  missions=(Mission("candidates", 0, n + len(c)),), parameters=dict(c.parameters))
+    return merged, n
+
+
+def _targets_record(t: Targets, et: ElementTargets) -> dict:
+    active = et.active
+    return {"k": t.k, "max_ssd_m_px": float(np.median(et.max_ssd_m_px[active])), "max_angle_deg": t.max_angle_deg,
+            "omega_px": t.omega_px, "min_features": t.min_features, "rules": len(t.rules),
+            "elements": int(active.sum())}
+
+
+def table_for(obs: Observations, et: ElementTargets) -> CoverageTable:
+    """The coverage table of a plan's Observations for targets ``et`` (to score any plan, a template's too)."""
+    return CoverageTable.build(obs, et)

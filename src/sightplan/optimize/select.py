@@ -1,0 +1,156 @@
+"""Choosing views: a lazy-greedy submodular selection over the candidates' Observations, then a removal pass.
+
+The objective for a set S of views is
+
+    F(S) = Σ_i w_i · min(k_i, q_i(S)) / k_i  +  ε · Σ_i w_i · [s_i(S) > 0]
+
+where q_i(S) counts the views of S that *serve* element i (:mod:`.targets`: ≥ Ω px, SSD and angle within bounds)
+and s_i(S) those that see it by ≥ Ω px at all; ε = 0.1 rewards seeing an element before it can be met. Both terms are
+monotone and submodular (concave functions of counts), so the greedy choice is within 1 − 1/e of the best set of its
+size, and lazy evaluation (a gain only ever falls as S grows) keeps it cheap. Every gain is a sum over the sparse
+Observations rows of one view: no ray is cast again. Selection stops at the budget or when no view adds anything;
+the removal pass then drops, latest first, every view whose loss leaves F unchanged.
+"""
+
+from __future__ import annotations
+
+import heapq
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..observations.table import Observations
+from .targets import ElementTargets
+
+SEEN_WEIGHT = 0.1  # ε
+
+
+@dataclass(frozen=True)
+class CoverageTable:
+    """Per view, the elements it serves and those it sees (CSR: ``serve_ptr[f]:serve_ptr[f + 1]`` into
+    ``serve_el``), with the targets' per-element values."""
+
+    n_views: int
+    serve_ptr: NDArray[np.int64]
+    serve_el: NDArray[np.int64]
+    seen_ptr: NDArray[np.int64]
+    seen_el: NDArray[np.int64]
+    k: NDArray[np.int64]
+    weight: NDArray[np.float64]
+
+    @classmethod
+    def build(cls, obs: Observations, targets: ElementTargets) -> CoverageTable:
+        e = obs.element.astype(np.int64)
+        f = obs.frame.astype(np.int64)
+        seen = targets.active[e] & (obs.pixels >= targets.omega_px)
+        serve = seen & (obs.ssd <= targets.max_ssd_m_px[e]) & (obs.angle_mean <= targets.max_angle_deg[e])
+
+        def csr(mask: NDArray) -> tuple[NDArray, NDArray]:
+            order = np.argsort(f[mask], kind="stable")
+            ptr = np.zeros(obs.n_frames + 1, np.int64)
+            np.cumsum(np.bincount(f[mask], minlength=obs.n_frames), out=ptr[1:])
+            return ptr, e[mask][order]
+
+        sp, se = csr(serve)
+        vp, ve = csr(seen)
+        return cls(obs.n_frames, sp, se, vp, ve, targets.k.astype(np.int64), targets.weight.astype(np.float64))
+
+    def serves(self, f: int) -> NDArray[np.int64]:
+        return self.serve_el[self.serve_ptr[f]:self.serve_ptr[f + 1]]
+
+    def sees(self, f: int) -> NDArray[np.int64]:
+        return self.seen_el[self.seen_ptr[f]:self.seen_ptr[f + 1]]
+
+    def counts(self, views: NDArray) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+        """q_i and s_i of the set ``views``, from scratch."""
+        z = len(self.k)
+        views = np.asarray(views, np.int64)
+        q = np.bincount(np.concatenate([self.serves(f) for f in views]) if len(views) else np.zeros(0, np.int64),
+                        minlength=z)
+        s = np.bincount(np.concatenate([self.sees(f) for f in views]) if len(views) else np.zeros(0, np.int64),
+                        minlength=z)
+        return q, s
+
+    def value(self, views: NDArray) -> float:
+        """F of the set ``views``, from scratch."""
+        q, s = self.counts(views)
+        return float((self.weight * np.minimum(self.k, q) / self.k).sum() + SEEN_WEIGHT * (self.weight * (s > 0)).sum())
+
+    def met(self, views: NDArray) -> NDArray[np.bool_]:
+        """(z,) elements with weight whose k_i views the set ``views`` provides."""
+        q, _ = self.counts(views)
+        return (q >= self.k) & (self.weight > 0)
+
+    def gain(self, f: int, q: NDArray, s: NDArray) -> float:
+        """F(S ∪ {f}) − F(S) for the counts ``q``, ``s`` of S."""
+        a = self.serves(f)
+        b = self.sees(f)
+        short = q[a] < self.k[a]
+        return float((self.weight[a][short] / self.k[a][short]).sum()
+                     + SEEN_WEIGHT * self.weight[b][s[b] == 0].sum())
+
+
+@dataclass(frozen=True)
+class Selection:
+    """The chosen views in the order chosen, each one's gain when chosen, and those the removal pass dropped."""
+
+    views: NDArray[np.int64]
+    gains: NDArray[np.float64]
+    removed: NDArray[np.int64]
+
+
+def greedy(table: CoverageTable, max_views: int | None = None, start: NDArray | None = None,
+           allowed: NDArray | None = None) -> Selection:
+    """Lazy greedy from the views ``start`` (kept), adding the view of largest gain among ``allowed`` (default: all)
+    until ``max_views`` are chosen (counting ``start``) or nothing adds anything; then the removal pass."""
+    z = len(table.k)
+    q = np.zeros(z, np.int64)
+    s = np.zeros(z, np.int64)
+    chosen: list[int] = []
+    gains: list[float] = []
+    for f in (np.asarray(start, np.int64) if start is not None else ()):
+        gains.append(table.gain(int(f), q, s))
+        q[table.serves(int(f))] += 1
+        s[table.sees(int(f))] += 1
+        chosen.append(int(f))
+    taken = np.zeros(table.n_views, bool)
+    taken[chosen] = True
+    pool = np.flatnonzero(~taken if allowed is None else (~taken & np.asarray(allowed, bool)))
+    heap = [(-table.gain(int(f), q, s), int(f)) for f in pool]
+    heap = [h for h in heap if h[0] < 0]
+    heapq.heapify(heap)
+    limit = max_views if max_views is not None else table.n_views
+    while heap and len(chosen) < limit:
+        bound, f = heapq.heappop(heap)
+        g = table.gain(f, q, s)
+        if g <= 0:
+            continue
+        if heap and -g > heap[0][0] + 1e-12:  # no longer the best: back in with its true gain
+            heapq.heappush(heap, (-g, f))
+            continue
+        chosen.append(f)
+        gains.append(g)
+        q[table.serves(f)] += 1
+        s[table.sees(f)] += 1
+    views = np.array(chosen, np.int64)
+    keep, removed = remove_redundant(table, views, q, s, protect=len(start) if start is not None else 0)
+    return Selection(keep, np.array(gains)[np.isin(views, keep)], removed)
+
+
+def remove_redundant(table: CoverageTable, views: NDArray, q: NDArray | None = None, s: NDArray | None = None,
+                     protect: int = 0) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    """``views`` without those whose loss leaves F unchanged (latest first; the first ``protect`` stay), and the
+    dropped ones."""
+    if q is None or s is None:
+        q, s = table.counts(views)
+    q, s = q.copy(), s.copy()
+    keep = np.ones(len(views), bool)
+    for j in range(len(views) - 1, protect - 1, -1):
+        f = int(views[j])
+        a, b = table.serves(f), table.sees(f)
+        if (q[a] > table.k[a]).all() and (s[b] > 1).all():
+            keep[j] = False
+            q[a] -= 1
+            s[b] -= 1
+    return views[keep], views[~keep]
