@@ -146,3 +146,28 @@ def test_bad_budgets_and_impossible_targets_are_refused(box):
         optimize(box, CAM, Targets(rules=(Rule(skip=True),)))
     with pytest.raises(PlanError, match="safety distance"):
         candidate_views(box, CAM, float("nan"))
+
+
+def test_refining_spends_a_budget_on_finer_views(table):
+    """After the targets are met, each added view makes some met element's R_i (mean SSD of its k finest serving
+    views) finer, and none coarser."""
+    from sightplan.optimize.select import refine
+
+    t, _ = table
+    base = greedy(t).views
+
+    def R(views):
+        rows = {}
+        for f in views:
+            for i, v in zip(t.serves(int(f)), t.serve_ssd[t.serve_ptr[f]:t.serve_ptr[f + 1]]):
+                rows.setdefault(int(i), []).append(float(v))
+        return {i: np.mean(sorted(v)[:2]) for i, v in rows.items() if len(v) >= 2}
+
+    added = refine(t, base, 16)
+    assert 0 < len(added) <= 6 and not set(added) & set(base)
+    before = R(base)
+    for n in range(1, len(added) + 1):
+        after = R(np.r_[base, added[:n]])
+        assert all(after[i] <= before[i] + 1e-12 for i in before)
+        assert any(after[i] < before[i] - 1e-12 for i in before)
+        before = after

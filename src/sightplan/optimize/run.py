@@ -33,11 +33,12 @@ from ..plan.site import with_site
 from ..plan.types import Mission, Plan
 from .candidates import CandidateSet, candidate_views
 from .route import order_views, ordered_plan
-from .select import CoverageTable, greedy
+from .select import CoverageTable, greedy, refine
 from .targets import SSD_SLACK, ElementTargets, Targets
 
 Progress = Callable[[str, int, int], None]
 REPAIR_ROUNDS = 6
+REFINE_FACTOR = 4  # under a budget of minutes or batteries, up to this many times the views the targets need
 
 
 @dataclass(frozen=True)
@@ -168,6 +169,10 @@ def optimize(scene: Scene, camera: Camera, targets: Targets | None = None, budge
         return report, views[order], forbidden
 
     views = sel.views
+    if budget.frames is not None or budget.minutes is not None or budget.batteries is not None:
+        # a budget the targets did not use up buys finer views: added best first, the fitting prefix kept below
+        cap = budget.frames if budget.frames is not None else REFINE_FACTOR * max(len(views), 1)
+        views = np.concatenate([views, refine(table, views, cap)])
     if not len(views):
         raise PlanError("no candidate view serves any target: lower the targets or the safety distance")
     report, flown_views, forbidden = flown(views)

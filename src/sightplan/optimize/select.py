@@ -34,6 +34,7 @@ class CoverageTable:
     n_views: int
     serve_ptr: NDArray[np.int64]
     serve_el: NDArray[np.int64]
+    serve_ssd: NDArray[np.float64]
     seen_ptr: NDArray[np.int64]
     seen_el: NDArray[np.int64]
     k: NDArray[np.int64]
@@ -46,15 +47,15 @@ class CoverageTable:
         seen = targets.active[e] & (obs.pixels >= targets.omega_px)
         serve = seen & (obs.ssd <= targets.max_ssd_m_px[e]) & (obs.angle_mean <= targets.max_angle_deg[e])
 
-        def csr(mask: NDArray) -> tuple[NDArray, NDArray]:
+        def csr(mask: NDArray) -> tuple[NDArray, NDArray, NDArray]:
             order = np.argsort(f[mask], kind="stable")
             ptr = np.zeros(obs.n_frames + 1, np.int64)
             np.cumsum(np.bincount(f[mask], minlength=obs.n_frames), out=ptr[1:])
-            return ptr, e[mask][order]
+            return ptr, e[mask][order], obs.ssd[mask][order]
 
-        sp, se = csr(serve)
-        vp, ve = csr(seen)
-        return cls(obs.n_frames, sp, se, vp, ve, targets.k.astype(np.int64), targets.weight.astype(np.float64))
+        sp, se, ss = csr(serve)
+        vp, ve, _ = csr(seen)
+        return cls(obs.n_frames, sp, se, ss, vp, ve, targets.k.astype(np.int64), targets.weight.astype(np.float64))
 
     def serves(self, f: int) -> NDArray[np.int64]:
         return self.serve_el[self.serve_ptr[f]:self.serve_ptr[f + 1]]
@@ -154,3 +155,43 @@ def remove_redundant(table: CoverageTable, views: NDArray, q: NDArray | None = N
             q[a] -= 1
             s[b] -= 1
     return views[keep], views[~keep]
+
+
+def refine(table: CoverageTable, views: NDArray, max_views: int) -> NDArray[np.int64]:
+    """Views to add after ``views``, best first, up to ``max_views`` in all, each the one that most lowers the met
+    elements' R_i (the mean SSD of their k_i finest serving views), weighted and relative:
+    Σ_i w_i · (R_i − R_i') / R_i. For spending a budget of minutes or frames that the targets did not need; stops
+    when no view makes any element finer."""
+    z = len(table.k)
+    kmax = int(table.k.max()) if z else 1
+    best = np.full((z, kmax), np.inf)  # each element's finest serving SSDs, ascending
+    for f in views:
+        for i, v in zip(table.serves(int(f)).tolist(), table.serve_ssd[table.serve_ptr[f]:table.serve_ptr[f + 1]]):
+            row = best[i]
+            if v < row[-1]:
+                row[-1] = v
+                row.sort()
+    chosen = np.zeros(table.n_views, bool)
+    chosen[np.asarray(views, np.int64)] = True
+    frame_of = np.repeat(np.arange(table.n_views), np.diff(table.serve_ptr))
+    added: list[int] = []
+    while len(views) + len(added) < max_views:
+        kth = best[np.arange(z), table.k - 1]
+        with np.errstate(invalid="ignore"):
+            R = np.where(np.arange(kmax)[None, :] < table.k[:, None], best, 0.0).sum(axis=1) / table.k
+        e, v = table.serve_el, table.serve_ssd
+        better = np.isfinite(R[e]) & (v < kth[e]) & ~chosen[frame_of]
+        gain = np.zeros(table.n_views)
+        np.add.at(gain, frame_of[better], table.weight[e[better]] * (kth[e[better]] - v[better]) / table.k[e[better]]
+                  / R[e[better]])
+        f = int(np.argmax(gain))
+        if gain[f] <= 0:
+            break
+        added.append(f)
+        chosen[f] = True
+        for i, x in zip(table.serves(f).tolist(), table.serve_ssd[table.serve_ptr[f]:table.serve_ptr[f + 1]]):
+            row = best[i]
+            if x < row[-1]:
+                row[-1] = x
+                row.sort()
+    return np.array(added, np.int64)
