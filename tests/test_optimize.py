@@ -171,3 +171,27 @@ def test_refining_spends_a_budget_on_finer_views(table):
         assert all(after[i] <= before[i] + 1e-12 for i in before)
         assert any(after[i] < before[i] - 1e-12 for i in before)
         before = after
+
+
+def test_the_command_line_optimises_and_refuses_bad_targets(tmp_path):
+    from typer.testing import CliRunner
+
+    from sightplan.cli.main import app
+    from sightplan.plan.format import read_plan
+
+    mesh = trimesh.creation.box((8, 8, 8))
+    mesh.apply_translation((4, 4, 4))
+    model = tmp_path / "box.obj"
+    mesh.export(model)
+    out = tmp_path / "plan.json"
+    runner = CliRunner()
+    r = runner.invoke(app, ["optimize", str(model), "--k", "2", "--no-compare", "--scale", "0.05", "--budget-frames",
+                            "12", "-o", str(out)], env={"COLUMNS": "200"})
+    assert r.exit_code == 0, r.output
+    assert "targets met: 1 of 1 elements" in r.output and "no violations" in r.output
+    plan = read_plan(out)
+    assert 2 <= len(plan) <= 12 and plan.parameters["template"] == "optimised"
+    bad = tmp_path / "t.toml"
+    bad.write_text("k = -1\n", encoding="utf-8")
+    r = runner.invoke(app, ["optimize", str(model), "--targets", str(bad), "-o", str(tmp_path / "x.json")])
+    assert r.exit_code == 2 and "k must be" in r.output and not (tmp_path / "x.json").exists()
