@@ -155,7 +155,7 @@ def open_page(browser, server, init_script: str | None = None, wait_ready: bool 
             and "404" not in m.text else None)
     page.goto(server.url + "/")
     if wait_ready:
-        page.wait_for_function("document.body.dataset.state === 'ready'", timeout=30_000)
+        page.wait_for_function("document.body?.dataset.state === 'ready'", timeout=30_000)
     return ctx, page, problems
 
 

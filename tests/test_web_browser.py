@@ -60,7 +60,7 @@ def test_pilot_walks_from_upload_to_export(browser, server, artifacts):
         page.set_input_files("#model-file", str(sample_model_path()))
         page.click("#model-upload")
         page.wait_for_selector("#load-report[data-status=ready]", timeout=60_000)
-        page.wait_for_function("document.body.dataset.model", timeout=30_000)
+        page.wait_for_function("document.body?.dataset.model", timeout=30_000)
         (model,) = server.get(f"/api/projects/{project}/models")
         assert page.inner_text("#load-report dd[data-field=elements]") == f"{model['elements']} ({model['targets']} targets)"
         assert page.inner_text("#load-report dd[data-field=triangles]") == f"{model['triangles']:,}"
@@ -176,7 +176,7 @@ def test_pilot_walks_from_upload_to_export(browser, server, artifacts):
         page.click("#eval-start")
         page.wait_for_function("window.__progress.some((v) => v > 0 && v < 100)", timeout=60_000)
         page.reload()
-        page.wait_for_function("document.body.dataset.state === 'ready'", timeout=30_000)
+        page.wait_for_function("document.body?.dataset.state === 'ready'", timeout=30_000)
         page.wait_for_function("window.sightplan.state.feedback && window.sightplan.state.feedback.plan_version === 2",
                                timeout=90_000)
         after_reload = page.evaluate("window.__progress")
@@ -271,12 +271,12 @@ def test_date_slider_shows_the_site_at_a_date(browser, server, artifacts):
 
     try:
         page.goto(server.url + "/")
-        page.wait_for_function("document.body.dataset.model", timeout=30_000)
+        page.wait_for_function("document.body?.dataset.model", timeout=30_000)
         assert page.is_hidden("#date-panel")  # this server has no schedules
         page.route("**/api/projects/*/schedules", schedules)
         page.route("**/api/projects/*/models/*/states?*", states)
         page.reload()
-        page.wait_for_function("document.body.dataset.model && !document.getElementById('date-panel').hidden",
+        page.wait_for_function("document.body?.dataset.model && !document.getElementById('date-panel').hidden",
                                timeout=30_000)
         page.wait_for_function("window.sightplan.state.dateStates !== null")
         page.fill("#date-slider", "10")  # 2024-03-11

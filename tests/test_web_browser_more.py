@@ -111,7 +111,7 @@ def test_bridge_plan_from_the_form_with_a_picked_ground_station(browser, server,
     assert server.wait_job(res["job"]["id"])["status"] == "done"
     ctx, page, problems = open_project(browser, server, project)
     try:
-        page.wait_for_function("document.body.dataset.model", timeout=30_000)
+        page.wait_for_function("document.body?.dataset.model", timeout=30_000)
         page.click("#plan-new summary")
         page.select_option("#plan-template", "bridge")
         assert page.is_visible("#plan-axis") and page.is_hidden("#plan-points") and page.is_visible("#plan-stations")
@@ -210,7 +210,7 @@ def test_schedule_from_the_page_dates_the_site_and_the_evaluation(browser, serve
     z = scene.n_elements
     ctx, page, problems = open_project(browser, server, project)
     try:
-        page.wait_for_function("document.body.dataset.model", timeout=30_000)
+        page.wait_for_function("document.body?.dataset.model", timeout=30_000)
         assert page.is_hidden("#date-panel")  # no schedule yet
         page.click("#schedule-new summary")
         page.set_input_files("#schedule-file", {"name": "dates.csv", "mimeType": "text/csv", "buffer": csv})
@@ -300,7 +300,7 @@ def test_reality_captures_are_drawn_beside_the_model_and_occlude(browser, server
     hoarding = box((2, 2, 3), (-8, -12, -1.5))  # a mesh west of the house
     ctx, page, problems = open_project(browser, server, project)
     try:
-        page.wait_for_function("document.body.dataset.model && window.sightplan.viewer.plan", timeout=30_000)
+        page.wait_for_function("document.body?.dataset.model && window.sightplan.viewer.plan", timeout=30_000)
         if page.is_visible("#date-on"):
             page.uncheck("#date-on")  # the site as built
         for name, data in (("wall.ply", ply_wall()), ("hoarding.obj", obj_bytes(hoarding))):
@@ -368,7 +368,7 @@ def test_reality_captures_are_drawn_beside_the_model_and_occlude(browser, server
 
         # a reload shows the captures again, in the frame of the model that arrives after them
         page.reload()
-        page.wait_for_function("""() => { const r = document.body.dataset.model && window.sightplan.viewer.realityInfo();
+        page.wait_for_function("""() => { const r = document.body?.dataset.model && window.sightplan.viewer.realityInfo();
             return r && r.length === 2 && r.every((x) => x.shown && x.box) && r[0].pointsVisible > 0; }""",
                                timeout=60_000)
         again = {r["kind"]: r for r in page.evaluate("window.sightplan.viewer.realityInfo()")}
@@ -419,7 +419,7 @@ def test_team_mode_login_members_share_links_and_roles(browser, team_server, art
         page.keyboard.press("Escape")  # the dialog stays
         assert page.is_visible("#login-dialog")
         log_in(page, "olivia")
-        page.wait_for_function("document.body.dataset.state === 'ready'", timeout=30_000)
+        page.wait_for_function("document.body?.dataset.state === 'ready'", timeout=30_000)
         assert page.inner_text("#user-name") == "olivia" and page.is_visible("#logout")
         assert page.inner_text("#mode-badge") == "team mode"
 
@@ -431,7 +431,7 @@ def test_team_mode_login_members_share_links_and_roles(browser, team_server, art
         project = int(page.input_value("#project-select"))
         page.set_input_files("#model-file", {"name": "cube.obj", "mimeType": "text/plain", "buffer": obj_bytes(cube)})
         page.click("#model-upload")
-        wait_for(page, "document.body.dataset.model")
+        wait_for(page, "document.body?.dataset.model")
         page.click("#plan-new summary")
         page.select_option("#plan-template", "orbit")
         page.fill("#plan-radius", "12")
@@ -482,7 +482,7 @@ def test_team_mode_login_members_share_links_and_roles(browser, team_server, art
         page.wait_for_selector("#login-dialog[open]", timeout=30_000)
         shot(page, artifacts, "33-logged-out")
         log_in(page, "victor")
-        page.wait_for_function("document.body.dataset.state === 'ready' && document.body.dataset.model", timeout=30_000)
+        page.wait_for_function("document.body?.dataset.state === 'ready' && document.body?.dataset.model", timeout=30_000)
         assert page.inner_text("#user-name") == "victor" and page.inner_text("#user-role") == "viewer"
         assert page.locator("#project-select option").all_inner_texts() == ["Team site"]
         page.wait_for_function("window.sightplan.viewer.plan && window.sightplan.viewer.plan.n === 4", timeout=30_000)
@@ -504,7 +504,7 @@ def test_team_mode_login_members_share_links_and_roles(browser, team_server, art
         page.click("#frame-list tbody tr[data-frame='1']")
         page.wait_for_selector("#login-dialog[open]", timeout=30_000)
         log_in(page, "victor")
-        page.wait_for_function("document.body.dataset.state === 'ready'", timeout=30_000)
+        page.wait_for_function("document.body?.dataset.state === 'ready'", timeout=30_000)
         page.click("#logout")
         page.wait_for_selector("#login-dialog[open]", timeout=30_000)
         shot(page, artifacts, "35-viewer-logged-out")
@@ -518,7 +518,7 @@ def test_account_dialog_tokens_and_password(browser, team_server, artifacts):
     ctx, page, problems = open_page(browser, server, wait_ready=False)
     try:
         log_in(page, "victor")
-        page.wait_for_function("document.body.dataset.state === 'ready'", timeout=30_000)
+        page.wait_for_function("document.body?.dataset.state === 'ready'", timeout=30_000)
         page.click("#account")
         page.wait_for_selector("#account-dialog[open]")
         page.fill("#token-name", "nightly export")
@@ -551,7 +551,7 @@ def test_account_dialog_tokens_and_password(browser, team_server, artifacts):
         page.click("#pw-save")
         page.wait_for_selector("#login-dialog[open]", timeout=30_000)  # the sessions ended
         log_in(page, "victor", "victor-new-secret")
-        page.wait_for_function("document.body.dataset.state === 'ready'", timeout=30_000)
+        page.wait_for_function("document.body?.dataset.state === 'ready'", timeout=30_000)
         assert page.inner_text("#user-name") == "victor"
         assert not [p for p in problems if "page error" in p], problems
     finally:
