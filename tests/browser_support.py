@@ -159,6 +159,16 @@ def open_page(browser, server, init_script: str | None = None, wait_ready: bool 
     return ctx, page, problems
 
 
+def element_on_screen(page, elements: list[int]) -> dict | None:
+    """The first of ``elements`` a click in the 3D view reaches: ``{"e", "x", "y"}`` (client pixels), or None."""
+    return page.evaluate("""(elements) => {
+        for (const e of elements) {
+          const p = window.sightplanTest.view.elementScreenPoint(e);
+          if (p) return { e, ...p };
+        }
+        return null; }""", elements)
+
+
 def shot(page, artifacts: Path, name: str) -> np.ndarray:
     """A screenshot saved as ``name``.png, as an (H, W, 3) int array."""
     from PIL import Image
