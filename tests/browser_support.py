@@ -155,8 +155,18 @@ def open_page(browser, server, init_script: str | None = None, wait_ready: bool 
             and "404" not in m.text else None)
     page.goto(server.url + "/")
     if wait_ready:
-        page.wait_for_function("document.body.dataset.state === 'ready'", timeout=30_000)
+        page.wait_for_function("document.body?.dataset.state === 'ready'", timeout=30_000)
     return ctx, page, problems
+
+
+def element_on_screen(page, elements: list[int]) -> dict | None:
+    """The first of ``elements`` a click in the 3D view reaches: ``{"e", "x", "y"}`` (client pixels), or None."""
+    return page.evaluate("""(elements) => {
+        for (const e of elements) {
+          const p = window.sightplanTest.view.elementScreenPoint(e);
+          if (p) return { e, ...p };
+        }
+        return null; }""", elements)
 
 
 def shot(page, artifacts: Path, name: str) -> np.ndarray:

@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from browser_support import ARTIFACTS, VIEWPORT, Server, launch_browser, open_page, shot, view_pixels
+from browser_support import ARTIFACTS, VIEWPORT, Server, element_on_screen, launch_browser, open_page, shot, view_pixels
 from sightplan.model.load import sample_model_path
 
 SCALE = 0.1
@@ -60,12 +60,12 @@ def test_pilot_walks_from_upload_to_export(browser, server, artifacts):
         page.set_input_files("#model-file", str(sample_model_path()))
         page.click("#model-upload")
         page.wait_for_selector("#load-report[data-status=ready]", timeout=60_000)
-        page.wait_for_function("document.body.dataset.model", timeout=30_000)
+        page.wait_for_function("document.body?.dataset.model", timeout=30_000)
         (model,) = server.get(f"/api/projects/{project}/models")
         assert page.inner_text("#load-report dd[data-field=elements]") == f"{model['elements']} ({model['targets']} targets)"
         assert page.inner_text("#load-report dd[data-field=triangles]") == f"{model['triangles']:,}"
         assert page.inner_text("#load-report dd[data-field=skipped]").startswith(str(model["skipped"]))
-        assert page.evaluate("window.sightplan.viewer.model.geo.header.triangles") == model["triangles"] == 26348
+        assert page.evaluate("window.sightplanTest.view.modelTriangles()") == model["triangles"] == 26348
         shot(page, artifacts, "01-model-loaded")
 
         # 2. a facade grid from the template form
@@ -75,10 +75,12 @@ def test_pilot_walks_from_upload_to_export(browser, server, artifacts):
         page.fill("#plan-safety", "8")
         page.fill("#plan-overlap", "0.8")
         page.click("#plan-create")
-        page.wait_for_function("window.sightplan.state.geom && window.sightplan.viewer.plan", timeout=60_000)
+        page.wait_for_function("window.sightplanTest.frameCount() !== null && window.sightplanTest.view.planFrames() !== null",
+                               timeout=60_000)
         (plan,) = server.get(f"/api/projects/{project}/plans")
         v1 = server.get(f"/api/projects/{project}/plans/{plan['id']}/versions/1")
-        assert plan["versions"][0]["frames"] == len(v1["frames"]) == page.evaluate("window.sightplan.viewer.plan.n") == 216
+        drawn = page.evaluate("window.sightplanTest.view.planFrames()")
+        assert plan["versions"][0]["frames"] == len(v1["frames"]) == drawn == 216
         assert page.inner_text("#plan-summary").startswith("216 frames · 4 mission(s)")
         page.wait_for_function("document.querySelector('#checks-summary').textContent.startsWith('The plan can be flown')",
                                timeout=30_000)
@@ -89,7 +91,7 @@ def test_pilot_walks_from_upload_to_export(browser, server, artifacts):
         page.click("#eval-start")
         page.wait_for_function("window.__progress.some((v) => v > 0 && v < 100)", timeout=60_000)
         shot(page, artifacts, "03-evaluating")
-        page.wait_for_function("window.sightplan.state.feedback && window.sightplan.state.feedback.plan_version === 1",
+        page.wait_for_function("window.sightplanTest.evaluation()?.planVersion === 1",
                                timeout=90_000)
         seen = page.evaluate("window.__progress")
         assert any(0 < v < 100 for v in seen) and seen[-1] == 100, seen
@@ -101,11 +103,12 @@ def test_pilot_walks_from_upload_to_export(browser, server, artifacts):
 
         # 4. colour by SSD: each element in the colour of its R_i between the bounds shown
         page.select_option("#colour-by", "ssd")
-        lo, hi = server.get(f"/api/projects/{project}/evaluations/{ev1['id']}/feedback")["labels"]["ssd"]["bounds"]
+        feedback = server.get(f"/api/projects/{project}/evaluations/{ev1['id']}/feedback")
+        lo, hi = feedback["labels"]["ssd"]["bounds"]
         assert float(page.input_value("#bound-lo")) == pytest.approx(lo, rel=1e-3)  # shown to 4 digits
         assert float(page.input_value("#bound-hi")) == pytest.approx(hi, rel=1e-3)
         rows = {r["index"]: r for r in server.get(f"/api/projects/{project}/evaluations/{ev1['id']}/elements")["elements"]}
-        shown = page.evaluate("[...Array(215).keys()].map((e) => window.sightplan.elementColour(e))")
+        shown = page.evaluate("[...Array(215).keys()].map((e) => window.sightplanTest.elementColour(e))")
         for e, look in enumerate(shown):
             if e not in rows:
                 expected, mode = OCCLUDER, "ghost"
@@ -121,14 +124,9 @@ def test_pilot_walks_from_upload_to_export(browser, server, artifacts):
         assert greenish > 3000 and reddish > 3000, (greenish, reddish)  # the model itself, on the gradient
 
         # 5. click a visible wall: its values as the API gives them
-        target = page.evaluate("""() => {
-            const fb = window.sightplan.state.feedback;
-            for (let e = 0; e < fb.metrics.visibility.length; e++) {
-              if (fb.metrics.visibility[e] !== 0 || fb.elements.ifc_class[e] !== 'IfcWallStandardCase') continue;
-              const p = window.sightplan.viewer.elementScreenPoint(e);
-              if (p) return { e, ...p };
-            }
-            return null; }""")
+        walls = [e for e, (v, cls) in enumerate(zip(feedback["metrics"]["visibility"], feedback["elements"]["ifc_class"]))
+                 if v == 0 and cls == "IfcWallStandardCase"]
+        target = element_on_screen(page, walls)
         assert target is not None, "no visible wall can be clicked"
         page.mouse.click(target["x"], target["y"])
         page.wait_for_selector(f"#element-card[data-element='{target['e']}']:not([hidden])")
@@ -145,10 +143,10 @@ def test_pilot_walks_from_upload_to_export(browser, server, artifacts):
 
         # 6. select a frame by clicking its camera, with the simulated view from it
         frame = 20
-        point = page.evaluate(f"window.sightplan.viewer.frameScreenPoint({frame})")
+        point = page.evaluate(f"window.sightplanTest.view.frameScreenPoint({frame})")
         assert point["inView"]
         page.mouse.click(point["x"], point["y"])
-        page.wait_for_function(f"window.sightplan.state.selectedFrame === {frame}")
+        page.wait_for_function(f"window.sightplanTest.selectedFrame() === {frame}")
         page.wait_for_function(f"document.querySelector('#frame-view').dataset.frame === '{frame}'")
         assert page.evaluate("document.querySelector('#frame-view').naturalWidth") == 480
         assert json.loads(page.get_attribute("#frame-info dd[data-field='position (m)']", "data-value")) == \
@@ -160,10 +158,10 @@ def test_pilot_walks_from_upload_to_export(browser, server, artifacts):
         page.click("button[data-move='x+']")
         page.click("button[data-move='x+']")
         page.click("button[data-move='z+']")
-        assert page.evaluate("window.sightplan.state.dirty") is True
+        assert page.evaluate("window.sightplanTest.dirty()") is True
         shot(page, artifacts, "07-frame-moved")
         page.click("#plan-save")
-        page.wait_for_function("window.sightplan.state.version === 2 && !window.sightplan.state.dirty", timeout=30_000)
+        page.wait_for_function("window.sightplanTest.planVersion() === 2 && !window.sightplanTest.dirty()", timeout=30_000)
         v2 = server.get(f"/api/projects/{project}/plans/{plan['id']}/versions/2")
         assert len(v2["frames"]) == 216
         assert v2["frames"][frame]["position"] == pytest.approx(np.add(v1["frames"][frame]["position"], [2, 0, 1]).tolist())
@@ -176,8 +174,8 @@ def test_pilot_walks_from_upload_to_export(browser, server, artifacts):
         page.click("#eval-start")
         page.wait_for_function("window.__progress.some((v) => v > 0 && v < 100)", timeout=60_000)
         page.reload()
-        page.wait_for_function("document.body.dataset.state === 'ready'", timeout=30_000)
-        page.wait_for_function("window.sightplan.state.feedback && window.sightplan.state.feedback.plan_version === 2",
+        page.wait_for_function("document.body?.dataset.state === 'ready'", timeout=30_000)
+        page.wait_for_function("window.sightplanTest.evaluation()?.planVersion === 2",
                                timeout=90_000)
         after_reload = page.evaluate("window.__progress")
         assert after_reload and after_reload[-1] == 100 and min(after_reload) < 100, after_reload
@@ -185,7 +183,7 @@ def test_pilot_walks_from_upload_to_export(browser, server, artifacts):
         assert [(e["plan_version"], e["status"]) for e in evaluations] == [(1, "done"), (2, "done")]
         ev2 = evaluations[1]
         assert ev2["settings"]["scale"] == SCALE_2 and ev2["metrics"]["frames"] == 216
-        assert page.evaluate("window.sightplan.state.evaluation.id") == ev2["id"]
+        assert page.evaluate("window.sightplanTest.evaluationId()") == ev2["id"]
         page.click("button[data-tab=compare]")
         assert page.input_value("#compare-a") == str(ev1["id"]) and page.input_value("#compare-b") == str(ev2["id"])
         vc = page.locator("#compare-table tr[data-metric=VC_pct] td")
@@ -271,20 +269,20 @@ def test_date_slider_shows_the_site_at_a_date(browser, server, artifacts):
 
     try:
         page.goto(server.url + "/")
-        page.wait_for_function("document.body.dataset.model", timeout=30_000)
+        page.wait_for_function("document.body?.dataset.model", timeout=30_000)
         assert page.is_hidden("#date-panel")  # this server has no schedules
         page.route("**/api/projects/*/schedules", schedules)
         page.route("**/api/projects/*/models/*/states?*", states)
         page.reload()
-        page.wait_for_function("document.body.dataset.model && !document.getElementById('date-panel').hidden",
+        page.wait_for_function("document.body?.dataset.model && !document.getElementById('date-panel').hidden",
                                timeout=30_000)
-        page.wait_for_function("window.sightplan.state.dateStates !== null")
+        page.wait_for_function("window.sightplanTest.siteAtDate()")
         page.fill("#date-slider", "10")  # 2024-03-11
         page.dispatch_event("#date-slider", "input")
         page.wait_for_function("document.getElementById('date-label').textContent.startsWith('2024-03-11:')")
         assert "schedule_id=7" in asked[-1] and "date=2024-03-11" in asked[-1]
         assert page.locator("#schedule-select option").all_inner_texts() == ["as planned"]  # only a linked one
-        look = page.evaluate("[0, 1, 2, 3].map((e) => window.sightplan.elementColour(e))")
+        look = page.evaluate("[0, 1, 2, 3].map((e) => window.sightplanTest.elementColour(e))")
         assert look[0] == {"rgb": pytest.approx([0.96, 0.55, 0.12]), "mode": "solid"}  # in progress: orange
         assert look[1]["mode"] == "ghost" and look[2]["mode"] == "ghost"  # not yet built
         assert look[3]["mode"] == "solid" and look[3]["rgb"] != pytest.approx(list(OCCLUDER))  # built
@@ -293,16 +291,16 @@ def test_date_slider_shows_the_site_at_a_date(browser, server, artifacts):
         page.fill("#date-slider", "60")  # 2024-04-30: element 1 is built
         page.dispatch_event("#date-slider", "input")
         page.wait_for_function("document.getElementById('date-label').textContent.startsWith('2024-04-30:')")
-        assert page.evaluate("window.sightplan.elementColour(1).mode") == "solid"
+        assert page.evaluate("window.sightplanTest.elementColour(1).mode") == "solid"
         page.uncheck("#date-on")
-        page.wait_for_function("window.sightplan.elementColour(2).mode === 'solid'")
+        page.wait_for_function("window.sightplanTest.elementColour(2).mode === 'solid'")
     finally:
         ctx.close()
 
 
 # --------------------------------------------------------------------------- the viewer's frame time
 ORBIT_JS = """async (seconds) => {
-  const v = window.sightplan.viewer;
+  const v = window.sightplanTest.view.viewer();
   const cam = v.camera;
   const t = v.controls.target.clone();
   const r0 = cam.position.clone().sub(t);
@@ -353,10 +351,10 @@ def test_viewer_draws_a_steel_structure_with_2000_frames_and_reports_frame_times
     ctx, page, problems = open_page(browser, server)
     try:
         assert page.input_value("#project-select") == str(project)  # the newest project opens
-        page.wait_for_function("window.sightplan.viewer.plan && window.sightplan.viewer.plan.n === 2000 "
-                               "&& window.sightplan.viewer.model", timeout=60_000)
-        page.wait_for_function("window.sightplan.state.checks", timeout=60_000)
-        info = page.evaluate("""() => { const v = window.sightplan.viewer; const r = v.renderer.info.render;
+        page.wait_for_function("window.sightplanTest.view.planFrames() === 2000 "
+                               "&& window.sightplanTest.view.modelTriangles() !== null", timeout=60_000)
+        page.wait_for_function("window.sightplanTest.flightChecked()", timeout=60_000)
+        info = page.evaluate("""() => { const v = window.sightplanTest.view.viewer(); const r = v.renderer.info.render;
             v.render(); return { gl: v.glRenderer, antialias: v.renderer.getContextAttributes().antialias,
             triangles: v.model.geo.header.triangles, calls: r.calls,
             drawnTriangles: r.triangles, lines: r.lines, width: v.renderer.domElement.width,

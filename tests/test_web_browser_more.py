@@ -22,7 +22,7 @@ import numpy as np
 import pytest
 import trimesh
 
-from browser_support import ARTIFACTS, Server, launch_browser, open_page, shot, view_pixels
+from browser_support import ARTIFACTS, Server, element_on_screen, launch_browser, open_page, shot, view_pixels
 from sightplan.camera.catalogue import get_camera
 from sightplan.model.load import load_model, sample_model_path
 from sightplan.plan.templates import indoor_route
@@ -77,7 +77,7 @@ def open_project(browser, server, project: int):
 
 def click_model_point(page, point) -> dict:
     """Click where the model point [x, y, z] is on screen; returns that screen point."""
-    at = page.evaluate(f"window.sightplan.viewer.screenPoint({json.dumps(list(point))})")
+    at = page.evaluate(f"window.sightplanTest.view.screenPoint({json.dumps(list(point))})")
     assert at["inView"], (point, at)
     page.mouse.click(at["x"], at["y"])
     return at
@@ -111,7 +111,7 @@ def test_bridge_plan_from_the_form_with_a_picked_ground_station(browser, server,
     assert server.wait_job(res["job"]["id"])["status"] == "done"
     ctx, page, problems = open_project(browser, server, project)
     try:
-        page.wait_for_function("document.body.dataset.model", timeout=30_000)
+        page.wait_for_function("document.body?.dataset.model", timeout=30_000)
         page.click("#plan-new summary")
         page.select_option("#plan-template", "bridge")
         assert page.is_visible("#plan-axis") and page.is_hidden("#plan-points") and page.is_visible("#plan-stations")
@@ -137,7 +137,7 @@ def test_bridge_plan_from_the_form_with_a_picked_ground_station(browser, server,
         page.wait_for_function("document.querySelector('#plan-stations').value !== ''")
         station = [float(v) for v in page.input_value("#plan-stations").split(",")]
         assert station == [pytest.approx(30, abs=0.3), pytest.approx(-25, abs=0.3), pytest.approx(0, abs=1e-6)]
-        markers = page.evaluate("window.sightplan.viewer.markers")
+        markers = page.evaluate("window.sightplanTest.view.markers()")
         assert [m["points"] for m in markers] == [[[0, 0, 0], [60, 0, 0]], [station]]  # axis at the ground's level
         rgb = view_pixels(page, shot(page, artifacts, "20-bridge-form-picked"))
         orange = ((abs(rgb[..., 0] - 0xe6) < 30) & (abs(rgb[..., 1] - 0x7e) < 30) & (rgb[..., 2] < 90)).sum()
@@ -146,10 +146,10 @@ def test_bridge_plan_from_the_form_with_a_picked_ground_station(browser, server,
         page.click("#pick-stations")
 
         page.click("#plan-create")
-        wait_for(page, "window.sightplan.viewer.plan && window.sightplan.viewer.plan.n > 0")
+        wait_for(page, "window.sightplanTest.view.planFrames() > 0")
         assert page.inner_text("#plan-summary").startswith("221 frames")
-        assert page.evaluate("window.sightplan.viewer.plan.n") == 221
-        assert page.evaluate("window.sightplan.viewer.markers.length") == 0  # the form closed: no picked points drawn
+        assert page.evaluate("window.sightplanTest.view.planFrames()") == 221
+        assert page.evaluate("window.sightplanTest.view.markers().length") == 0  # the form closed: no picked points drawn
         (plan,) = server.get(f"/api/projects/{project}/plans")
         v1 = server.get(f"/api/projects/{project}/plans/{plan['id']}/versions/1")
         assert len(v1["frames"]) == plan["versions"][0]["frames"] == 221
@@ -167,21 +167,21 @@ def test_bridge_plan_from_the_form_with_a_picked_ground_station(browser, server,
         page.select_option("#plan-camera", "x3")
         page.select_option("#plan-aircraft", "")  # the default: a walker for a route
         page.fill("#plan-stations", "")
-        page.fill("#plan-route-step", "2")
+        page.fill("#plan-step_m", "2")
         page.click("#pick-points")
         for point in ([10, -20, 0], [50, -20, 0]):
             click_model_point(page, point)
         page.wait_for_function("document.querySelector('#plan-points').value.split('\\n').length === 2")
         points = [[float(v) for v in line.split(",")] for line in page.input_value("#plan-points").splitlines()]
         assert np.allclose(points, [[10, -20, 1.6], [50, -20, 1.6]], atol=0.3) and points[0][2] == 1.6
-        assert page.evaluate("window.sightplan.viewer.markers")[0]["points"] == points
+        assert page.evaluate("window.sightplanTest.view.markers()")[0]["points"] == points
         shot(page, artifacts, "21b-route-form-picked")
         page.click("#plan-create")
-        wait_for(page, "window.sightplan.state.plan && window.sightplan.state.plan.name === 'route plan'")
+        wait_for(page, "window.sightplanTest.planName() === 'route plan'")
         route = server.get(f"/api/projects/{project}/plans")[-1]
         expected = len(indoor_route(get_camera("x3"), points, 2.0))
         assert route["versions"][0]["frames"] == expected
-        wait_for(page, f"window.sightplan.viewer.plan && window.sightplan.viewer.plan.n === {expected}")  # drawn next
+        wait_for(page, f"window.sightplanTest.view.planFrames() === {expected}")  # drawn next
         assert expected == int(np.ceil(np.linalg.norm(np.subtract(points[1], points[0])) / 2 - 1e-9)) + 1  # ≈ 40 m / 2 + 1
         assert not [p for p in problems if "page error" in p], problems
     finally:
@@ -210,7 +210,7 @@ def test_schedule_from_the_page_dates_the_site_and_the_evaluation(browser, serve
     z = scene.n_elements
     ctx, page, problems = open_project(browser, server, project)
     try:
-        page.wait_for_function("document.body.dataset.model", timeout=30_000)
+        page.wait_for_function("document.body?.dataset.model", timeout=30_000)
         assert page.is_hidden("#date-panel")  # no schedule yet
         page.click("#schedule-new summary")
         page.set_input_files("#schedule-file", {"name": "dates.csv", "mimeType": "text/csv", "buffer": csv})
@@ -235,7 +235,7 @@ def test_schedule_from_the_page_dates_the_site_and_the_evaluation(browser, serve
         shown = {"built": int(label["built"]), "in_progress": int(label["inProgress"]), "not_yet": int(label["notYet"])}
         assert shown == states["counts"] == {"built": z - 5, "in_progress": 5, "not_yet": 0}
         assert page.inner_text("#date-label") == f"2025-01-12: {z - 5} built, 5 in progress, 0 not yet"
-        looks = page.evaluate(f"[...Array({z}).keys()].map((e) => window.sightplan.elementColour(e))")
+        looks = page.evaluate(f"[...Array({z}).keys()].map((e) => window.sightplanTest.elementColour(e))")
         assert {e for e, look in enumerate(looks) if look["rgb"] == pytest.approx([0.96, 0.55, 0.12])} == set(busy)
         rgb = view_pixels(page, shot(page, artifacts, "22-schedule-site-at-2025-01-12"))
         orange = ((rgb[..., 0] > 200) & (abs(rgb[..., 1] - 140) < 40) & (rgb[..., 2] < 90)).sum()
@@ -244,15 +244,15 @@ def test_schedule_from_the_page_dates_the_site_and_the_evaluation(browser, serve
         # an orbit of 8 frames, evaluated at the slider's date
         page.click("#plan-new summary")
         page.select_option("#plan-template", "orbit")
-        page.fill("#plan-radius", "22")
-        page.fill("#plan-height", "6")
-        page.fill("#plan-step", "45")
+        page.fill("#plan-radius_m", "22")
+        page.fill("#plan-height_m", "6")
+        page.fill("#plan-step_deg", "45")
         page.click("#plan-create")
-        wait_for(page, "window.sightplan.viewer.plan && window.sightplan.viewer.plan.n === 8")
+        wait_for(page, "window.sightplanTest.view.planFrames() === 8")
         page.fill("#eval-scale", str(SCALE))
         assert page.get_attribute("#eval-site", "data-date") == "2025-01-12"
         page.click("#eval-start")
-        wait_for(page, "window.sightplan.state.feedback && window.sightplan.state.evaluation", 90)
+        wait_for(page, "window.sightplanTest.evaluationId() !== null", 90)
         (ev,) = server.get(f"/api/projects/{project}/evaluations")
         assert ev["status"] == "done"
         assert ev["settings"]["fourd"] == {"date": "2025-01-12", "schedule_id": sched["id"], "basis": "finish",
@@ -300,7 +300,7 @@ def test_reality_captures_are_drawn_beside_the_model_and_occlude(browser, server
     hoarding = box((2, 2, 3), (-8, -12, -1.5))  # a mesh west of the house
     ctx, page, problems = open_project(browser, server, project)
     try:
-        page.wait_for_function("document.body.dataset.model && window.sightplan.viewer.plan", timeout=30_000)
+        page.wait_for_function("document.body?.dataset.model && window.sightplanTest.view.planFrames() !== null", timeout=30_000)
         if page.is_visible("#date-on"):
             page.uncheck("#date-on")  # the site as built
         for name, data in (("wall.ply", ply_wall()), ("hoarding.obj", obj_bytes(hoarding))):
@@ -310,14 +310,14 @@ def test_reality_captures_are_drawn_beside_the_model_and_occlude(browser, server
         cloud, mesh = server.get(f"/api/projects/{project}/reality")
         assert (cloud["kind"], cloud["points"], mesh["kind"], mesh["triangles"]) == ("points", 200_000, "mesh", 12)
         page.click("#view-fit")
-        page.wait_for_function("""() => { const r = window.sightplan.viewer.realityInfo();
+        page.wait_for_function("""() => { const r = window.sightplanTest.view.realityInfo();
             return r.length === 2 && r.every((x) => x.shown && x.box) && r[0].pointsVisible > 0 && r[0].loading === 0; }""",
                                timeout=60_000)
-        info = {r["kind"]: r for r in page.evaluate("window.sightplan.viewer.realityInfo()")}
+        info = {r["kind"]: r for r in page.evaluate("window.sightplanTest.view.realityInfo()")}
         # placed in the model's frame: the boxes are the captures' bounds through the viewer's own mapping
         for kind, row, tol in (("points", cloud, 0.2), ("mesh", mesh, 1e-3)):
             corners = page.evaluate(f"[{json.dumps(row['bounds']['lo'])}, {json.dumps(row['bounds']['hi'])}]"
-                                    ".map((p) => window.sightplan.viewer.toViewer(p))")
+                                    ".map((p) => window.sightplanTest.view.toViewer(p))")
             expected = np.sort(np.array(corners), axis=0)
             assert np.allclose(info[kind]["box"], expected, atol=tol), (kind, info[kind]["box"], expected)
         assert info["mesh"]["triangles"] == 12
@@ -339,26 +339,20 @@ def test_reality_captures_are_drawn_beside_the_model_and_occlude(browser, server
         assert "wall.ply as occluders" in page.inner_text("#eval-site")
         page.fill("#eval-scale", str(SCALE))
         page.click("#eval-start")
-        wait_for(page, "window.sightplan.state.evaluation && window.sightplan.state.evaluation.settings.reality_id", 90)
+        wait_for(page, "window.sightplanTest.evaluation()?.settings.reality_id", 90)
         ev = [e for e in server.get(f"/api/projects/{project}/evaluations") if e["settings"].get("reality_id")][-1]
         assert ev["settings"]["reality_id"] == cloud["id"] and "fourd" not in ev["settings"]
         assert metric_cells(page, ev["id"]) == api_cells(ev["metrics"])
         assert page.inner_text(f"#metrics-table tr[data-evaluation='{ev['id']}'] td[data-site]") == "+ wall.ply"
 
         # (4) the selected element outlined in the 3D view
-        target = page.evaluate("""() => {
-            const fb = window.sightplan.state.feedback;
-            for (let e = 0; e < fb.elements.ifc_class.length; e++) {
-              if (!fb.elements.ifc_class[e].startsWith('IfcWall')) continue;
-              const p = window.sightplan.viewer.elementScreenPoint(e);
-              if (p) return { e, ...p };
-            }
-            return null; }""")
+        classes = server.get(f"/api/projects/{project}/evaluations/{ev['id']}/feedback")["elements"]["ifc_class"]
+        target = element_on_screen(page, [e for e, cls in enumerate(classes) if cls.startswith("IfcWall")])
         assert target is not None
         before = view_pixels(page, shot(page, artifacts, "26-before-selection"))
         page.mouse.click(target["x"], target["y"])
         page.wait_for_selector(f"#element-card[data-element='{target['e']}']:not([hidden])")
-        assert page.evaluate("window.sightplan.viewer.highlight.userData.element") == target["e"]
+        assert page.evaluate("window.sightplanTest.view.highlightedElement()") == target["e"]
         after = view_pixels(page, shot(page, artifacts, "27-element-outlined"))
 
         def magenta(a):
@@ -368,10 +362,10 @@ def test_reality_captures_are_drawn_beside_the_model_and_occlude(browser, server
 
         # a reload shows the captures again, in the frame of the model that arrives after them
         page.reload()
-        page.wait_for_function("""() => { const r = document.body.dataset.model && window.sightplan.viewer.realityInfo();
+        page.wait_for_function("""() => { const r = document.body?.dataset.model && window.sightplanTest.view.realityInfo();
             return r && r.length === 2 && r.every((x) => x.shown && x.box) && r[0].pointsVisible > 0; }""",
                                timeout=60_000)
-        again = {r["kind"]: r for r in page.evaluate("window.sightplan.viewer.realityInfo()")}
+        again = {r["kind"]: r for r in page.evaluate("window.sightplanTest.view.realityInfo()")}
         for kind in ("points", "mesh"):
             assert np.allclose(again[kind]["box"], info[kind]["box"], atol=0.2), kind
         assert not [p for p in problems if "page error" in p], problems
@@ -419,7 +413,7 @@ def test_team_mode_login_members_share_links_and_roles(browser, team_server, art
         page.keyboard.press("Escape")  # the dialog stays
         assert page.is_visible("#login-dialog")
         log_in(page, "olivia")
-        page.wait_for_function("document.body.dataset.state === 'ready'", timeout=30_000)
+        page.wait_for_function("document.body?.dataset.state === 'ready'", timeout=30_000)
         assert page.inner_text("#user-name") == "olivia" and page.is_visible("#logout")
         assert page.inner_text("#mode-badge") == "team mode"
 
@@ -431,15 +425,15 @@ def test_team_mode_login_members_share_links_and_roles(browser, team_server, art
         project = int(page.input_value("#project-select"))
         page.set_input_files("#model-file", {"name": "cube.obj", "mimeType": "text/plain", "buffer": obj_bytes(cube)})
         page.click("#model-upload")
-        wait_for(page, "document.body.dataset.model")
+        wait_for(page, "document.body?.dataset.model")
         page.click("#plan-new summary")
         page.select_option("#plan-template", "orbit")
-        page.fill("#plan-radius", "12")
-        page.fill("#plan-height", "3")
-        page.fill("#plan-step", "90")
+        page.fill("#plan-radius_m", "12")
+        page.fill("#plan-height_m", "3")
+        page.fill("#plan-step_deg", "90")
         page.click("#plan-create")
-        wait_for(page, "window.sightplan.viewer.plan && window.sightplan.viewer.plan.n === 4")
-        plan = page.evaluate("window.sightplan.state.plan.id")
+        wait_for(page, "window.sightplanTest.view.planFrames() === 4")
+        plan = page.evaluate("window.sightplanTest.planId()")
 
         # Victor joins as a viewer
         assert page.locator("#members-table tr[data-member=olivia][data-role=owner]").count() == 1
@@ -482,10 +476,10 @@ def test_team_mode_login_members_share_links_and_roles(browser, team_server, art
         page.wait_for_selector("#login-dialog[open]", timeout=30_000)
         shot(page, artifacts, "33-logged-out")
         log_in(page, "victor")
-        page.wait_for_function("document.body.dataset.state === 'ready' && document.body.dataset.model", timeout=30_000)
+        page.wait_for_function("document.body?.dataset.state === 'ready' && document.body?.dataset.model", timeout=30_000)
         assert page.inner_text("#user-name") == "victor" and page.inner_text("#user-role") == "viewer"
         assert page.locator("#project-select option").all_inner_texts() == ["Team site"]
-        page.wait_for_function("window.sightplan.viewer.plan && window.sightplan.viewer.plan.n === 4", timeout=30_000)
+        page.wait_for_function("window.sightplanTest.view.planFrames() === 4", timeout=30_000)
         for sel in ("#model-upload", "#model-delete", "#eval-start", "#member-add"):
             assert page.is_disabled(sel) or page.is_hidden(sel), sel
         for sel in ("#plan-new", "#plan-upload-box", "#sec-edit", "#share-box", "#schedule-new", "#reality-file",
@@ -504,7 +498,7 @@ def test_team_mode_login_members_share_links_and_roles(browser, team_server, art
         page.click("#frame-list tbody tr[data-frame='1']")
         page.wait_for_selector("#login-dialog[open]", timeout=30_000)
         log_in(page, "victor")
-        page.wait_for_function("document.body.dataset.state === 'ready'", timeout=30_000)
+        page.wait_for_function("document.body?.dataset.state === 'ready'", timeout=30_000)
         page.click("#logout")
         page.wait_for_selector("#login-dialog[open]", timeout=30_000)
         shot(page, artifacts, "35-viewer-logged-out")
@@ -518,7 +512,7 @@ def test_account_dialog_tokens_and_password(browser, team_server, artifacts):
     ctx, page, problems = open_page(browser, server, wait_ready=False)
     try:
         log_in(page, "victor")
-        page.wait_for_function("document.body.dataset.state === 'ready'", timeout=30_000)
+        page.wait_for_function("document.body?.dataset.state === 'ready'", timeout=30_000)
         page.click("#account")
         page.wait_for_selector("#account-dialog[open]")
         page.fill("#token-name", "nightly export")
@@ -551,7 +545,7 @@ def test_account_dialog_tokens_and_password(browser, team_server, artifacts):
         page.click("#pw-save")
         page.wait_for_selector("#login-dialog[open]", timeout=30_000)  # the sessions ended
         log_in(page, "victor", "victor-new-secret")
-        page.wait_for_function("document.body.dataset.state === 'ready'", timeout=30_000)
+        page.wait_for_function("document.body?.dataset.state === 'ready'", timeout=30_000)
         assert page.inner_text("#user-name") == "victor"
         assert not [p for p in problems if "page error" in p], problems
     finally:

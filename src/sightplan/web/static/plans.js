@@ -1,0 +1,260 @@
+// Plans: the plan list and its versions, uploading a plan file, opening a version (its geometry drawn, its flight
+// checked, its evaluation shown), editing its frames (move, turn, delete, copy) and saving the edits as a new
+// version, and the flight-app exports. New plans from a template are templates.js's.
+import * as api from './api.js';
+import { formatNumber } from './charts.js';
+import { $, $$, act, el, errorText, fillSelect, showMessage } from './dom.js';
+import { projectUrl, viewer } from './context.js';
+import { set, state, subscribe } from './store.js';
+import { clearFeedback, selectEvaluation } from './evaluations.js';
+import { selectFrame, showFrameView, showSelection } from './frames.js';
+import { selectModel } from './models.js';
+import { loadLinks } from './team.js';
+import { frameColours } from './view.js';
+import { clonePlan, copyFrame, deleteFrame, moveFrame, planGeometry, turnFrame } from './planedit.js';
+
+let checksToken = null;  // the flight checks asked last: an older answer is dropped
+
+function renderPlans() {
+  fillSelect($('#plan-select'), state.plans.map((p) => [p.id, `${p.name} — ${p.source}`]), state.plan && state.plan.id);
+  if (state.plan) {
+    fillSelect($('#version-select'), state.plan.versions.map((v) => [v.number, `v${v.number}`]), state.version);
+  } else {
+    $('#version-select').replaceChildren();
+  }
+}
+
+// a plan made on the server (from a template, or uploaded): listed and opened
+export async function addPlan(plan) {
+  set({ plans: [...state.plans, plan] });
+  await selectPlan(plan.id);
+}
+
+async function uploadPlan() {
+  const file = $('#plan-file').files[0];
+  if (!file) throw new Error('choose a plan file first');
+  const form = new FormData();
+  form.append('file', file);
+  if (state.model && state.model.status === 'ready') form.append('model_id', String(state.model.id));
+  const plan = await api.upload(projectUrl('/plans/upload'), form);
+  $('#plan-file').value = '';
+  showMessage(`Plan “${plan.name}” uploaded: ${plan.versions[0].frames} frames.`, 'ok');
+  await addPlan(plan);
+}
+
+export async function selectPlan(id, version = null, { keepEvaluation = false } = {}) {
+  set({ plan: state.plans.find((p) => p.id === id) || null });
+  if (!state.plan) return;
+  localStorage.setItem(`sightplan.${state.project.id}.plan`, String(id));
+  const number = version ?? state.plan.latest_version;
+  $('#share-new').hidden = true;
+  $('#share-url').value = '';
+  act('Listing the share links', loadLinks);
+  await loadVersion(number, { keepEvaluation });
+}
+
+async function loadVersion(number, { keepEvaluation = false } = {}) {
+  if (state.dirty) showMessage('The unsaved edits were discarded.', 'info');
+  set({ version: number });
+  const base = projectUrl(`/plans/${state.plan.id}/versions/${number}`);
+  const [json, geom] = await Promise.all([api.get(base), api.get(`${base}/geometry`)]);
+  const selectedFrame = state.selectedFrame !== null && state.selectedFrame >= geom.position.length ? null
+    : state.selectedFrame;
+  set({ saved: json, draft: clonePlan(json), dirty: false, geom, checks: null, selectedFrame });
+  const plan = state.plan;
+  if (plan.model_id && (!state.model || state.model.id !== plan.model_id) && state.models.some((m) => m.id === plan.model_id)) {
+    await selectModel(plan.model_id);
+  }
+  viewer.setPlan(geom, frameColours(), null);
+  if (state.fitted !== `plan${state.plan.id}`) {
+    viewer.fit();
+    set({ fitted: `plan${state.plan.id}` });
+  }
+  loadChecks();
+  if (!keepEvaluation) {
+    const match = state.evaluations.filter((e) => e.status === 'done' && e.plan_id === state.plan.id && e.plan_version === number);
+    if (state.evaluation && match.some((e) => e.id === state.evaluation.id)) {
+      // keep it
+    } else if (match.length) await selectEvaluation(match.at(-1).id, { fromPlan: true });
+    else clearFeedback();
+  }
+  showSelection();
+}
+
+function renderPlanSummary() {
+  if (!state.plan || !state.saved || !state.draft) return;
+  const v = state.plan.versions.find((x) => x.number === state.version);
+  const p = state.saved.parameters || {};
+  const bits = [`${state.draft.frames.length} frames`, `${(state.draft.missions || []).length || 1} mission(s)`];
+  if (p.template) bits.push(`template ${p.template}`);
+  if (p.safety_distance_m) bits.push(`g = ${p.safety_distance_m} m`);
+  if (v && v.note) bits.push(`“${v.note}”`);
+  $('#plan-summary').textContent = bits.join(' · ') + (state.dirty ? ' — edited, not saved' : '');
+}
+
+function renderExportMissions() {
+  const missions = (state.draft && state.draft.missions) || [];
+  fillSelect($('#export-mission'), [['', 'all'], ...missions.map((m, k) => [k + 1, `${k + 1}: ${m.name}`])], '');
+}
+
+// ---------------------------------------------------------------------------------------------- flight checks
+async function loadChecks() {
+  const token = Symbol('checks');
+  checksToken = token;
+  $('#checks-summary').textContent = 'Checking the flight (safety distance, line of sight, altitude, battery)…';
+  $('#missions-table tbody').replaceChildren();
+  $('#violations').replaceChildren();
+  if (!state.plan || !(state.plan.model_id || state.model)) return;
+  const modelId = state.model && state.model.status === 'ready' ? state.model.id : state.plan.model_id;
+  try {
+    const checks = await api.get(projectUrl(`/plans/${state.plan.id}/versions/${state.version}/checks?model_id=${modelId}`));
+    if (checksToken !== token || state.dirty) return;
+    viewer.setChecks(checks);
+    set({ checks });
+  } catch (err) {
+    if (checksToken !== token) return;
+    $('#checks-summary').textContent = `The flight checks could not run: ${errorText(err)}`;
+  }
+}
+
+function renderChecks() {
+  const c = state.checks;
+  if (!c) return;
+  const unsafe = c.unsafe_frames.length + c.unsafe_segments.length;
+  const time = c.total_time_s !== null ? `, ${(c.total_time_s / 60).toFixed(1)} min of flight` : '';
+  $('#checks-summary').textContent = (c.ok ? 'The plan can be flown' : `${c.violations.length} violation(s)`)
+    + ` — safety distance ${c.safety_distance_m} m, VLOS radius ${c.vlos_radius_m ?? '—'} m${time}; `
+    + `least clearance ${formatNumber(Math.min(...c.clearance_m.filter((x) => x !== null)), 3)} m`
+    + (unsafe ? `; ${c.unsafe_frames.length} frame(s) and ${c.unsafe_segments.length} segment(s) too close (red)` : '');
+  const yes = (v) => (v === null ? '—' : v ? 'ok' : 'NO');
+  $('#missions-table tbody').replaceChildren(...c.missions.map((m) => el('tr', {},
+    el('td', {}, m.name), el('td', {}, `${m.frames[0]}–${m.frames[1] - 1}`),
+    el('td', {}, m.ground_station.slice(0, 2).map((v) => v.toFixed(0)).join(', ')),
+    el('td', {}, m.time_s === null ? '—' : `${(m.time_s / 60).toFixed(1)} min`),
+    el('td', {}, m.distance_m === null ? '—' : (m.distance_m / 1000).toFixed(2)),
+    ...[m.battery_ok, m.line_of_sight_ok, m.safety_ok, m.altitude_ok].map((v) => el('td', { class: v === false ? 'bad' : '' }, yes(v))))));
+  $('#violations').replaceChildren(...c.violations.slice(0, 200).map((text) => {
+    const m = /waypoints? (\d+)/.exec(text);
+    return el('li', { onclick: () => m && selectFrame(Number(m[1]), { scroll: true }) }, text);
+  }));
+}
+
+// ---------------------------------------------------------------------------------------------- editing
+function updateEditState() {
+  const hasFrame = state.selectedFrame !== null && state.draft;
+  $('#sec-edit').classList.toggle('disabled', !hasFrame);
+  $('#plan-save').disabled = !state.dirty;
+  $('#plan-discard').disabled = !state.dirty;
+  $('#edit-status').textContent = state.dirty ? 'Edited: save as a new version, then evaluate it.'
+    : hasFrame ? '' : 'Select a frame (click a camera in the 3D view or a row of the frame list).';
+  if (!hasFrame) $('#edit-frame-label').textContent = '';
+}
+
+// an edited copy of the draft (and the frame selected after the edit): drawn, not checked until saved
+function edited(draft, selectedFrame = state.selectedFrame) {
+  checksToken = null;
+  const geom = planGeometry(draft);
+  set({ draft, selectedFrame, dirty: true, checks: null, geom });
+  viewer.setPlan(geom, frameColours(), null);
+  if (state.selectedFrame !== null) {
+    viewer.select(state.selectedFrame);
+    showFrameView();
+  }
+  $('#checks-summary').textContent = 'The plan is edited: save it to check the flight again.';
+  $('#missions-table tbody').replaceChildren();
+  $('#violations').replaceChildren();
+}
+
+function needFrame() {
+  if (state.selectedFrame === null || !state.draft) throw new Error('select a frame first');
+  return state.selectedFrame;
+}
+
+function move(delta) {
+  const i = needFrame();
+  const draft = clonePlan(state.draft);
+  moveFrame(draft, i, delta);
+  edited(draft);
+}
+
+function turn(yaw, pitch) {
+  const i = needFrame();
+  const draft = clonePlan(state.draft);
+  turnFrame(draft, i, yaw, pitch);
+  edited(draft);
+}
+
+async function savePlan() {
+  if (!state.dirty) throw new Error('nothing to save: the plan is not edited');
+  const plan = await api.put(projectUrl(`/plans/${state.plan.id}?note=${encodeURIComponent('edited in the viewer')}`), state.draft);
+  set({ plans: state.plans.map((p) => (p.id === plan.id ? plan : p)), dirty: false });
+  showMessage(`Saved as version ${plan.latest_version} of “${plan.name}”.`, 'ok');
+  await selectPlan(plan.id, plan.latest_version);
+  if (state.selectedFrame !== null) selectFrame(state.selectedFrame);
+}
+
+// ---------------------------------------------------------------------------------------------- exports
+async function exportPlan(format) {
+  if (!state.plan) throw new Error('create or choose a plan first');
+  if (state.dirty) throw new Error('the plan is edited: save it first (exports are of saved versions)');
+  const q = new URLSearchParams({ format, speed: $('#export-speed').value || '5' });
+  if ($('#export-mission').value) q.set('mission', $('#export-mission').value);
+  if (format === 'wpml' && $('#export-aircraft').value) q.set('aircraft', $('#export-aircraft').value);
+  if (state.model && state.model.status === 'ready') q.set('model_id', String(state.model.id));
+  const file = await api.download(projectUrl(`/plans/${state.plan.id}/versions/${state.version}/export?${q}`));
+  showMessage(`Downloaded ${file.name} (${(file.size / 1024).toFixed(1)} kB).`, 'ok');
+}
+
+export function bindPlans() {
+  subscribe(['plans', 'plan', 'version'], renderPlans);
+  subscribe(['saved', 'draft', 'dirty'], renderPlanSummary);
+  subscribe(['draft'], renderExportMissions);
+  subscribe(['checks'], renderChecks);
+  subscribe(['selectedFrame', 'draft', 'dirty'], updateEditState);
+  $('#plan-upload').addEventListener('click', () => act('Uploading the plan', uploadPlan));
+  $('#plan-select').addEventListener('change', (ev) => act('Opening the plan', () => selectPlan(Number(ev.target.value))));
+  $('#version-select').addEventListener('change', (ev) => act('Opening the version', () => loadVersion(Number(ev.target.value))));
+  for (const b of $$('[data-move]')) {
+    b.addEventListener('click', () => act('Moving the frame', async () => {
+      const step = Number($('#move-step').value) || 1;
+      const axis = 'xyz'.indexOf(b.dataset.move[0]);
+      const d = [0, 0, 0];
+      d[axis] = b.dataset.move[1] === '+' ? step : -step;
+      move(d);
+    }));
+  }
+  $('#move-apply').addEventListener('click', () => act('Moving the frame', async () => {
+    const d = ['#move-dx', '#move-dy', '#move-dz'].map((s) => Number($(s).value) || 0);
+    if (d.every((v) => v === 0)) throw new Error('give dx, dy or dz in metres');
+    move(d);
+  }));
+  for (const b of $$('[data-rotate]')) {
+    b.addEventListener('click', () => act('Turning the frame', async () => {
+      const step = Number($('#rot-step').value) || 5;
+      const sign = b.dataset.rotate.endsWith('+') ? 1 : -1;
+      if (b.dataset.rotate.startsWith('yaw')) turn(sign * step, 0);
+      else turn(0, sign * step);
+    }));
+  }
+  $('#frame-delete').addEventListener('click', () => act('Deleting the frame', async () => {
+    const i = needFrame();
+    const draft = clonePlan(state.draft);
+    deleteFrame(draft, i);
+    edited(draft, Math.min(i, draft.frames.length - 1));
+  }));
+  $('#frame-copy').addEventListener('click', () => act('Copying the frame', async () => {
+    const i = needFrame();
+    const draft = clonePlan(state.draft);
+    edited(draft, copyFrame(draft, i));
+  }));
+  $('#frame-look').addEventListener('click', () => act('Looking through the frame', async () => viewer.lookThrough(needFrame())));
+  $('#plan-save').addEventListener('click', () => act('Saving the plan', savePlan));
+  $('#plan-discard').addEventListener('click', () => act('Discarding the edits', () => loadVersion(state.version)));
+  $('#export-wpml').addEventListener('click', () => act('Exporting for DJI Pilot 2', () => exportPlan('wpml')));
+  $('#export-qgc').addEventListener('click', () => act('Exporting for QGroundControl', () => exportPlan('qgc')));
+  $('#export-other').addEventListener('change', (ev) => {
+    const fmt = ev.target.value;
+    ev.target.value = '';
+    if (fmt) act(`Exporting as ${fmt}`, () => exportPlan(fmt));
+  });
+}

@@ -1,0 +1,221 @@
+// The "New plan from a template" form (#plan-form), built from the server's description of every template
+// (GET /api/templates: each parameter's name with its unit, kind, bounds, default and help, declared once in the
+// library), the request body it makes, the points picked in the 3D view for it (a bridge's axis, a route's points,
+// the ground stations) and drawn there while the form is open, and the plan it creates.
+//
+// Interface, all it shares with the rest of the page:
+//   bindTemplateForm({ planCreated })  wires the form once; planCreated(plan) (async) is given each plan created
+//   it reads the store's templates (the form's fields), cameras and info (the camera and aircraft choices), model
+//   (the plan's model) and pick; it draws its points with viewer.setMarkers and picks them with picking.js.
+import * as api from './api.js';
+import { $, $$, act, el, fillSelect, showMessage } from './dom.js';
+import { projectUrl, viewer } from './context.js';
+import { startPicking, stopPicking } from './picking.js';
+import { state, subscribe } from './store.js';
+
+/** @typedef {import('./api-types.js').TemplateOut} TemplateOut */
+/** @typedef {import('./api-types.js').TemplateFieldOut} TemplateFieldOut */
+
+/** @returns {TemplateOut | undefined} the template chosen in the form */
+const chosen = () => state.templates.find((t) => t.name === $('#plan-template').value);
+const typed = new Map();  // template → field → text typed, kept while the user looks at another template
+
+function templateBody() {
+  const t = chosen();
+  if (!t) throw new Error('the templates are not loaded yet');
+  const num = (node) => (node.value === '' ? null : Number(node.value));
+  if (!state.model || state.model.status !== 'ready') throw new Error('upload a model and wait until it is loaded');
+  const body = {
+    model_id: state.model.id, template: t.name, name: $('#plan-name').value.trim(), camera: $('#plan-camera').value,
+    safety_distance_m: num($('#plan-safety')), split: $('#plan-split').checked,
+  };
+  for (const f of t.fields) {
+    const node = $(`#plan-${f.name}`);
+    if (f.kind === 'number') body[f.name] = num(node);
+    else if (f.kind === 'numbers') body[f.name] = node.value.split(/[,;\s]+/).filter(Boolean).map(Number);
+    else if (f.kind === 'choice') body[f.name] = node.value;
+    else if (f.kind === 'flag') body[f.name] = node.checked;
+    else body[f.name] = parsePoints(node.value, f.kind === 'points2' ? 2 : 3, f.label.toLowerCase());
+    if (Array.isArray(body[f.name]) && !body[f.name].length) delete body[f.name];
+  }
+  // the flight settings every template takes; left empty, the server's defaults (a walker's for a walked route)
+  if ($('#plan-aircraft').value) body.aircraft = $('#plan-aircraft').value;
+  body.vlos_radius_m = num($('#plan-vlos'));
+  body.altitude_limit_m = num($('#plan-alt-limit'));
+  const stations = parsePoints($('#plan-stations').value, 3, 'ground station');
+  if (stations.length) body.ground_station = stations;
+  for (const [k, v] of Object.entries(body)) if (v === null || Number.isNaN(v)) delete body[k];
+  return body;
+}
+
+const bounds = (f) => [f.ge !== null ? `≥ ${f.ge}` : '', f.gt !== null ? `> ${f.gt}` : '', f.le !== null ? `≤ ${f.le}` : '',
+  f.lt !== null ? `< ${f.lt}` : ''].filter(Boolean).join(', ');
+
+/** One field of the form for a template parameter. @param {TemplateFieldOut} f */
+function paramField(f) {
+  const id = `plan-${f.name}`;
+  const label = f.unit ? `${f.label} (${f.unit})` : f.label;
+  const title = [f.help, bounds(f)].filter(Boolean).join('; ');
+  if (f.kind === 'points2' || f.kind === 'points3') {
+    const xyz = f.kind === 'points2' ? 'x, y' : 'x, y, z';
+    return el('div', { class: 'points-field', dataset: { kind: f.kind } },
+      el('label', { for: id }, `${f.label} ${xyz} (m), in order, one a line`),
+      el('textarea', { id, rows: '3', spellcheck: 'false', title, oninput: updateMarkers }),
+      el('button', { id: `pick-${f.name}`, type: 'button', class: 'pick', dataset: { pick: f.name }, onclick: (ev) => act(
+        'Picking points', async () => startPicking(f.name, { button: ev.currentTarget, what: `a point of the ${f.label
+          .toLowerCase()}`, onPoint: (point) => addPickedPoint(f, point) })) }, 'pick in 3D'));
+  }
+  if (f.kind === 'flag') {
+    return el('label', { class: 'check', title }, el('input', { id, type: 'checkbox', checked: f.default === true }), ` ${f.help}`);
+  }
+  let input;
+  if (f.kind === 'choice') {
+    input = el('select', { id });
+    fillSelect(input, f.choices.map((c) => [c, c]), f.default);
+  } else if (f.kind === 'numbers') {
+    input = el('input', { id, placeholder: 'default; or values, comma-separated' });
+  } else {
+    const min = f.ge ?? f.gt;
+    const max = f.le ?? f.lt;
+    input = el('input', { id, type: 'number', step: 'any', min: min ?? undefined, max: max ?? undefined,
+      placeholder: f.default === null ? 'default' : undefined, value: f.default ?? undefined });
+  }
+  input.title = title;
+  return el('label', {}, `${label} `, input);
+}
+
+// the chosen template's fields (what was typed for it before, back in place)
+function renderParams() {
+  const t = chosen();
+  const box = $('#plan-params');
+  const previous = box.dataset.template;
+  if (previous) {
+    typed.set(previous, new Map($$('#plan-params [id^="plan-"]').map((n) => [n.id, n.type === 'checkbox' ? n.checked : n.value])));
+  }
+  box.replaceChildren(...(t ? t.fields.map(paramField) : []));
+  box.dataset.template = t ? t.name : '';
+  for (const [id, v] of (t && typed.get(t.name)) || []) {
+    const node = document.getElementById(id);
+    if (node && node.type === 'checkbox') node.checked = v;
+    else if (node) node.value = v;
+  }
+  $('#plan-eye-field').hidden = !(t && t.fields.some((f) => f.kind === 'points3'));
+}
+
+function fillTemplates() {
+  const select = $('#plan-template');
+  fillSelect(select, state.templates.map((t) => [t.name, `${t.name} (${t.summary})`]), select.value || 'facade');
+  updateTemplateFields();
+}
+
+// "x, y[, z]" a line (or separated by ";"): a list of points of n coordinates each
+function parsePoints(text, n, what) {
+  const lines = text.split(/[\n;]+/).map((l) => l.trim()).filter(Boolean);
+  return lines.map((line, k) => {
+    const v = line.replace(/^\[|\]$/g, '').split(/[,\s]+/).filter(Boolean).map(Number);
+    if (v.length !== n || v.some((x) => !Number.isFinite(x))) {
+      throw new Error(`${what} ${k + 1} (“${line}”) must be ${n} numbers: ${n === 2 ? 'x, y' : 'x, y, z'} in metres`);
+    }
+    return v;
+  });
+}
+
+const fmt2 = (v) => String(Math.round(v * 100) / 100);
+
+// the camera catalogue and the aircraft presets of /api/info
+function fillChoices() {
+  fillSelect($('#plan-camera'), state.cameras.map((c) => [c.id, `${c.name} (${c.width}×${c.height})`]), 'p4p');
+  fillSelect($('#plan-aircraft'), [['', 'default (p4p; a walker for a route)'],
+    ...Object.entries((state.info && state.info.aircraft) || {}).map(([id, name]) => [id, `${name} (${id})`]),
+    ['none', 'none: no battery check']], '');
+}
+
+// ---------------------------------------------------------------------------------------------- points picked in 3D
+const COLOURS = { points2: 0xe67e22, points3: 0x8e44ad, stations: 0x0b7a3e };
+
+// a point picked: appended to its field (a 2D point without its z; a walked point at the height typed above it)
+function addPickedPoint(f, [x, y, z]) {
+  let coords;
+  if (f.kind === 'points2') coords = [x, y];
+  else if (f.kind === 'points3') coords = [x, y, z + (Number($('#plan-route-eye').value) || 0)];
+  else coords = [x, y, z];
+  const field = f.kind === 'stations' ? $('#plan-stations') : $(`#plan-${f.name}`);
+  const text = field.value.replace(/\s+$/, '');
+  field.value = `${text ? `${text}\n` : ''}${coords.map(fmt2).join(', ')}`;
+  field.dataset.picked = String(Number(field.dataset.picked || 0) + 1);
+  updateMarkers();
+}
+
+// the form's points in the 3D view while the form is open (2D points at the ground's level)
+function updateMarkers() {
+  if (!viewer) return;
+  if (!$('#plan-new').open) {
+    viewer.setMarkers([]);
+    return;
+  }
+  const safe = (fn) => {
+    try {
+      return fn();
+    } catch {
+      return [];  // a line being typed: shown once it parses
+    }
+  };
+  const ground = viewer.groundZ();
+  const sets = [];
+  for (const f of (chosen() || { fields: [] }).fields.filter((g) => g.kind.startsWith('points'))) {
+    const n = f.kind === 'points2' ? 2 : 3;
+    const points = safe(() => parsePoints($(`#plan-${f.name}`).value, n, f.label));
+    sets.push({ colour: COLOURS[f.kind], line: true, points: n === 2 ? points.map(([x, y]) => [x, y, ground]) : points });
+  }
+  sets.push({ colour: COLOURS.stations, line: false, points: safe(() => parsePoints($('#plan-stations').value, 3, 'ground station')) });
+  viewer.setMarkers(sets);
+}
+
+async function createPlan(planCreated) {
+  const body = templateBody();
+  const button = $('#plan-create');
+  button.disabled = true;
+  button.textContent = 'Planning…';
+  try {
+    const plan = await api.post(projectUrl('/plans'), body);
+    showMessage(`Plan “${plan.name}”: ${plan.versions[0].frames} frames in ${plan.versions[0].missions} mission(s).`, 'ok');
+    await planCreated(plan);
+    $('#plan-new').open = false;
+  } finally {
+    button.disabled = false;
+    button.textContent = 'Create plan';
+  }
+}
+
+// the safety distance follows the template (a walker's is the server's default) unless it was typed
+function updateTemplateFields() {
+  const t = chosen();
+  renderParams();
+  const safety = $('#plan-safety');
+  const before = state.templates.find((x) => x.name === safety.dataset.defaultOf);
+  const shown = (x) => (x && x.walked ? '' : String(x ? x.safety_distance_m : 10));
+  if (safety.value === shown(before)) safety.value = shown(t);
+  safety.placeholder = t && t.walked ? `${t.safety_distance_m} (walker)` : '';
+  safety.dataset.defaultOf = t ? t.name : '';
+  if (state.pick && state.pick !== 'stations' && !(t && t.fields.some((f) => f.name === state.pick))) stopPicking();
+  updateMarkers();
+}
+
+export function bindTemplateForm({ planCreated }) {
+  subscribe(['cameras', 'info'], fillChoices);
+  subscribe(['templates'], fillTemplates);
+  $('#plan-template').addEventListener('change', updateTemplateFields);
+  $('#plan-form').addEventListener('submit', (ev) => {
+    ev.preventDefault();
+    act('Creating the plan', () => createPlan(planCreated));
+  });
+  // the ground stations, the one points field every template has
+  const stations = { name: 'stations', kind: 'stations', label: 'ground station' };
+  $('#pick-stations').addEventListener('click', (ev) => act('Picking points', async () => startPicking('stations', {
+    button: ev.currentTarget, what: 'a ground station', onPoint: (point) => addPickedPoint(stations, point) })));
+  $('#plan-stations').addEventListener('input', updateMarkers);
+  $('#plan-new').addEventListener('toggle', () => {
+    if (!$('#plan-new').open) stopPicking();
+    updateMarkers();
+  });
+}
