@@ -1,7 +1,8 @@
-"""What a flight format is, stated once for its reader (``sightplan.plan.io_*``) and its writer
-(``sightplan.export.*``): MAVLink's command and frame numbers (QGroundControl ``.plan``, QGC WPL), DJI's WPML
-namespaces and aircraft enumerations, KML's namespace; the names of the formats written. Light to import: the
-command line builds its options from it."""
+"""The formats sightplan reads and writes. Each format's reader is a module of this package that declares its
+``FORMAT`` (:mod:`.registry` collects them; :func:`sightplan.plan.load.load_plan` reads through it); the writers
+are in ``sightplan.export``, with what the formats share here: MAVLink's command and frame numbers (QGroundControl
+``.plan``, QGC WPL), DJI's WPML namespaces and aircraft enumerations, KML's namespace; the names of the formats
+written. This module itself is light to import: the command line builds its options from it."""
 
 from __future__ import annotations
 

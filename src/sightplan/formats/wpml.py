@@ -1,4 +1,4 @@
-"""Import a DJI WPML mission: a ``.kmz`` (zip) holding ``wpmz/waylines.wpml`` (else ``wpmz/template.kml``).
+"""DJI WPML missions, read from a ``.kmz`` (zip) holding ``wpmz/waylines.wpml`` (else ``wpmz/template.kml``).
 
 Both are KML documents with DJI's ``wpml`` elements (any ``http://www.dji.com/wpmz/…`` version).
 Each ``Folder`` (wayline) becomes one :class:`~sightplan.plan.types.Mission`; its ``Placemark``
@@ -53,11 +53,12 @@ from ..camera.catalogue import get_camera
 from ..camera.files import parse_camera_spec
 from ..camera.models import Camera
 from ..errors import CameraError, PlanError
-from ..formats.dji import BUILT_IN_CAMERAS, PAYLOAD_CAMERAS
 from ..geo import Georeference, GeoreferenceError
 from ..geometry.poses import R_from_gimbal
-from .io_qgc import bearing, differs
-from .types import Mission, Plan
+from ..plan.types import Mission, Plan
+from .base import FlightFormat, ReadOptions, Source
+from .dji import BUILT_IN_CAMERAS, PAYLOAD_CAMERAS
+from .reading import bearing, differs
 
 AREA_TEMPLATES = {"mapping2d": "area", "mapping3d": "area", "mappingStrip": "strip"}
 DEFAULT_PITCH_DEG = -90.0
@@ -491,3 +492,10 @@ def read_wpml(path: str | Path, georef: Georeference | None = None, camera: Came
     return Plan.build({cid: cam}, R, C, frame_names=[re.sub(r"\s+", "_", n) for n in names],
                       missions=tuple(Mission(*m) for m in missions), waypoints=np.array(waypoints_xyz).reshape(-1, 3),
                       parameters=params)
+
+
+def _read(source: Source, options: ReadOptions) -> Plan:
+    return read_wpml(source.path, georef=options.georef, camera=options.camera, ground_z=options.ground_z)
+
+
+FORMAT = FlightFormat(name="wpml", label="DJI WPML", order=30, read=_read, suffixes=(".kmz",), uses_camera=True)

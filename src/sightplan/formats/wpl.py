@@ -1,0 +1,69 @@
+"""``QGC WPL 110`` waypoint files (Mission Planner ``.waypoints``, read by QGroundControl and MAVProxy), read as
+:mod:`.mavlink` reads a mission's commands; line 0 is the home position."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+from ..camera.models import Camera
+from ..errors import PlanError
+from ..geo import Georeference
+from ..plan.types import Plan
+from .base import FlightFormat, ReadOptions, Source
+from .mavlink import Command, MissionSource, plan_from_source
+
+# ---- reading -----------------------------------------------------------------------------------
+
+
+def sniff(source: Source) -> bool:
+    """Whether the file is a text file starting with the ``QGC WPL`` header."""
+    return source.head().lstrip(b"\xef\xbb\xbf").startswith(b"QGC WPL")
+
+
+def parse_wpl(path: Path) -> MissionSource:
+    """The commands of a ``QGC WPL 110`` file; line 0 is the home position."""
+    try:
+        lines = path.read_text(encoding="utf-8-sig").splitlines()
+    except OSError as exc:
+        raise PlanError(f"cannot read {path}: {exc.strerror or exc}") from None
+    except UnicodeDecodeError:
+        raise PlanError(f"{path.name} is not a text file") from None
+    if not lines or lines[0].strip() != "QGC WPL 110":
+        first = lines[0].strip()[:40] if lines else ""
+        raise PlanError(f"{path.name} is not a QGC WPL 110 waypoint file (first line {first!r})")
+    src = MissionSource(path, [], None, prefix="seq", fmt="wpl")
+    for n, line in enumerate(lines[1:], start=2):
+        if not line.strip() or line.lstrip().startswith("#"):
+            continue
+        where = f"{path.name}, line {n}"
+        cells = line.split()
+        if len(cells) != 12:
+            raise PlanError(f"{where}: expected 12 values (seq current frame command p1 p2 p3 p4 lat lon alt "
+                            f"autocontinue), got {len(cells)}")
+        try:
+            seq, _current, frame, command = (int(c) for c in cells[:4])
+            params = tuple(float(c) for c in cells[4:11])
+        except ValueError:
+            raise PlanError(f"{where}: {line.strip()[:60]!r} has a value that is not a number") from None
+        if seq == 0 and src.home is None and not src.commands:
+            if not all(math.isfinite(v) for v in params[4:7]):
+                raise PlanError(f"{where}: the home position is not finite")
+            src.home = (params[4], params[5], params[6]) if any(params[4:6]) else None
+            continue
+        src.commands.append(Command(command, frame, params, where, seq))
+    return src
+
+
+def read_wpl(path: str | Path, georef: Georeference | None = None, camera: Camera | str | dict | None = None,
+             ground_z: float | None = None) -> Plan:
+    """A plan from a ``QGC WPL 110`` waypoint file (Mission Planner ``.waypoints``); see the module docstring."""
+    return plan_from_source(parse_wpl(Path(path)), georef, camera, ground_z)
+
+
+def _read(source: Source, options: ReadOptions) -> Plan:
+    return read_wpl(source.path, georef=options.georef, camera=options.camera, ground_z=options.ground_z)
+
+
+FORMAT = FlightFormat(name="wpl", label="QGC WPL", order=20, read=_read, suffixes=(".waypoints", ".txt"), sniff=sniff,
+                      what="a QGC WPL 110 waypoint file", uses_camera=True)
