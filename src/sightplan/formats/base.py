@@ -1,6 +1,6 @@
 """What a format is to sightplan: the record every format module declares as ``FORMAT``
-(:class:`FlightFormat`), which :mod:`.registry` collects, and what its reader is given (:class:`Source`,
-:class:`ReadOptions`)."""
+(:class:`FlightFormat`), which :mod:`.registry` collects, what its reader is given (:class:`Source`,
+:class:`ReadOptions`) and what its writer is given besides the flight (:class:`Target`)."""
 
 from __future__ import annotations
 
@@ -13,6 +13,7 @@ from ..camera.models import Camera
 from ..geo import Georeference
 from ..plan.format import read_json
 from ..plan.types import Plan
+from .flight import Flight
 
 
 @dataclass(frozen=True)
@@ -61,6 +62,19 @@ class Source:
 
 
 @dataclass(frozen=True)
+class Target:
+    """What one export is written for, as the format's ``prepare`` decided before any flight is built: the autopilot
+    (MAVLink formats), the aircraft's name (for the user) and the format's own description of it (``vehicle``, for
+    its writer, e.g. a DJI aircraft), the gimbal's pitch range when it is not the format's, a note for the user."""
+
+    autopilot: str | None = None
+    aircraft: str | None = None
+    vehicle: Any = None
+    pitch_range: tuple[float, float] | None = None
+    note: str | None = None
+
+
+@dataclass(frozen=True)
 class FlightFormat:
     """One format sightplan reads or writes: a flight-app mission, a map, or the poses of a flown capture.
 
@@ -72,6 +86,15 @@ class FlightFormat:
     (a format without one takes the suffix when no other's sniff says yes). ``what``: what such content is, for
     the message when no sniff says yes. ``uses_camera``: the reader takes ``options.camera`` itself (otherwise a
     camera given replaces the file's cameras).
+
+    Writing: ``write(flight, path, target)`` writes the files and returns them; ``suffix`` is the suffix of the files
+    written and ``media_type`` their MIME type. ``prepare(plan, aircraft, speed_m_s)``, before any flight is built,
+    decides the :class:`Target` (and refuses what the format cannot fly); ``aircraft_choice``: it takes the aircraft
+    the user names (``aircraft=``, ``--aircraft``). ``autopilot``: for a format written for one autopilot
+    (MAVLink), the default one. ``per_mission``: one file (or more) per mission, each from its own take-off point.
+    ``pitch_range``: the gimbal pitches (degrees) it can fly, rolled frames refused too; None: any frame (maps).
+    ``title``: what a file is, for the user ("QGroundControl plan"; default ``label``); ``help``: a few words after
+    the name in the list of choices ("QGroundControl .plan"); ``settings``: what the user must set in the app.
     """
 
     name: str
@@ -84,3 +107,15 @@ class FlightFormat:
     sniff: Callable[[Source], bool] | None = None
     what: str = ""
     uses_camera: bool = False
+    # writing
+    write: Callable[[Flight, Path, Target], list[Path]] | None = None
+    suffix: str = ""
+    media_type: str = "application/octet-stream"
+    prepare: Callable[[Plan, str | None, float], Target] | None = None
+    aircraft_choice: bool = False
+    autopilot: str | None = None
+    per_mission: bool = False
+    pitch_range: tuple[float, float] | None = None
+    title: str = ""
+    help: str = ""
+    settings: tuple[str, ...] = ()

@@ -1,8 +1,9 @@
-"""MAVLink missions, as the QGroundControl ``.plan``  (:mod:`.qgc`) and ``QGC WPL 110`` (:mod:`.wpl`) formats
+"""MAVLink missions, as the QGroundControl ``.plan`` (:mod:`.qgc`) and ``QGC WPL 110`` (:mod:`.wpl`) formats
 hold them: the command and frame numbers (``MAV_CMD``, ``MAV_FRAME``, ``MAV_AUTOPILOT``, ``MAV_MOUNT_MODE``, as the
-MAVLink common message set defines them) and reading a mission's commands into a plan.
+MAVLink common message set defines them), reading a mission's commands into a plan and writing a flight as
+commands for an autopilot.
 
-The mission's commands are flown in order and a frame is made wherever a photo is taken:
+Reading: the mission's commands are flown in order and a frame is made wherever a photo is taken:
 
 - positions: ``NAV_WAYPOINT`` (16) and the other positional NAV commands (loiters 17/18/19/31,
   spline 82); ``NAV_TAKEOFF`` (22) moves the aircraft but makes no frame; ``NAV_RETURN_TO_LAUNCH``
@@ -31,6 +32,31 @@ one the plan's camera settings name when the catalogue knows it (or a QGroundCon
 sensor and lens), else ``camera``. A plan written by :mod:`.qgc` carries a
 ``sightplan`` block (ignored by QGroundControl): its frame names, cameras and georeference are used
 (a georeference given wins).
+
+Writing (:func:`mission_items`, the command sequence of both formats, for an autopilot): positional
+(NAV) items are in frame 3 (``MAV_FRAME_GLOBAL_RELATIVE_ALT``: metres above the take-off point),
+every other item in frame 2 (``MAV_FRAME_MISSION``). Photo commands are ``MAV_CMD_DO_MOUNT_CONTROL``
+(205: pitch in param1, roll and yaw 0, mode 2 = ``MAV_MOUNT_MODE_MAVLINK_TARGETING`` in param7) and
+``MAV_CMD_IMAGE_START_CAPTURE`` (2000: all cameras, one image). Both autopilots run the commands that
+follow a waypoint only once that waypoint is reached, and a waypoint's photos are grouped into *stops*:
+runs of consecutive photos with the same heading. What differs (``autopilot``):
+
+- ``px4`` (``firmwareType`` 12): the heading is the yaw of ``MAV_CMD_NAV_WAYPOINT`` (16, param4, a true
+  heading): one waypoint per stop, all at the same position, each followed by its photos. PX4
+  refuses ``MAV_CMD_CONDITION_YAW`` in a mission (``mavlink_mission.cpp``,
+  ``parse_mavlink_mission_item``), and takes non-positional commands in frame 2 only.
+- ``ardupilot`` (``firmwareType`` 3): Copter keeps only the hold time (param1) of a waypoint and
+  drops its yaw, so the heading is a ``MAV_CMD_CONDITION_YAW`` (115: param1 the true heading, param2 0
+  = default turn rate, param3 0 = the shortest turn, param4 0 = absolute). ArduPilot starts the first
+  command after a waypoint together with the next positional item, and every waypoint it starts
+  resets the yaw to its ``WP_YAW_BEHAVIOR``; so after the arrival waypoint each stop is
+  ``DO_MOUNT_CONTROL``, ``CONDITION_YAW``, ``IMAGE_START_CAPTURE`` (then mount and capture for more
+  photos with that heading) followed by a waypoint at the same position that holds
+  :data:`ARDUPILOT_STOP_HOLD_S` seconds: the aircraft turns and shoots during that hold, in place.
+
+A mission is ``MAV_CMD_NAV_TAKEOFF`` (22) at the take-off point to the first waypoint's altitude (at
+least 2 m), the waypoints, then ``MAV_CMD_NAV_RETURN_TO_LAUNCH`` (20). The NAV_WAYPOINT yaw (param4) is
+always the heading of the stop it starts or ends, so a ground station shows it.
 """
 
 from __future__ import annotations
@@ -38,6 +64,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Literal, get_args
 
 import numpy as np
 from numpy.typing import NDArray
@@ -49,6 +76,7 @@ from ..errors import CameraError, PlanError
 from ..geo import Georeference, GeoreferenceError
 from ..geometry.poses import R_from_gimbal
 from ..plan.types import Mission, Plan
+from .flight import Flight, Photo, Waypoint, same_angle
 from .reading import bearing, differs
 
 # MAV_CMD: navigation
@@ -66,6 +94,11 @@ FRAME_GLOBAL, FRAME_MISSION, FRAME_GLOBAL_RELATIVE_ALT = 0, 2, 3
 MOUNT_MODE_MAVLINK_TARGETING = 2
 # MAV_AUTOPILOT, as QGroundControl's firmwareType
 FIRMWARE_TYPES = {"ardupilot": 3, "px4": 12}  # MAV_AUTOPILOT_ARDUPILOTMEGA, MAV_AUTOPILOT_PX4
+
+#: The autopilots a MAVLink file (qgc, wpl) is written for.
+Autopilot = Literal["px4", "ardupilot"]
+AUTOPILOTS: tuple[str, ...] = tuple(sorted(get_args(Autopilot)))
+AUTOPILOT_LABELS = {"ardupilot": "ArduPilot", "px4": "PX4"}
 
 # ---- reading a mission -------------------------------------------------------------------------
 
@@ -436,3 +469,66 @@ def plan_from_source(src: MissionSource, georef: Georeference | None, camera: Ca
                       missions=(Mission(src.path.stem, 0, len(frames)),),
                       waypoints=np.array(waypoints).reshape(-1, 3), parameters=params)
 
+
+# ---- writing a flight --------------------------------------------------------------------------
+
+MIN_TAKEOFF_ALTITUDE_M = 2.0
+ARDUPILOT_STOP_HOLD_S = 4.0  # a 180° turn at Copter's default yaw slew (60°/s) takes 3 s; then the shot
+
+
+def resolve_autopilot(autopilot: str | None, default: str = "px4") -> str:
+    """``autopilot``, or ``default`` (the format's) when None; a PlanError for an unknown one."""
+    if autopilot is None:
+        return default
+    if autopilot not in AUTOPILOTS:
+        raise PlanError(f"unknown autopilot {autopilot!r}; expected one of {', '.join(AUTOPILOTS)}")
+    return autopilot
+
+
+def stops(photos: tuple[Photo, ...]) -> list[list[Photo]]:
+    """A waypoint's photos in runs of consecutive photos with the same heading."""
+    out: list[list[Photo]] = []
+    for photo in photos:
+        if out and same_angle(out[-1][0].heading_deg, photo.heading_deg):
+            out[-1].append(photo)
+        else:
+            out.append([photo])
+    return out
+
+
+def mission_items(flight: Flight, waypoints: list[Waypoint], autopilot: Autopilot = "px4") -> list[dict]:
+    """The command sequence of one mission for ``autopilot``: dicts with ``command``, ``frame``, 7 ``params`` and
+    ``nav`` (positional); see the module docstring."""
+    autopilot = resolve_autopilot(autopilot)
+    items: list[dict] = []
+
+    def add(command: int, params: list[float], nav: bool = False) -> None:
+        items.append({"command": command, "frame": FRAME_GLOBAL_RELATIVE_ALT if nav else FRAME_MISSION,
+                      "params": [float(p) for p in params], "nav": nav})
+
+    def waypoint(wp: Waypoint, heading: float, hold_s: float = 0.0) -> None:
+        add(NAV_WAYPOINT, [hold_s, 0, 0, heading, wp.latitude_deg, wp.longitude_deg, wp.altitude_m], nav=True)
+
+    def mount(photo: Photo) -> None:
+        add(DO_MOUNT_CONTROL, [photo.pitch_deg, 0, 0, 0, 0, 0, MOUNT_MODE_MAVLINK_TARGETING])
+
+    first = waypoints[0]
+    add(NAV_TAKEOFF, [0, 0, 0, first.photos[0].heading_deg, flight.takeoff_latitude_deg, flight.takeoff_longitude_deg,
+                      max(first.altitude_m, MIN_TAKEOFF_ALTITUDE_M)], nav=True)
+    for wp in waypoints:
+        groups = stops(wp.photos)
+        if autopilot == "ardupilot":
+            waypoint(wp, groups[0][0].heading_deg)
+        for group in groups:
+            heading = group[0].heading_deg
+            if autopilot == "px4":
+                waypoint(wp, heading)
+            for k, photo in enumerate(group):
+                mount(photo)
+                if autopilot == "ardupilot" and k == 0:
+                    add(CONDITION_YAW, [heading, 0, 0, 0, 0, 0, 0])
+                add(IMAGE_START_CAPTURE, [0, 0, 1, 0, 0, 0, 0])
+            if autopilot == "ardupilot":
+                waypoint(wp, heading, ARDUPILOT_STOP_HOLD_S)
+    add(NAV_RETURN_TO_LAUNCH, [0, 0, 0, 0, 0, 0, 0])
+    return items

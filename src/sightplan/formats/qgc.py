@@ -1,15 +1,24 @@
-"""QGroundControl ``.plan`` missions (JSON: ``fileType`` "Plan"), read as :mod:`.mavlink` reads a mission's commands.
+"""QGroundControl ``.plan`` missions (JSON: ``fileType`` "Plan", version 1; mission version 2), read and written as
+:mod:`.mavlink` reads and writes a mission's commands.
 
-A plan's home is its ``plannedHomePosition``. QGroundControl complex items: Survey and CorridorScan are read from their expanded
-``TransectStyleComplexItem.Items`` (or ``Items``); a StructureScan (which QGroundControl saves
-without items) is expanded as QGroundControl does: its polygon, made clockwise, offset outward by the
+Read: a plan's home is its ``plannedHomePosition``. QGroundControl complex items: Survey and CorridorScan
+are read from their expanded ``TransectStyleComplexItem.Items`` (or ``Items``); a StructureScan (which
+QGroundControl saves without items) is expanded as QGroundControl does: its polygon, made clockwise, offset outward by the
 camera's distance to the surface; ``Layers`` loops around it at heights from ``StructureHeight`` (or
 ``ScanBottomAlt``) in steps of the frontal footprint, each triggering a photo every side footprint
 metres, the camera ``GimbalPitch`` and 90° right of the direction of flight, toward the structure.
+
+Written: the mission is a list of ``SimpleItem`` commands (:func:`~.mavlink.mission_items`), ``doJumpId``
+counting from 1, for PX4 by default (``firmwareType`` 12; ArduPilot 3). ``plannedHomePosition`` is the
+take-off point's latitude, longitude and absolute height. A ``sightplan`` block (ignored by QGroundControl)
+records the autopilot, the frames' names and cameras, the georeference and the take-off point, so that an
+import gives back the same frames. A plan with several missions is written as one file per mission
+(``stem_m01.plan``…).
 """
 
 from __future__ import annotations
 
+import json
 import math
 from pathlib import Path
 from typing import Any
@@ -22,16 +31,23 @@ from ..errors import PlanError
 from ..geo import Georeference
 from ..plan.format import read_json
 from ..plan.types import Plan
-from .base import FlightFormat, ReadOptions, Source
+from .base import FlightFormat, ReadOptions, Source, Target
+from .flight import Flight, Waypoint, mission_paths
 from .mavlink import (
     DO_SET_CAM_TRIGG_DIST,
     DO_SET_ROI_NONE,
     DO_SET_ROI_WPNEXT_OFFSET,
+    FIRMWARE_TYPES,
     NAV_WAYPOINT,
+    Autopilot,
     Command,
     MissionSource,
+    mission_items,
     plan_from_source,
+    resolve_autopilot,
 )
+
+DEFAULT_AUTOPILOT = "px4"  # QGroundControl is PX4's ground station
 
 # ---- reading -----------------------------------------------------------------------------------
 
@@ -200,13 +216,70 @@ def parse_qgc_plan(path: Path) -> MissionSource:
 
 def read_qgc_plan(path: str | Path, georef: Georeference | None = None, camera: Camera | str | dict | None = None,
                   ground_z: float | None = None) -> Plan:
-    """A plan from a QGroundControl ``.plan`` mission; see the module docstring (``ground_z``: :func:`load_plan`)."""
+    """A plan from a QGroundControl ``.plan`` mission; see the module docstring (``ground_z``:
+    :func:`~sightplan.plan.load.load_plan`)."""
     return plan_from_source(parse_qgc_plan(Path(path)), georef, camera, ground_z)
-
 
 
 def _read(source: Source, options: ReadOptions) -> Plan:
     return read_qgc_plan(source.path, georef=options.georef, camera=options.camera, ground_z=options.ground_z)
 
 
-FORMAT = FlightFormat(name="qgc", label="QGroundControl", order=10, read=_read, suffixes=(".plan",), uses_camera=True)
+# ---- writing -----------------------------------------------------------------------------------
+
+
+def plan_document(flight: Flight, waypoints: list[Waypoint], autopilot: Autopilot = "px4") -> dict:
+    """The ``.plan`` JSON object of one mission for ``autopilot``."""
+    autopilot = resolve_autopilot(autopilot, DEFAULT_AUTOPILOT)
+    plan = flight.plan
+    frames = [p.frame for wp in waypoints for p in wp.photos]
+    cams = sorted({str(plan.frame_camera[i]) for i in frames})
+    items = []
+    for k, it in enumerate(mission_items(flight, waypoints, autopilot), start=1):
+        item = {"autoContinue": True, "command": it["command"], "doJumpId": k, "frame": it["frame"],
+                "params": it["params"], "type": "SimpleItem"}
+        if it["nav"]:
+            item.update({"AMSLAltAboveTerrain": None, "Altitude": it["params"][6], "AltitudeMode": 1})
+        items.append(item)
+    return {
+        "fileType": "Plan",
+        "geoFence": {"circles": [], "polygons": [], "version": 2},
+        "groundStation": "sightplan",
+        "mission": {
+            "cruiseSpeed": flight.speed_m_s,
+            "firmwareType": FIRMWARE_TYPES[autopilot],
+            "globalPlanAltitudeMode": 1,
+            "hoverSpeed": flight.speed_m_s,
+            "items": items,
+            "plannedHomePosition": [flight.takeoff_latitude_deg, flight.takeoff_longitude_deg, flight.takeoff_height_m],
+            "vehicleType": 2,
+            "version": 2,
+        },
+        "rallyPoints": {"points": [], "version": 2},
+        "sightplan": {"version": 1, "autopilot": autopilot, "frames": [str(plan.frame_names[i]) for i in frames],
+                      "frame_cameras": [str(plan.frame_camera[i]) for i in frames],
+                      "cameras": {c: plan.cameras[c].to_dict() for c in cams},
+                      "georeference": flight.georef.to_dict(), "takeoff_m": list(flight.takeoff_m)},
+        "version": 1,
+    }
+
+
+def write_qgc(flight: Flight, path: Path, autopilot: Autopilot | None = None) -> list[Path]:
+    """One ``.plan`` per mission for ``autopilot`` (default :data:`DEFAULT_AUTOPILOT`: PX4)."""
+    autopilot = resolve_autopilot(autopilot, DEFAULT_AUTOPILOT)
+    groups = flight.by_mission()
+    paths = mission_paths(path, [m for m, _ in groups], several=len(groups) > 1)
+    for m, wps in groups:
+        doc = plan_document(flight, wps, autopilot)
+        paths[m].write_text(json.dumps(doc, indent=2, allow_nan=False), encoding="utf-8")
+    return [paths[m] for m, _ in groups]
+
+
+def _write(flight: Flight, path: Path, target: Target) -> list[Path]:
+    return write_qgc(flight, path, target.autopilot)
+
+
+FORMAT = FlightFormat(name="qgc", label="QGroundControl", order=10, read=_read, suffixes=(".plan",), uses_camera=True,
+                      write=_write, suffix=".plan", media_type="application/json", autopilot=DEFAULT_AUTOPILOT,
+                      per_mission=True, pitch_range=(-90.0, 90.0), title="QGroundControl plan",
+                      help="QGroundControl .plan")

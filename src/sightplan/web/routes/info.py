@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from fastapi import APIRouter
 
-from ...export import EXPORT_FORMATS
+from ...formats.registry import EXPORT_FORMATS
 from ...plan.checks import battery
 from ...version import __version__
 from ..deps import StateDep
