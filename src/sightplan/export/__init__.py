@@ -1,11 +1,9 @@
 """Exports of a plan to flight apps and maps: :func:`export_plan`.
 
-The formats (:data:`EXPORT_FORMATS`) are the writers of :mod:`sightplan.formats`, one module each
-(:mod:`sightplan.formats.registry` finds them): ``qgc`` (QGroundControl ``.plan``, one file per mission, for
-PX4 or ArduPilot), ``wpl`` (``QGC WPL 110`` waypoints text, one file per mission, for ArduPilot or PX4),
-``wpml`` (DJI WPML ``.kmz``, one file per mission, for a DJI aircraft: ``aircraft=``), ``litchi`` (Litchi
-mission CSV, one file per mission and per 99 waypoints), ``kml`` and ``geojson`` (paths, waypoints and
-footprints of all missions).
+The formats (:data:`EXPORT_FORMATS`) are the writers of :mod:`sightplan.formats`, one module each, found by
+:mod:`sightplan.formats.registry`; each module's ``FORMAT`` says what :func:`export_plan` needs: the suffix,
+whether it writes a file per mission, the autopilot or aircraft it is written for, the gimbal pitches it flies.
+Flight apps get a file (or more) per mission; maps (``kml``, ``geojson``) one file with every mission.
 
 All share :func:`~sightplan.formats.flight.build_flight`: frames at one place become one waypoint
 with several photo actions, headings are true headings, altitudes are above the mission's take-off

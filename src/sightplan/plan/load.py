@@ -1,11 +1,9 @@
 """One entry point for every plan or pose file: :func:`load_plan`.
 
 Formats (the :data:`PlanFormat` names, shared with the CLI and the web API) are the readers of
-:mod:`sightplan.formats`, one module each (:mod:`sightplan.formats.registry` finds them):
-``sightplan`` (sightplan's JSON plan), ``opensfm`` (OpenSfM ``reconstruction.json``), ``csv`` (a pose
-table), ``colmap`` (a COLMAP sparse model, folder or file), ``qgc`` (a QGroundControl ``.plan``
-mission), ``wpl`` (a ``QGC WPL 110`` waypoint file, ``.waypoints`` or ``.txt``) and ``wpml`` (a DJI
-WPML ``.kmz`` mission).
+:mod:`sightplan.formats`, one module each, found by :mod:`sightplan.formats.registry`: sightplan's JSON
+plan, OpenSfM and COLMAP reconstructions, pose tables and flight-app missions (QGroundControl, QGC WPL,
+DJI WPML).
 
 The format of a file is told by its suffix (:func:`detect_format`); where several formats claim one,
 by its content: a ``.json`` file is a sightplan plan or an OpenSfM reconstruction, a ``.txt`` file whose
@@ -132,8 +130,8 @@ def load_plan(
     """A Plan from any supported file or folder.
 
     camera: the camera of CSV rows without one, and of flight-app missions (qgc, wpl, wpml)
-    that name no camera the catalogue knows; for the other formats it replaces every camera
-    of the file (recorded in ``plan.parameters["warnings"]``). Catalogue name, spec dict
+    that name no camera the catalogue knows (the formats whose reader ``uses_camera``); for the
+    other formats it replaces every camera of the file (recorded in ``plan.parameters["warnings"]``). Catalogue name, spec dict
     (:func:`parse_camera_spec`) or camera model.
     georef: for flight-app missions (latitude/longitude), the georeference that places them in
     the model frame; without one they get a topocentric frame at their home point.
