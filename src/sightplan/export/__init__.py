@@ -22,7 +22,7 @@ from ..formats.base import Target
 from ..formats.flight import Flight, Photo, Takeoff, Waypoint, build_flight, mission_paths
 from ..formats.mavlink import AUTOPILOT_LABELS, AUTOPILOTS, Autopilot, resolve_autopilot
 from ..formats.registry import EXPORT_FORMATS, FORMATS, WRITERS, ExportFormat, writer, writers_with
-from ..formats.wpml import AIRCRAFT, AircraftError, DjiAircraft
+from ..formats.wpml import AIRCRAFT, AircraftError, DjiAircraft  # kept importable from here: export_plan raises it
 from ..geo import Georeference
 from ..plan.types import Plan
 
