@@ -24,12 +24,24 @@ def modules() -> dict[str, Path]:
 MODULES = modules()
 
 
+def discovered(name: str, tree: ast.AST) -> list[str]:
+    """The modules ``name`` imports by finding them at run time: a module that calls ``pkgutil.iter_modules`` (a
+    registry collecting its package's modules) imports every module of its package."""
+    calls = any(isinstance(node, ast.Attribute) and node.attr == "iter_modules" for node in ast.walk(tree))
+    if not calls:
+        return []
+    package = ".".join(name.split(".")[:-1])
+    return [m for m in MODULES if m.rsplit(".", 1)[0] == package and m != name]
+
+
 def imports(name: str) -> list[tuple[str, list[str]]]:
-    """(imported module, names taken from it) for every import of sightplan modules in ``name``, at any level."""
+    """(imported module, names taken from it) for every import of sightplan modules in ``name``, at any level, and
+    every module it finds at run time (:func:`discovered`)."""
     path = MODULES[name]
     package = name.split(".") if path.name == "__init__.py" else name.split(".")[:-1]
-    out = []
-    for node in ast.walk(ast.parse(path.read_text())):
+    tree = ast.parse(path.read_text())
+    out: list[tuple[str, list[str]]] = [(m, []) for m in discovered(name, tree)]
+    for node in ast.walk(tree):
         if isinstance(node, ast.Import):
             out += [(a.name, []) for a in node.names if a.name.split(".")[0] == "sightplan"]
         elif isinstance(node, ast.ImportFrom):
@@ -93,6 +105,13 @@ def cycles(edges: dict[str, set[str]]) -> list[list[str]]:
 def test_the_cycle_finder_finds_a_cycle():
     assert cycles({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}) == [["a", "b", "c"]]
     assert cycles({"a": {"b"}, "b": set()}) == []
+
+
+def test_a_registry_imports_the_modules_it_finds():
+    tree = ast.parse("import pkgutil\nfor m in pkgutil.iter_modules([]): pass\n")
+    found = discovered("sightplan.formats.registry", tree)
+    assert "sightplan.formats.mavlink" in found and "sightplan.formats.registry" not in found
+    assert discovered("sightplan.formats.registry", ast.parse("import json\n")) == []
 
 
 def test_no_module_imports_itself_through_others():

@@ -30,8 +30,9 @@ from sightplan.cli.camera_opts import cli_camera
 from sightplan.errors import CameraError
 from sightplan.evaluate import EvaluationSettings, evaluate
 from sightplan.model.load import load_model
-from sightplan.plan import Plan, load_plan
+from sightplan.plan import Plan
 from sightplan.plan.format import write_plan
+from sightplan.plan.load import load_plan
 from sightplan.plan.ring import ring_plan
 from test_cli import run_cli
 

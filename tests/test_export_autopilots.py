@@ -18,7 +18,7 @@ import pytest
 
 from sightplan.camera.catalogue import get_camera
 from sightplan.export import export_plan, file_summary
-from sightplan.export.qgc import ARDUPILOT_STOP_HOLD_S
+from sightplan.formats.mavlink import ARDUPILOT_STOP_HOLD_S
 from sightplan.geo import Georeference
 from sightplan.geometry.poses import gimbal_from_R
 from sightplan.plan import Plan

@@ -18,10 +18,10 @@ from sightplan import geoid
 from sightplan.camera import get_camera
 from sightplan.errors import PlanError
 from sightplan.export import EXTENSIONS, AircraftError, ExportedFile, export_plan
+from sightplan.formats.wpml import read_wpml
 from sightplan.geo import Georeference
 from sightplan.geometry.poses import gimbal_from_R
 from sightplan.plan import Mission, Plan, R_from_gimbal
-from sightplan.plan.io_wpml import read_wpml
 from test_exports import GEOREFS, NS, TAKEOFF, angle_diff, facade_plan
 
 # The elements DJI's WPML reference marks required ("必需元素"/"Yes" in the "Is it required" column), per file and

@@ -13,7 +13,10 @@ from scipy.spatial.transform import Rotation
 
 from sightplan.camera import EquirectangularCamera, PinholeCamera, get_camera
 from sightplan.errors import PlanError
-from sightplan.plan import apply_similarity, load_plan, read_colmap, read_csv_plan, read_opensfm
+from sightplan.formats.colmap import read_colmap
+from sightplan.formats.csv import read_csv_plan
+from sightplan.formats.opensfm import read_opensfm
+from sightplan.plan.load import apply_similarity, load_plan
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "shared" / "data" / "poses" / "reconstruction_example.json"
 

@@ -7,7 +7,8 @@ from typing import Annotated
 
 import typer
 
-from ..formats import Autopilot, ExportFormat
+from ..formats.mavlink import Autopilot
+from ..formats.registry import FORMATS, ExportFormat, export_choices, writers_with
 from .base import app, console
 from .camera_opts import CAMERA_FORMS, FocalOpt, cli_camera
 from .errors import friendly_errors
@@ -33,8 +34,7 @@ def parse_origin(text: str):
 @friendly_errors
 def export_command(
     plan_file: Annotated[str, typer.Argument(metavar="PLAN", help="Plan file (sightplan JSON or any format sightplan reads)")],
-    fmt: Annotated[ExportFormat, typer.Option("--format", "-f", help="qgc (QGroundControl .plan), wpl (QGC WPL 110 "
-                                              "for Mission Planner), wpml (DJI Pilot 2 .kmz), litchi (CSV), kml, geojson")],
+    fmt: Annotated[ExportFormat, typer.Option("--format", "-f", help=export_choices())],
     output: Annotated[Path | None, typer.Option("-o", "--output", help="File to write (default: PLAN's name with the "
                                                 "format's suffix); one file per mission where the format needs it")] = None,
     model: Annotated[str | None, typer.Option(help="Model whose georeference places the plan (IfcMapConversion or "
@@ -61,7 +61,7 @@ def export_command(
     force: Annotated[bool, typer.Option(help="Export a plan that fails its flight checks (they are printed)")] = False,
 ) -> None:
     """Export a plan to a flight app (QGroundControl, Mission Planner, DJI Pilot 2, Litchi) or to KML/GeoJSON."""
-    from ..export import EXTENSIONS, MAVLINK_FORMATS, file_summary
+    from ..export import file_summary
     from ..export.files import export_files, takeoff_point
     from ..geo import Georeference, resolve_georeference
     from ..plan.load import load_plan
@@ -79,9 +79,10 @@ def export_command(
     takeoff_m = parse_point(takeoff, "--takeoff") if takeoff else takeoff_point(
         plan, scene, hint="give --takeoff x,y,z (model frame, on the ground) or --model MODEL to take the south-west "
                           "corner of the plan's region")
-    if autopilot is not None and fmt not in MAVLINK_FORMATS:
-        console.print(f"[yellow]warning:[/] --autopilot is for the qgc and wpl formats; a {fmt} export ignores it",
-                      highlight=False)
+    spec = FORMATS[fmt]
+    if autopilot is not None and not spec.autopilot:
+        console.print(f"[yellow]warning:[/] --autopilot is for the {' and '.join(writers_with('autopilot'))} formats; "
+                      f"a {fmt} export ignores it", highlight=False)
     from ..errors import PlanError
     from ..plan.checks.gate import export_violations
 
@@ -92,12 +93,13 @@ def export_command(
                         "with --force")
     for v in failed:
         console.print(f"[yellow]warning:[/] exported with --force despite: {v}", highlight=False)
-    out = output or Path(plan_file).with_suffix(EXTENSIONS[fmt])
-    if aircraft is not None and fmt != "wpml":
-        console.print(f"[yellow]warning:[/] --aircraft is for the wpml format; a {fmt} export ignores it", highlight=False)
+    out = output or Path(plan_file).with_suffix(spec.suffix)
+    if aircraft is not None and not spec.aircraft_choice:
+        console.print(f"[yellow]warning:[/] --aircraft is for the {' and '.join(writers_with('aircraft_choice'))} "
+                      f"format; a {fmt} export ignores it", highlight=False)
     written: list = []
     paths = export_files(plan, fmt, out, geo, takeoff_m, speed_m_s=speed, mission=mission, mission_label="--mission",
-                         autopilot=autopilot, aircraft=aircraft if fmt == "wpml" else None,
+                         autopilot=autopilot, aircraft=aircraft if spec.aircraft_choice else None,
                          per_mission_takeoff=takeoff is None, report=written)
     console.print(f"georeference: {geo.describe()}", highlight=False)
     low = [f for f in written if f.lowest_altitude_m < MIN_ALTITUDE_M - 1e-6]

@@ -1,52 +1,44 @@
 """Exports of a plan to flight apps and maps: :func:`export_plan`.
 
-Formats (:data:`EXPORT_FORMATS`):
+The formats (:data:`EXPORT_FORMATS`) are the writers of :mod:`sightplan.formats`, one module each, found by
+:mod:`sightplan.formats.registry`; each module's ``FORMAT`` says what :func:`export_plan` needs: the suffix,
+whether it writes a file per mission, the autopilot or aircraft it is written for, the gimbal pitches it flies.
+Flight apps get a file (or more) per mission; maps (``kml``, ``geojson``) one file with every mission.
 
-- ``qgc``: QGroundControl ``.plan`` (:mod:`.qgc`), one file per mission, for PX4 or ArduPilot;
-- ``wpl``: ``QGC WPL 110`` waypoints text (:mod:`.wpl`), one file per mission, for ArduPilot or PX4;
-- ``wpml``: DJI WPML ``.kmz`` (:mod:`.wpml`), one file per mission, for a DJI aircraft (``aircraft=``);
-- ``litchi``: Litchi mission CSV (:mod:`.litchi`), one file per mission and per 99 waypoints;
-- ``kml`` and ``geojson``: paths, waypoints and footprints of all missions (:mod:`.kml`).
-
-All share :func:`~sightplan.export.common.build_flight`: frames at one place become one waypoint
+All share :func:`~sightplan.formats.flight.build_flight`: frames at one place become one waypoint
 with several photo actions, headings are true headings, altitudes are above the mission's take-off
 point: its own ground station (or the take-off point given for all).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 from numpy.typing import ArrayLike
 
 from ..errors import PlanError
-from ..formats import EXPORT_FORMATS, ExportFormat
-from ..formats.dji import AIRCRAFT, DjiAircraft
+from ..formats.base import Target
+from ..formats.flight import Flight, Photo, Takeoff, Waypoint, build_flight, mission_paths
+from ..formats.mavlink import AUTOPILOT_LABELS, AUTOPILOTS, Autopilot, resolve_autopilot
+from ..formats.registry import EXPORT_FORMATS, FORMATS, WRITERS, ExportFormat, writer, writers_with
+from ..formats.wpml import AIRCRAFT, AircraftError, DjiAircraft  # kept importable from here: export_plan raises it
 from ..geo import Georeference
 from ..plan.types import Plan
-from .common import Flight, Photo, Takeoff, Waypoint, build_flight, mission_paths
-from .kml import write_geojson, write_kml
-from .litchi import litchi_aircraft, write_litchi
-from .qgc import AUTOPILOT_LABELS, AUTOPILOTS, DEFAULT_AUTOPILOT, Autopilot, resolve_autopilot, write_qgc
-from .wpl import write_wpl
-from .wpml import AircraftError, check_speed, resolve_aircraft, write_wpml
 
-EXTENSIONS = {"qgc": ".plan", "wpl": ".waypoints", "wpml": ".kmz", "litchi": ".csv", "kml": ".kml", "geojson": ".geojson"}
-_WRITERS = {"qgc": write_qgc, "wpl": write_wpl, "wpml": write_wpml, "litchi": write_litchi, "kml": write_kml,
-            "geojson": write_geojson}
-MAVLINK_FORMATS = ("qgc", "wpl")  # the formats written for one autopilot (``autopilot=``)
-PER_MISSION_FORMATS = ("qgc", "wpl", "wpml", "litchi")  # one file (or more) per mission, each from its own take-off
+EXTENSIONS = {f.name: f.suffix for f in WRITERS}
+MAVLINK_FORMATS = writers_with("autopilot")  # the formats written for one autopilot (``autopilot=``)
+PER_MISSION_FORMATS = writers_with("per_mission")  # one file (or more) per mission, each from its own take-off
+DEFAULT_AUTOPILOT = {f.name: f.autopilot for f in WRITERS if f.autopilot}
 
 
 def file_summary(fmt: str, autopilot: str | None = None, aircraft: str | None = None) -> str:
     """What a file of format ``fmt`` is for, e.g. "QGroundControl plan for PX4" (the autopilot for MAVLink formats,
     the aircraft's name for DJI WPML and Litchi when given)."""
-    from .common import FORMAT_LABELS
-
-    what = {"qgc": "QGroundControl plan", "wpl": "QGC WPL 110 waypoints"}.get(fmt, FORMAT_LABELS.get(fmt, fmt))
-    if fmt in MAVLINK_FORMATS:
-        return f"{what} for {AUTOPILOT_LABELS[resolve_autopilot(fmt, autopilot)]}"
+    spec = FORMATS.get(fmt)
+    what = (spec.title or spec.label) if spec is not None else fmt
+    if spec is not None and spec.autopilot:
+        return f"{what} for {AUTOPILOT_LABELS[resolve_autopilot(autopilot, spec.autopilot)]}"
     if aircraft:
         return f"{what} for {aircraft}"
     return what
@@ -74,18 +66,6 @@ class ExportedFile:
         return f"({file_summary(self.fmt, self.autopilot, self.aircraft)}): " + "; ".join(bits)
 
 
-def _settings(fmt: str, note: str | None) -> tuple[str, ...]:
-    out = []
-    if fmt == "litchi":
-        out.append("in Litchi set the mission's Heading Mode = Custom (the CSV cannot carry it; "
-                   "Litchi ignores the headings otherwise)")
-    if fmt == "wpml":
-        out.append("heights are above the actual take-off point (relativeToStartPoint)")
-    if note:
-        out.append(note)
-    return tuple(out)
-
-
 def export_plan(plan: Plan, fmt: ExportFormat, path: str | Path, georef: Georeference, takeoff_m: ArrayLike,
                 speed_m_s: float = 5.0, mission: int | None = None, autopilot: Autopilot | None = None,
                 aircraft: str | None = None, per_mission_takeoff: bool = True,
@@ -100,35 +80,33 @@ def export_plan(plan: Plan, fmt: ExportFormat, path: str | Path, georef: Georefe
     write, to ``path`` itself; all missions when None (``qgc``, ``wpl``, ``wpml`` and ``litchi`` write
     a file per mission, numbered from 1: ``stem_m01``…).
     autopilot: for ``qgc`` and ``wpl``, the flight controller the file is for, ``"px4"`` or
-    ``"ardupilot"`` (they accept different commands and frames; see :mod:`.qgc`); None: PX4 for
-    ``qgc``, ArduPilot for ``wpl`` (:data:`DEFAULT_AUTOPILOT`). Ignored by the other formats.
-    aircraft: for ``wpml``, a key of :data:`~sightplan.formats.dji.AIRCRAFT`; None: the aircraft that
+    ``"ardupilot"`` (they accept different commands and frames; see :mod:`sightplan.formats.mavlink`); None: PX4
+    for ``qgc``, ArduPilot for ``wpl`` (:data:`DEFAULT_AUTOPILOT`). Ignored by the other formats.
+    aircraft: for ``wpml``, a key of :data:`~sightplan.formats.wpml.AIRCRAFT`; None: the aircraft that
     carries the plan's camera (a camera none carries is refused, naming the choices).
     report: a list to which an :class:`ExportedFile` is appended per file written.
     Raises :class:`~sightplan.errors.PlanError` naming the frames a drone cannot take in that
     format (gimbal pitch out of range, a rolled camera), and for ``wpml`` an aircraft, speed or pitch
-    DJI cannot fly (:class:`~sightplan.export.wpml.AircraftError`).
+    DJI cannot fly (:class:`~sightplan.formats.wpml.AircraftError`).
     """
-    if fmt not in _WRITERS:
-        raise PlanError(f"unknown export format {fmt!r}; expected one of {', '.join(EXPORT_FORMATS)}")
-    if fmt in MAVLINK_FORMATS:
-        autopilot = resolve_autopilot(fmt, autopilot)
+    spec = writer(fmt)
+    if spec.autopilot:
+        autopilot = resolve_autopilot(autopilot, spec.autopilot)
     path = Path(path)
     if not path.parent.is_dir():
         raise PlanError(f"cannot write {path}: the folder {path.parent} does not exist")
-    dji: DjiAircraft | None = None
-    note = None
-    if fmt == "wpml":
-        dji, note = resolve_aircraft(plan, aircraft)
-        check_speed(dji, speed_m_s)
+    target = spec.prepare(plan, aircraft, speed_m_s) if spec.prepare is not None else Target()
+    target = replace(target, autopilot=autopilot if spec.autopilot else None)
+    pitch_range = target.pitch_range or spec.pitch_range
+    settings = spec.settings + ((target.note,) if target.note else ())
 
     def build(m: int | None) -> Flight:
         return build_flight(plan, georef, takeoff_m, fmt=fmt, speed_m_s=speed_m_s, mission=m,
-                            per_mission_takeoff=per_mission_takeoff, pitch_range=dji.pitch_range if dji else None)
+                            per_mission_takeoff=per_mission_takeoff, pitch_range=pitch_range, label=spec.label)
 
     # a file per mission with frames (numbered from 1, as Flight.by_mission numbers them), each flight built once
     numbers = [k + 1 for k, m in enumerate(plan.missions) if m.stop > m.start] \
-        if fmt in PER_MISSION_FORMATS and mission is None else []
+        if spec.per_mission and mission is None else []
     if len(numbers) > 1:
         paths = mission_paths(path, numbers, several=True)
         jobs = [(build(m - 1), paths[m]) for m in numbers]
@@ -136,19 +114,13 @@ def export_plan(plan: Plan, fmt: ExportFormat, path: str | Path, georef: Georefe
         jobs = [(build(mission), path)]
     written: list[Path] = []
     try:
-        name = dji.name if dji else litchi_aircraft(plan) if fmt == "litchi" else None
         for flight, out in jobs:
-            if fmt in MAVLINK_FORMATS:
-                files = _WRITERS[fmt](flight, out, autopilot)
-            elif fmt == "wpml":
-                files = write_wpml(flight, out, dji)
-            else:
-                files = _WRITERS[fmt](flight, out)
+            files = spec.write(flight, out, target)
             written += files
             if report is not None:
-                start = flight.takeoff_of(flight.waypoints[0].mission) if fmt in PER_MISSION_FORMATS else None
+                start = flight.takeoff_of(flight.waypoints[0].mission) if spec.per_mission else None
                 lowest = min(w.position_m[2] - flight.takeoff_of(w.mission).position_m[2] for w in flight.waypoints)
-                report += [ExportedFile(Path(f), fmt, name, autopilot, lowest, start, _settings(fmt, note)) for f in files]
+                report += [ExportedFile(Path(f), fmt, target.aircraft, autopilot, lowest, start, settings) for f in files]
     except OSError as exc:
         raise PlanError(f"cannot write {path}: {exc.strerror or exc}") from None
     return written

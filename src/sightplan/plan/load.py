@@ -1,17 +1,13 @@
 """One entry point for every plan or pose file: :func:`load_plan`.
 
-Formats (the :data:`PlanFormat` names, shared with the CLI and the web API):
+Formats (the :data:`PlanFormat` names, shared with the CLI and the web API) are the readers of
+:mod:`sightplan.formats`, one module each, found by :mod:`sightplan.formats.registry`: sightplan's JSON
+plan, OpenSfM and COLMAP reconstructions, pose tables and flight-app missions (QGroundControl, QGC WPL,
+DJI WPML).
 
-- ``sightplan``: sightplan's JSON plan (:mod:`.format`);
-- ``opensfm``: OpenSfM ``reconstruction.json`` (:mod:`.io_opensfm`);
-- ``csv``: a pose table (:mod:`.io_csv`);
-- ``colmap``: a COLMAP sparse model, folder or file (:mod:`.io_colmap`);
-- ``qgc``: a QGroundControl ``.plan`` mission (:mod:`.io_qgc`);
-- ``wpl``: a ``QGC WPL 110`` waypoint file, ``.waypoints`` or ``.txt`` (:mod:`.io_qgc`);
-- ``wpml``: a DJI WPML ``.kmz`` mission (:mod:`.io_wpml`).
-
-A ``.txt`` file whose first line is ``QGC WPL 110`` is a waypoint file; any other ``.txt`` is
-taken as a COLMAP text model.
+The format of a file is told by its suffix (:func:`detect_format`); where several formats claim one,
+by its content: a ``.json`` file is a sightplan plan or an OpenSfM reconstruction, a ``.txt`` file whose
+first line is ``QGC WPL 110`` is a waypoint file and any other ``.txt`` a COLMAP text model.
 """
 
 from __future__ import annotations
@@ -19,7 +15,7 @@ from __future__ import annotations
 import json
 from dataclasses import replace
 from pathlib import Path
-from typing import Literal, get_args
+from typing import Literal
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -27,18 +23,12 @@ from numpy.typing import ArrayLike
 from ..camera.files import parse_camera_spec
 from ..camera.models import Camera
 from ..errors import PlanError
+from ..formats.base import FlightFormat, ReadOptions, Source
+from ..formats.registry import FILE_SUFFIXES, PLAN_FORMATS, READERS, PlanFormat, reader
 from ..geo import Georeference
-from .format import FORMAT_NAME, plan_from_dict, read_json
-from .io_colmap import find_colmap_model, read_colmap
-from .io_csv import read_csv_plan
-from .io_opensfm import opensfm_from_data
-from .io_qgc import read_qgc_plan, read_wpl, sniff_wpl
-from .io_wpml import read_wpml
 from .types import Plan
 
-PlanFormat = Literal["sightplan", "opensfm", "csv", "colmap", "qgc", "wpl", "wpml"]
-FLIGHT_FORMATS = ("qgc", "wpl", "wpml")
-PLAN_FORMATS: tuple[str, ...] = get_args(PlanFormat)
+__all__ = ["PLAN_FORMATS", "PlanFormat", "apply_similarity", "detect_format", "load_plan", "read_transform"]
 
 
 def apply_similarity(plan: Plan, T_model_source: ArrayLike) -> Plan:
@@ -78,17 +68,6 @@ def apply_similarity(plan: Plan, T_model_source: ArrayLike) -> Plan:
     )
 
 
-def in_capture_order(plan: Plan) -> Plan:
-    """A flown capture with a time on every frame, sorted by it (tracks follow capture time, METRICS.md §5.3)."""
-    t = plan.capture_time
-    if len(t) < 2 or not np.isfinite(t).all() or np.all(np.diff(t) >= 0):
-        return plan
-    order = np.argsort(t, kind="stable")
-    params = dict(plan.parameters)
-    params["warnings"] = [*params.get("warnings", []), "frames were not in capture-time order: sorted by time"]
-    return replace(plan.subset(order), parameters=params)
-
-
 def read_transform(path: str | Path) -> np.ndarray:
     """A (4, 4) similarity from a JSON file: a 4×4 list, ``{"matrix": 4×4}``, or
     ``{"scale": s, "rotation": 3×3, "translation": [x, y, z]}`` (source → model frame)."""
@@ -112,41 +91,31 @@ def read_transform(path: str | Path) -> np.ndarray:
         raise PlanError(f"{path.name}: a transform is a 4×4 matrix or scale/rotation/translation ({exc})") from None
 
 
-def detect_format(path: str | Path) -> PlanFormat:
-    """The format of ``path`` from its name, and for .txt/.waypoints from its first line (.json: see :func:`load_plan`)."""
-    path = Path(path)
-    suffix = path.suffix.lower()
+def sniffed(source: Source) -> FlightFormat:
+    """The reader of ``source``: the one format claiming its suffix (or reading folders); where several do, the first
+    whose ``sniff`` recognises the content, else the one without a sniff."""
+    path = source.path
     if path.is_dir():
-        return "colmap"
-    if suffix == ".plan":
-        return "qgc"
-    if suffix == ".kmz":
-        return "wpml"
-    if suffix == ".waypoints" or (suffix == ".txt" and sniff_wpl(path)):
-        return "wpl"
-    if suffix in (".bin", ".txt"):
-        return "colmap"
-    if suffix == ".csv":
-        return "csv"
-    if suffix == ".json":
-        return "sightplan"
-    raise PlanError(f"cannot tell the format of {path}: expected .json, .csv, .plan, .kmz, .waypoints or a COLMAP model "
-                    "folder; pass fmt=")
+        claims = [f for f in READERS if f.folder]
+    else:
+        claims = [f for f in READERS if source.suffix in f.suffixes]
+    if not claims:
+        kinds = [*FILE_SUFFIXES, *(f"a {f.label} model folder" for f in READERS if f.folder)]
+        raise PlanError(f"cannot tell the format of {path}: expected {', '.join(kinds[:-1])} or {kinds[-1]}; pass fmt=")
+    if len(claims) == 1:
+        return claims[0]
+    for f in claims:
+        if f.sniff is not None and f.sniff(source):
+            return f
+    fallback = [f for f in claims if f.sniff is None]
+    if fallback:
+        return fallback[0]
+    raise PlanError(f"{path} is neither {' nor '.join(f.what for f in claims)}")
 
 
-def _from_json(path: Path, fmt: PlanFormat | Literal["auto"]) -> Plan:
-    data = read_json(path)
-    if fmt == "auto":
-        if isinstance(data, dict) and data.get("format") == FORMAT_NAME:
-            fmt = "sightplan"
-        elif isinstance(data, list) and data and isinstance(data[0], dict) and "shots" in data[0]:
-            fmt = "opensfm"
-        else:
-            raise PlanError(f"{path} is neither a sightplan plan ('format': {FORMAT_NAME!r}) "
-                            "nor an OpenSfM reconstruction (a list of reconstructions with 'shots')")
-    if fmt == "opensfm":
-        return opensfm_from_data(data, source=str(path))
-    return plan_from_dict(data)
+def detect_format(path: str | Path) -> PlanFormat:
+    """The format of ``path``: see :func:`sniffed`."""
+    return sniffed(Source(path)).name
 
 
 def load_plan(
@@ -161,8 +130,8 @@ def load_plan(
     """A Plan from any supported file or folder.
 
     camera: the camera of CSV rows without one, and of flight-app missions (qgc, wpl, wpml)
-    that name no camera the catalogue knows; for the other formats it replaces every camera
-    of the file (recorded in ``plan.parameters["warnings"]``). Catalogue name, spec dict
+    that name no camera the catalogue knows (the formats whose reader ``uses_camera``); for the
+    other formats it replaces every camera of the file (recorded in ``plan.parameters["warnings"]``). Catalogue name, spec dict
     (:func:`parse_camera_spec`) or camera model.
     georef: for flight-app missions (latitude/longitude), the georeference that places them in
     the model frame; without one they get a topocentric frame at their home point.
@@ -173,26 +142,14 @@ def load_plan(
     transform: optional (4, 4) similarity (or a JSON file of one, :func:`read_transform`) from the file's frame to the model frame
     (:func:`apply_similarity`).
     """
-    if fmt != "auto" and fmt not in PLAN_FORMATS:
-        raise PlanError(f"unknown plan format {fmt!r}; expected 'auto' or one of {', '.join(PLAN_FORMATS)}")
+    spec = reader(fmt) if fmt != "auto" else None
     path = Path(path)
     if not path.exists():
         raise PlanError(f"no such file or folder: {path}")
-    kind = detect_format(path) if fmt == "auto" else fmt
-    if kind == "colmap":
-        find_colmap_model(path)  # clear error before anything else
-        plan = read_colmap(path)
-    elif kind == "csv":
-        plan = in_capture_order(read_csv_plan(path, camera=camera))
-    elif kind == "qgc":
-        plan = read_qgc_plan(path, georef=georef, camera=camera, ground_z=ground_z)
-    elif kind == "wpl":
-        plan = read_wpl(path, georef=georef, camera=camera, ground_z=ground_z)
-    elif kind == "wpml":
-        plan = read_wpml(path, georef=georef, camera=camera, ground_z=ground_z)
-    else:
-        plan = _from_json(path, fmt)
-    if camera is not None and kind != "csv" and kind not in FLIGHT_FORMATS:
+    source = Source(path)
+    spec = spec or sniffed(source)
+    plan = spec.read(source, ReadOptions(camera=camera, georef=georef, ground_z=ground_z))
+    if camera is not None and not spec.uses_camera:
         cam = parse_camera_spec(camera)
         cid = cam.name or "camera"
         warnings = [*plan.parameters.get("warnings", []),

@@ -9,6 +9,7 @@ import uuid
 from collections.abc import AsyncIterator
 from pathlib import Path
 
+from ..formats.registry import FILE_SUFFIXES
 from ..model.load import SUPPORTED_EXTENSIONS
 
 
@@ -114,4 +115,4 @@ class Storage:
 
 
 MODEL_SUFFIXES: tuple[str, ...] = SUPPORTED_EXTENSIONS
-PLAN_SUFFIXES: tuple[str, ...] = (".json", ".csv", ".plan", ".waypoints", ".txt", ".kmz")
+PLAN_SUFFIXES: tuple[str, ...] = FILE_SUFFIXES

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from fastapi import APIRouter
 
-from ...export import EXPORT_FORMATS
+from ...formats.registry import EXPORT_FORMATS
 from ...plan.checks import battery
 from ...plan.templates.base import label_of, unit_of
 from ...plan.templates.registry import TEMPLATES, default_flight

@@ -15,7 +15,7 @@ from sqlalchemy.orm import Session
 from starlette.concurrency import run_in_threadpool
 
 from ...errors import PlanError, SightplanError
-from ...export import ExportFormat
+from ...formats.registry import FORMATS, WRITERS, ExportFormat, export_choices
 from ...model.scene import Scene
 from ...plan.templates.registry import TEMPLATES
 from ...plan.types import Plan as PlanData
@@ -30,9 +30,7 @@ router = APIRouter(prefix="/api/projects/{project_id}/plans", tags=["plans"], de
 NOT_FOUND = {404: {"model": ErrorOut, "description": "No such project, plan, version or model"}}
 BAD_PLAN = {422: {"model": ErrorOut, "description": "The plan or a parameter is invalid (the library's message)"}}
 NOT_READY = {409: {"model": ErrorOut, "description": "The model is not loaded (yet)"}}
-MEDIA = {".plan": "application/json", ".waypoints": "text/plain", ".kmz": "application/vnd.google-earth.kmz",
-         ".csv": "text/csv", ".kml": "application/vnd.google-earth.kml+xml", ".geojson": "application/geo+json",
-         ".zip": "application/zip"}
+MEDIA = {**{f.suffix: f.media_type for f in WRITERS}, ".zip": "application/zip"}
 
 
 def plan_out(plan: Plan) -> PlanOut:
@@ -186,7 +184,7 @@ def _slug(text: str) -> str:
                        422: {"model": ErrorOut, "description": "No georeference, or a frame a drone cannot take"}})
 def export_version(project_id: int, plan_id: int, number: int, session: SessionDep, state: StateDep,
                    background: BackgroundTasks,
-                   format: Annotated[ExportFormat, Query(description="qgc, wpl, wpml (DJI .kmz), litchi, kml, geojson")],
+                   format: Annotated[ExportFormat, Query(description=export_choices())],
                    model_id: Annotated[int | None, Query(description="Model whose georeference places the plan "
                                                                      "(default: the plan's model)")] = None,
                    speed: Annotated[float, Query(gt=0, description="Flight speed (m/s)")] = 5.0,
@@ -199,7 +197,6 @@ def export_version(project_id: int, plan_id: int, number: int, session: SessionD
                                                   "m300-h20, m300-p1; default: the one carrying the plan's camera)")] = None,
                    force: Annotated[bool, Query(description="Export a plan that fails its flight checks")] = False,
                    ) -> FileResponse:
-    from ...export import EXTENSIONS
     from ...export.files import export_files, takeoff_point
     from ...geo import Georeference, GeoreferenceError, resolve_georeference
     from ...plan.format import read_plan
@@ -230,8 +227,9 @@ def export_version(project_id: int, plan_id: int, number: int, session: SessionD
     background.add_task(state.storage.remove, folder)
     stem = f"{_slug(plan_row.name)}_v{number}"
     try:
-        paths = export_files(data, format, folder / (stem + EXTENSIONS[format]), geo, takeoff, speed_m_s=speed,
-                             mission=mission, autopilot=autopilot, aircraft=aircraft if format == "wpml" else None)
+        spec = FORMATS[format]
+        paths = export_files(data, format, folder / (stem + spec.suffix), geo, takeoff, speed_m_s=speed,
+                             mission=mission, autopilot=autopilot, aircraft=aircraft if spec.aircraft_choice else None)
     except BaseException:
         state.storage.remove(folder)
         raise

@@ -10,7 +10,7 @@ from fastapi.responses import FileResponse
 from sqlalchemy import select
 from sqlalchemy.orm import Session
 
-from ...export import ExportFormat
+from ...formats.registry import ExportFormat, export_choices
 from ..auth import digest
 from ..deps import SessionDep, StateDep
 from ..models import Evaluation, Plan, PlanVersion, ShareLink
@@ -55,8 +55,7 @@ def read_shared_version(token: str, number: int, session: SessionDep, state: Sta
 @router.get("/versions/{number}/export", response_class=FileResponse, summary="Export a version for a flight app",
             responses=NOT_FOUND)
 def export_shared_version(token: str, number: int, session: SessionDep, state: StateDep, background: BackgroundTasks,
-                          format: Annotated[ExportFormat, Query(description="qgc, wpl, wpml (DJI .kmz), litchi, kml, "
-                                                                            "geojson")],
+                          format: Annotated[ExportFormat, Query(description=export_choices())],
                           speed: Annotated[float, Query(gt=0, description="Flight speed (m/s)")] = 5.0,
                           mission: Annotated[int | None, Query(ge=1, description="Only this mission (from 1)")] = None,
                           force: Annotated[bool, Query(description="Export a plan that fails its flight checks")] = False,

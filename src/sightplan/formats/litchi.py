@@ -1,4 +1,4 @@
-"""Litchi mission CSV export (the table Litchi Mission Hub imports and exports).
+"""Litchi mission CSV, written (the table Litchi Mission Hub imports and exports).
 
 Header: ``latitude,longitude,altitude(m),heading(deg),curvesize(m),rotationdir,gimbalmode,
 gimbalpitchangle,actiontype1,actionparam1,…,actiontype15,actionparam15,altitudemode,speed(m/s),
@@ -23,7 +23,8 @@ import csv
 from pathlib import Path
 
 from ..plan.types import Plan
-from .common import Flight, Waypoint, mission_paths, number_text, same_angle
+from .base import FlightFormat, Target
+from .flight import Flight, Waypoint, mission_paths, number_text, same_angle
 
 MAX_ACTIONS = 15
 MAX_WAYPOINTS = 99
@@ -99,3 +100,17 @@ def write_litchi(flight: Flight, path: Path) -> list[Path]:
                 w.writerows(part)
             written.append(out)
     return written
+
+
+def _prepare(plan: Plan, aircraft: str | None, speed_m_s: float) -> Target:
+    return Target(aircraft=litchi_aircraft(plan))
+
+
+def _write(flight: Flight, path: Path, target: Target) -> list[Path]:
+    return write_litchi(flight, path)
+
+
+FORMAT = FlightFormat(name="litchi", label="Litchi", order=40, write=_write, suffix=".csv", media_type="text/csv",
+                      prepare=_prepare, per_mission=True, pitch_range=(-90.0, 30.0), help="CSV",
+                      settings=("in Litchi set the mission's Heading Mode = Custom (the CSV cannot carry it; "
+                                "Litchi ignores the headings otherwise)",))

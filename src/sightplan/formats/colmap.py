@@ -1,4 +1,4 @@
-"""Import a COLMAP sparse model: ``cameras.{txt,bin}`` and ``images.{txt,bin}``, and with COLMAP ≥ 3.12
+"""COLMAP sparse models: ``cameras.{txt,bin}`` and ``images.{txt,bin}``, and with COLMAP ≥ 3.12
 also ``rigs.{txt,bin}`` and ``frames.{txt,bin}``.
 
 Read with our own parser (no pycolmap at run time). COLMAP stores per image the
@@ -33,8 +33,9 @@ import numpy as np
 
 from ..camera.models import Camera, EquirectangularCamera, PinholeCamera
 from ..errors import CameraError, PlanError
-from .format import quaternions_to_R
-from .types import Plan
+from ..plan.format import quaternions_to_R
+from ..plan.types import Plan
+from .base import FlightFormat, ReadOptions, Source
 
 # model id → (name, number of params, leading intrinsics: "f" = f, cx, cy; "fxfy" = fx, fy, cx, cy)
 _MODELS: dict[int, tuple[str, int, str]] = {
@@ -425,3 +426,10 @@ def read_colmap(path: str | Path, *, order: ColmapOrder = "name") -> Plan:
     C = -np.einsum("nij,nj->ni", R_wc, img.tvec[perm])
     return Plan.build(cameras, R_wc, C, frame_camera=[str(c) for c in img.camera_ids[perm]], frame_names=names,
                       parameters=parameters)
+
+
+def _read(source: Source, options: ReadOptions) -> Plan:
+    return read_colmap(source.path)
+
+
+FORMAT = FlightFormat(name="colmap", label="COLMAP", order=3, read=_read, suffixes=(".bin", ".txt"), folder=True)

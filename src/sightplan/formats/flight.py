@@ -1,4 +1,4 @@
-"""Flight waypoints from a plan: the step every flight-app export shares.
+"""Flight waypoints from a plan: the step every export shares (:func:`build_flight`), and what the writers share.
 
 - Consecutive frames of one mission whose centres lie within 1 cm share one waypoint; each
   frame is one photo action there, in plan order.
@@ -7,7 +7,7 @@
   :meth:`~sightplan.geo.Georeference.true_heading`, so a georeference's north offset and grid
   convergence are included); its pitch is the gimbal pitch (up positive, −90 nadir). Drone
   gimbals keep the horizon level, so the flight formats refuse a roll beyond 1° and a pitch
-  outside the format's range. A 360° (non-pinhole) camera has no gimbal: heading only, pitch 0.
+  outside the format's range (its ``pitch_range``). A 360° (non-pinhole) camera has no gimbal: heading only, pitch 0.
 - Take-off: each mission takes off from the ground under its own ground station
   (:attr:`Mission.ground_station`; see :func:`mission_takeoffs`); a mission without one, or every
   mission when ``per_mission_takeoff`` is False (a take-off point the user gave), from ``takeoff_m``.
@@ -17,8 +17,9 @@
   one); ``height_m`` is the absolute height in the georeference's vertical datum (above mean
   sea level: IfcSite's RefElevation or the map conversion's OrthogonalHeight). Writers that need
   WGS84 ellipsoidal heights add the EGM96 geoid undulation (:mod:`sightplan.geoid`).
-- Footprints: the four image-corner rays of a pinhole frame intersected with the horizontal
-  plane at its mission's take-off height; a frame with a corner ray that does not reach it has none.
+- Footprints (the map formats): the four image-corner rays of a pinhole frame intersected with the
+  horizontal plane at its mission's take-off height; a frame with a corner ray that does not reach it has
+  none, and its waypoint lists it in ``footprint_skipped`` with the reason in ``footprint_note``.
 """
 
 from __future__ import annotations
@@ -39,11 +40,8 @@ from ..plan.types import Mission, Plan
 
 SAME_POSITION_M = 0.01
 ROLL_TOLERANCE_DEG = 1.0
-PITCH_RANGES: dict[str, tuple[float, float] | None] = {
-    "qgc": (-90.0, 90.0), "wpl": (-90.0, 90.0), "wpml": (-90.0, 30.0), "litchi": (-90.0, 30.0), "kml": None, "geojson": None,
-}
-FORMAT_LABELS = {"qgc": "QGroundControl", "wpl": "QGC WPL", "wpml": "DJI WPML", "litchi": "Litchi", "kml": "KML",
-                 "geojson": "GeoJSON"}
+FOOTPRINT_NOTE = ("no footprint for these frames: an image-corner ray does not reach the take-off plane "
+                  "(or the camera is a 360° camera)")
 
 
 @dataclass(frozen=True)
@@ -141,17 +139,19 @@ def number_text(v: float, digits: int = 6) -> str:
 
 def build_flight(plan: Plan, georef: Georeference, takeoff_m: ArrayLike, *, fmt: str, speed_m_s: float = 5.0,
                  mission: int | None = None, per_mission_takeoff: bool = True,
-                 pitch_range: tuple[float, float] | None = None) -> Flight:
+                 pitch_range: tuple[float, float] | None = None, label: str | None = None) -> Flight:
     """The plan's frames grouped into waypoints with photo actions; see the module docstring.
 
     mission: index (from 0) into ``plan.missions`` of the only mission to keep; file names number
     missions from 1 (``stem_m01``…). per_mission_takeoff: each mission takes off from its ground
     station (see :func:`mission_takeoffs`); False: all from ``takeoff_m``. pitch_range: the gimbal's
-    (lowest, highest) pitch instead of the format's (:data:`PITCH_RANGES`), e.g. a DJI aircraft's.
+    (lowest, highest) pitch, e.g. the format's or a DJI aircraft's; None: any pitch and roll (a map).
+    label: the format's name in messages (default ``fmt``).
     Raises :class:`PlanError` naming the frames a drone cannot take in format ``fmt``.
     """
+    label = label or fmt
     if not isinstance(georef, Georeference):
-        raise PlanError(f"a {FORMAT_LABELS.get(fmt, fmt)} export needs a Georeference, got {type(georef).__name__}")
+        raise PlanError(f"a {label} export needs a Georeference, got {type(georef).__name__}")
     n = len(plan)
     if n == 0:
         raise PlanError("the plan has no frames to export")
@@ -176,14 +176,12 @@ def build_flight(plan: Plan, georef: Georeference, takeoff_m: ArrayLike, *, fmt:
     pinhole = np.array([isinstance(plan.camera_of(i), PinholeCamera) for i in range(n)])
     pitch = np.where(pinhole, pitch, 0.0)
     roll = np.where(pinhole, roll, 0.0)
-    label = FORMAT_LABELS.get(fmt, fmt)
-    limits = pitch_range if pitch_range is not None else PITCH_RANGES.get(fmt)
-    if limits is not None:
+    if pitch_range is not None:
         bad = np.flatnonzero(keep & (np.abs(roll) > ROLL_TOLERANCE_DEG))
         if len(bad):
             raise PlanError(f"frame(s) {_frame_list(plan, bad)} have a camera roll of {roll[bad[0]]:+.1f}°: drone gimbals keep "
                             f"the horizon level (|roll| ≤ {ROLL_TOLERANCE_DEG:g}°), so {label} cannot fly them")
-        lo, hi = limits
+        lo, hi = pitch_range
         bad = np.flatnonzero(keep & ((pitch < lo - 1e-9) | (pitch > hi + 1e-9)))
         if len(bad):
             raise PlanError(f"frame(s) {_frame_list(plan, bad)} have a gimbal pitch of {pitch[bad[0]]:+.1f}°, outside "
@@ -249,3 +247,35 @@ def footprint(plan: Plan, i: int, plane_z: float) -> NDArray[np.float64] | None:
     if not (np.isfinite(t).all() and (t > 0).all()):
         return None
     return C + t[:, None] * d
+
+
+def footprints(flight: Flight, wp: Waypoint) -> tuple[list[tuple[str, np.ndarray]], list[str]]:
+    """([(frame name, (5, 3) closed lon/lat/height ring, counter-clockwise)], [frame names without one]) of a
+    waypoint's photos; heights in the georeference's datum."""
+    rings, skipped = [], []
+    plane_z = flight.takeoff_of(wp.mission).position_m[2]
+    for photo in wp.photos:
+        corners = footprint(flight.plan, photo.frame, plane_z)
+        if corners is None:
+            skipped.append(photo.name)
+            continue
+        lat, lon, h = flight.georef.to_geodetic(corners)
+        ring = np.stack([lon, lat, h], axis=1)
+        x, y = ring[:, 0], ring[:, 1]
+        if np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y) < 0:
+            ring = ring[::-1]
+        rings.append((photo.name, np.vstack([ring, ring[:1]])))
+    return rings, skipped
+
+
+def waypoint_properties(flight: Flight, number: int, index: int, wp: Waypoint) -> tuple[dict, list[tuple[str, np.ndarray]]]:
+    """A waypoint's properties on a map (``kind`` "waypoint", the frames without a footprint noted) and its
+    footprints (:func:`footprints`)."""
+    rings, skipped = footprints(flight, wp)
+    props = {"kind": "waypoint", "mission": flight.missions[wp.mission].name, "mission_number": number, "waypoint": index,
+             "altitude_m": wp.altitude_m, "height_m": wp.height_m,
+             "frames": [p.name for p in wp.photos], "heading_deg": [p.heading_deg for p in wp.photos],
+             "pitch_deg": [p.pitch_deg for p in wp.photos]}
+    if skipped:
+        props.update({"footprint_skipped": skipped, "footprint_note": FOOTPRINT_NOTE})
+    return props, rings

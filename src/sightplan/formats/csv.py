@@ -1,4 +1,4 @@
-"""Import poses from a CSV table (one row per frame, header row first).
+"""Poses from a CSV table (one row per frame, header row first).
 
 Columns (case-insensitive; comma, semicolon or tab separated):
 
@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import csv
 import io
+from dataclasses import replace
 from datetime import UTC, datetime
 from pathlib import Path
 
@@ -25,8 +26,9 @@ from ..camera.files import parse_camera_spec
 from ..camera.models import Camera
 from ..errors import CameraError, PlanError
 from ..geometry.poses import R_from_gimbal
-from .format import checked_rotations, quaternions_to_R
-from .types import Plan
+from ..plan.format import checked_rotations, quaternions_to_R
+from ..plan.types import Plan
+from .base import FlightFormat, ReadOptions, Source
 
 _ALIASES = {
     "name": ("name", "image", "filename", "image_name", "file"),
@@ -141,3 +143,21 @@ def read_csv_plan(path: str | Path, *, camera: Camera | str | dict | None = None
     checked_rotations(R, lines.__getitem__)
     return Plan.build(cameras, R, C, frame_camera=cams, frame_names=names, capture_time=np.array(times),
                       parameters={"source": {"format": "csv", "path": str(path)}})
+
+
+def in_capture_order(plan: Plan) -> Plan:
+    """A flown capture with a time on every frame, sorted by it (tracks follow capture time, METRICS.md §5.3)."""
+    t = plan.capture_time
+    if len(t) < 2 or not np.isfinite(t).all() or np.all(np.diff(t) >= 0):
+        return plan
+    order = np.argsort(t, kind="stable")
+    params = dict(plan.parameters)
+    params["warnings"] = [*params.get("warnings", []), "frames were not in capture-time order: sorted by time"]
+    return replace(plan.subset(order), parameters=params)
+
+
+def _read(source: Source, options: ReadOptions) -> Plan:
+    return in_capture_order(read_csv_plan(source.path, camera=options.camera))
+
+
+FORMAT = FlightFormat(name="csv", label="poses CSV", order=2, read=_read, suffixes=(".csv",), uses_camera=True)

@@ -1,4 +1,4 @@
-"""Import an OpenSfM ``reconstruction.json`` (a list of reconstructions).
+"""OpenSfM ``reconstruction.json`` files (a list of reconstructions).
 
 - A shot's ``rotation`` is the axis-angle vector (radians) of the world-to-camera rotation
   ``R_cw`` and ``translation`` its ``t`` (``x_cam = R_cw x + t``, OpenCV camera axes), so
@@ -25,8 +25,9 @@ import numpy as np
 from ..camera.models import Camera, EquirectangularCamera, PinholeCamera
 from ..errors import CameraError, PlanError
 from ..geometry.poses import R_from_rotvec
-from .format import read_json
-from .types import Plan
+from ..plan.format import read_json
+from ..plan.types import Plan
+from .base import FlightFormat, ReadOptions, Source
 
 _SPHERICAL = {"spherical", "equirectangular"}
 _FISHEYE = {"fisheye", "fisheye_opencv", "fisheye62", "fisheye624", "dual"}
@@ -119,3 +120,17 @@ def opensfm_from_data(data: Any, *, reconstruction: int = 0, source: str = "") -
 def read_opensfm(path: str | Path, *, reconstruction: int = 0) -> Plan:
     """A plan from an OpenSfM ``reconstruction.json``; other reconstructions are listed in warnings."""
     return opensfm_from_data(read_json(path), reconstruction=reconstruction, source=str(path))
+
+
+def sniff(source: Source) -> bool:
+    """Whether the JSON is a list of reconstructions with shots."""
+    data = source.json()
+    return isinstance(data, list) and bool(data) and isinstance(data[0], dict) and "shots" in data[0]
+
+
+def _read(source: Source, options: ReadOptions) -> Plan:
+    return opensfm_from_data(source.json(), source=str(source.path))
+
+
+FORMAT = FlightFormat(name="opensfm", label="OpenSfM", order=1, read=_read, suffixes=(".json",), sniff=sniff,
+                      what="an OpenSfM reconstruction (a list of reconstructions with 'shots')")

@@ -1,0 +1,30 @@
+"""What the readers of flight-app missions (QGroundControl, QGC WPL, DJI WPML) share."""
+
+from __future__ import annotations
+
+import math
+
+from numpy.typing import NDArray
+
+from ..camera.files import parse_camera_spec
+from ..camera.models import Camera
+from ..errors import CameraError
+
+
+def differs(camera: Camera | str | dict | None, cam: Camera) -> bool:
+    """Whether a camera argument was given and names another camera than ``cam``."""
+    if camera is None:
+        return False
+    try:
+        return parse_camera_spec(camera) != cam
+    except CameraError:
+        return True
+
+
+def bearing(a: NDArray, b: NDArray) -> float | None:
+    """Model heading (clockwise from +Y, [0, 360)) from point ``a`` toward ``b``; None when they are
+    less than a micrometre apart horizontally."""
+    d = b[:2] - a[:2]
+    if math.hypot(*d) < 1e-6:
+        return None
+    return math.degrees(math.atan2(d[0], d[1])) % 360.0
