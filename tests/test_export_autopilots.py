@@ -21,6 +21,7 @@ from sightplan.export import export_plan, file_summary
 from sightplan.formats.mavlink import ARDUPILOT_STOP_HOLD_S
 from sightplan.geo import Georeference
 from sightplan.geometry.poses import gimbal_from_R
+from sightplan.optimize import OptimizeSettings, Targets, optimize
 from sightplan.plan import Plan
 from sightplan.plan.load import load_plan
 from sightplan.plan.templates import bridge, facade_grid, indoor_route, lawnmower, orbit
@@ -109,7 +110,8 @@ def test_the_tables_say_what_the_report_says():
 
 
 def template_plans() -> dict[str, Plan]:
-    """Every template on a small box (the bridge on a deck with piers), and the exports' facade fixture."""
+    """Every template on a small box (the bridge on a deck with piers), an optimised plan on the box, and the exports'
+    facade fixture."""
     p4p, box = get_camera("p4p"), box_scene()
     return {
         "fixture": facade_plan(),
@@ -118,6 +120,8 @@ def template_plans() -> dict[str, Plan]:
         "orbit": orbit(box, p4p, [25.0, 18.0], [10.0, 14.0], aim="surface"),
         "bridge": bridge(bridge_scene(), p4p, [[0, 0], [60, 0]], offset_m=15, clearance_below_m=2.5),
         "indoor 360": indoor_route(get_camera("theta-z1"), [[0, -20, 1.5], [0, -5, 1.5], [10, -5, 1.5]], 2.0),
+        # an optimised plan: views in LKH order, missions cut where no safe leg is left
+        "optimised": optimize(box, p4p, Targets(k=2), settings=OptimizeSettings(scale=0.05, cache_dir=False)).plan,
     }
 
 
