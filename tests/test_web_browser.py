@@ -210,6 +210,14 @@ def test_pilot_walks_from_upload_to_export(browser, server, artifacts):
         qgc = json.loads(Path(info.value.path()).read_text())
         items = qgc["mission"]["items"]
         assert qgc["fileType"] == "Plan" and len(items) >= v2["missions"][0]["frames"][1]
+        # the other formats come from the server's registry (GET /api/info), one menu entry each
+        from sightplan.formats.registry import EXPORT_FORMATS
+
+        others = page.eval_on_selector_all("#export-other option", "os => os.map((o) => o.value)")
+        assert others == ["", *(f for f in EXPORT_FORMATS if f not in ("qgc", "wpml"))]
+        with page.expect_download() as info:
+            page.select_option("#export-other", "geojson")
+        assert json.loads(Path(info.value.path()).read_text())["type"] == "FeatureCollection"
         shot(page, artifacts, "09-exported")
         assert not [p for p in problems if "page error" in p], problems
     finally:

@@ -23,6 +23,7 @@ from .observations import FrameObservation, Observations
 from .observations.features import FeatureSet, sample_features
 from .plan import Mission, Plan, R_from_gimbal, gimbal_from_R, read_plan, write_plan
 from .plan.load import load_plan
+from .optimize import optimize
 from .plan.ring import ring_plan
 from .report import write_report
 from .version import __version__
@@ -33,6 +34,6 @@ __all__ = [
     "MetricParams", "Metrics", "Mission", "ModelError", "Observations", "ObservationsError", "PinholeCamera", "Plan",
     "PlanError", "PlanMetrics", "R_from_gimbal", "Scene", "ScheduleError", "SightplanError", "available_engines",
     "compute_metrics", "evaluate", "gimbal_from_R", "get_camera", "list_cameras", "load_model", "load_plan",
-    "make_engine", "read_plan", "ring_plan", "sample_features", "sample_model_path", "summarize", "write_plan",
+    "make_engine", "optimize", "read_plan", "ring_plan", "sample_features", "sample_model_path", "summarize", "write_plan",
     "write_report",
 ]

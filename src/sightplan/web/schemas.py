@@ -41,6 +41,8 @@ class InfoOut(BaseModel):
     max_upload_bytes: int
     templates: list[str]
     export_formats: list[str]
+    export_format_help: dict[str, str] = Field(default_factory=dict, description="What each export format is for: "
+                                                                                 "name → a few words (the page's menu)")
     aircraft: dict[str, str] = Field(default_factory=dict, description="Aircraft and rover presets of the plan form: "
                                                                        "id → name")
 

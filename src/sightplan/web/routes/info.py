@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from fastapi import APIRouter
 
-from ...formats.registry import EXPORT_FORMATS
+from ...formats.registry import EXPORT_FORMATS, WRITERS
 from ...plan.checks import battery
 from ...plan.templates.base import label_of, unit_of
 from ...plan.templates.registry import TEMPLATES, default_flight
@@ -26,6 +26,7 @@ def info(state: StateDep) -> InfoOut:
                    data_dir="" if cfg.team else str(cfg.data_dir),
                    max_upload_bytes=cfg.max_upload_bytes, templates=list(TEMPLATES),
                    export_formats=list(EXPORT_FORMATS),
+                   export_format_help={f.name: f.help or f.label for f in WRITERS},
                    aircraft={k: v.name for k, v in {**battery.AIRCRAFT, **battery.ROVERS}.items()})
 
 

@@ -286,6 +286,7 @@
  * @property {number} max_upload_bytes Max Upload Bytes
  * @property {Array<string>} templates Templates
  * @property {Array<string>} export_formats Export Formats
+ * @property {Object<string, string>} [export_format_help] What each export format is for: name → a few words (the page's menu)
  * @property {Object<string, string>} [aircraft] Aircraft and rover presets of the plan form: id → name
  */
 

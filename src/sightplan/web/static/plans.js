@@ -252,6 +252,11 @@ export function bindPlans() {
   $('#plan-discard').addEventListener('click', () => act('Discarding the edits', () => loadVersion(state.version)));
   $('#export-wpml').addEventListener('click', () => act('Exporting for DJI Pilot 2', () => exportPlan('wpml')));
   $('#export-qgc').addEventListener('click', () => act('Exporting for QGroundControl', () => exportPlan('qgc')));
+  subscribe(['info'], () => {  // the formats the server writes, besides the two with buttons of their own
+    const help = (state.info && state.info.export_format_help) || {};
+    fillSelect($('#export-other'), [['', 'other…'], ...Object.entries(help)
+      .filter(([name]) => name !== 'wpml' && name !== 'qgc').map(([name, what]) => [name, `${name}: ${what}`])], '');
+  });
   $('#export-other').addEventListener('change', (ev) => {
     const fmt = ev.target.value;
     ev.target.value = '';
