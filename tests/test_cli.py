@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import json
 import os
@@ -16,6 +17,21 @@ from sightplan.model.load import sample_model_path
 
 
 def run_cli(*args: str, cwd: Path) -> subprocess.CompletedProcess:
+    """``sightplan ARGS`` run in ``cwd``, in this process (the command's own code, without a new interpreter's
+    imports each time); its exit code, stdout and stderr as a finished process's."""
+    from typer.testing import CliRunner
+
+    from sightplan.cli.main import app
+
+    with contextlib.chdir(cwd):
+        r = CliRunner(env={"COLUMNS": "120"}).invoke(app, list(args), prog_name="sightplan")
+    if r.exception is not None and not isinstance(r.exception, SystemExit):
+        raise r.exception
+    return subprocess.CompletedProcess(["sightplan", *args], r.exit_code, r.stdout, r.stderr)
+
+
+def run_cli_process(*args: str, cwd: Path) -> subprocess.CompletedProcess:
+    """``python -m sightplan ARGS`` in a process of its own."""
     env = {**os.environ, "COLUMNS": "120"}
     return subprocess.run([sys.executable, "-m", "sightplan", *args], capture_output=True, text=True, cwd=cwd, env=env,
                           timeout=600)
@@ -506,3 +522,10 @@ def test_check_takes_a_walked_route_as_a_walk(tmp_path):
     assert_clean_error(run_cli("plan", "facade", "sample", "--safety-distance", "0", cwd=tmp_path), "positive")
     assert_clean_error(run_cli("plan", "facade", "sample", "-o", str(tmp_path / "no" / "dir" / "f.json"), cwd=tmp_path),
                        "cannot write")
+
+
+def test_the_installed_command_runs_in_a_process_of_its_own(tmp_path):
+    """What the tests above run in this process is the same entry point `python -m sightplan` starts."""
+    res = run_cli_process("plan", "facade", "sample", "--overlap", "1.0", cwd=tmp_path)
+    assert_clean_error(res, "--overlap")
+    assert run_cli_process("--help", cwd=tmp_path).stdout.count("optimize") >= 1

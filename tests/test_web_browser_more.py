@@ -183,6 +183,20 @@ def test_bridge_plan_from_the_form_with_a_picked_ground_station(browser, server,
         assert route["versions"][0]["frames"] == expected
         wait_for(page, f"window.sightplanTest.view.planFrames() === {expected}")  # drawn next
         assert expected == int(np.ceil(np.linalg.norm(np.subtract(points[1], points[0])) / 2 - 1e-9)) + 1  # ≈ 40 m / 2 + 1
+
+        # an optimised plan: the camera and safety distance of the template form, k and the scale of its own form;
+        # a job in the tray, then the plan it made listed and opened
+        page.click("#plan-new summary")
+        page.select_option("#plan-camera", "p4p")
+        page.fill("#plan-safety", "15")
+        page.click("#plan-optimize summary")
+        page.fill("#optimize-k", "1")
+        page.fill("#optimize-scale", "0.05")
+        page.click("#optimize-run")
+        wait_for(page, "(window.sightplanTest.planName() || '').startsWith('optimised')", timeout_s=240)
+        made = server.get(f"/api/projects/{project}/plans")[-1]
+        assert made["source"] == "optimize (p4p)" and made["versions"][0]["frames"] >= 1
+        assert server.get(f"/api/projects/{project}/plans/{made['id']}/versions/1")["parameters"]["checks"]["ok"]
         assert not [p for p in problems if "page error" in p], problems
     finally:
         ctx.close()

@@ -137,3 +137,40 @@ def test_the_command_line_and_the_api_make_the_same_plan(client, tmp_path):
     assert np.allclose([m["ground_station"] for m in cli["missions"]], [m["ground_station"] for m in web["missions"]])
     assert cli["parameters"]["takeoff_m"] == pytest.approx(web["parameters"]["takeoff_m"])
     assert cli["parameters"]["checks"]["settings"] == web["parameters"]["checks"]["settings"]
+
+
+def test_an_optimised_plan_from_the_api_is_the_librarys(client, tmp_path):
+    """POST /plans/optimize runs as a job and makes a plan of one version: the plan `optimize` makes with the same
+    settings (the same frames), checked; bad input is refused before the job."""
+    from sightplan.optimize import Budget, OptimizeSettings, Targets, optimize
+    from sightplan.plan.checks.feasibility import FlightSettings
+    from web_support import wait_job
+
+    pid = client.post("/api/projects", json={"name": "optimised"}).json()["id"]
+    mesh = box((12, 8, 6), (0, 0, 0))
+    buf = io.BytesIO()
+    mesh.export(buf, file_type="obj")
+    mid = upload_model(client, pid, "box.obj", data=buf.getvalue())
+    body = {"model_id": mid, "k": 2, "budget_frames": 14, "scale": 0.05}
+    r = client.post(f"/api/projects/{pid}/plans/optimize", json=body)
+    assert r.status_code == 202 and r.json()["kind"] == "optimize", r.text
+    job = wait_job(client, r.json()["id"], timeout_s=300)
+    assert job["status"] == "done" and job["plan_id"] and "targets met" in job["message"], job
+    plan = client.get(f"/api/projects/{pid}/plans/{job['plan_id']}").json()
+    assert plan["source"] == "optimize (p4p)" and len(plan["versions"]) == 1
+    web = client.get(f"/api/projects/{pid}/plans/{plan['id']}/versions/1").json()
+    scene = load_model(_write(mesh, tmp_path))[0]
+    ref = optimize(scene, get_camera("p4p"), Targets(k=2), Budget(frames=14), flight=FlightSettings(safety_distance_m=10),
+                   settings=OptimizeSettings(scale=0.05, cache_dir=False))
+    assert len(web["frames"]) == len(ref.plan) <= 14
+    assert np.allclose([f["position"] for f in web["frames"]], ref.plan.C_world)
+    assert web["parameters"]["checks"]["ok"] is True
+    for bad, word in (({"camera": "x3"}, "perspective"), ({"aircraft": "jumbo"}, "aircraft"), ({"k": 0}, "k")):
+        r = client.post(f"/api/projects/{pid}/plans/optimize", json=body | bad)
+        assert r.status_code == 422 and word in r.text, r.text
+
+
+def _write(mesh, folder):
+    path = folder / "box.obj"
+    mesh.export(path)
+    return path

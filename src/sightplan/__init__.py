@@ -21,9 +21,9 @@ from .metrics import MetricParams, Metrics, PlanMetrics, compute_metrics
 from .model import ElementTable, LoadReport, Scene, load_model, sample_model_path, summarize
 from .observations import FrameObservation, Observations
 from .observations.features import FeatureSet, sample_features
+from .optimize import optimize
 from .plan import Mission, Plan, R_from_gimbal, gimbal_from_R, read_plan, write_plan
 from .plan.load import load_plan
-from .optimize import optimize
 from .plan.ring import ring_plan
 from .report import write_report
 from .version import __version__

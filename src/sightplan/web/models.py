@@ -122,11 +122,13 @@ class Job(Base):
 
     id: Mapped[int] = mapped_column(primary_key=True)
     project_id: Mapped[int] = mapped_column(ForeignKey("projects.id", ondelete="CASCADE"), index=True)
-    kind: Mapped[str] = mapped_column(String(16))  # load_model, evaluate, link_schedule, prep_reality
+    kind: Mapped[str] = mapped_column(String(16))  # load_model, evaluate, link_schedule, prep_reality, optimize
     model_id: Mapped[int | None] = mapped_column(ForeignKey("models.id", ondelete="CASCADE"), default=None)
     schedule_id: Mapped[int | None] = mapped_column(ForeignKey("schedules.id", ondelete="CASCADE"), default=None)
     reality_id: Mapped[int | None] = mapped_column(ForeignKey("reality.id", ondelete="CASCADE"), default=None)
     evaluation_id: Mapped[int | None] = mapped_column(ForeignKey("evaluations.id", ondelete="CASCADE"), default=None)
+    plan_id: Mapped[int | None] = mapped_column(ForeignKey("plans.id", ondelete="SET NULL"), default=None)  # made by it
+    params: Mapped[dict | None] = mapped_column(JSON, default=None)  # an optimisation's settings
     status: Mapped[str] = mapped_column(String(16), default="queued")  # queued, running, done, failed
     progress_done: Mapped[float] = mapped_column(Float, default=0.0)
     progress_total: Mapped[float] = mapped_column(Float, default=0.0)

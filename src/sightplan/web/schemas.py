@@ -80,9 +80,10 @@ class ModelDetailOut(ModelOut):
 class JobOut(Orm):
     id: int
     project_id: int
-    kind: Literal["load_model", "evaluate", "link_schedule", "prep_reality"]
+    kind: Literal["load_model", "evaluate", "link_schedule", "prep_reality", "optimize"]
     model_id: int | None
     evaluation_id: int | None
+    plan_id: int | None = Field(None, description="The plan an optimisation made, once done")
     schedule_id: int | None = None
     reality_id: int | None = None
     status: JobStatus
@@ -183,6 +184,33 @@ class TemplateOut(BaseModel):
     walked: bool = Field(description="Walked or driven indoors: no line of sight, altitude limit or minimum height")
     safety_distance_m: float = Field(description="The default least distance to the model (m)")
     fields: list[TemplateFieldOut]
+
+
+class OptimizeIn(BaseModel):
+    """An optimised plan around one of the project's models (as ``sightplan optimize``): the fewest views that give
+    every target element k serving views (≥ Ω px, SSD and angle within bounds), within a budget, routed and checked."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    name: str = Field("", max_length=200, description="Default: 'optimised (k = …)'")
+    model_id: int
+    camera: str = Field("p4p", description="A perspective camera of the catalogue (GET /api/cameras)")
+    safety_distance_m: float = Field(10.0, gt=0, le=1000, description="Least distance to the model (m)")
+    k: int = Field(3, ge=1, le=50, description="Views each target element needs")
+    max_ssd_m_px: float | None = Field(None, gt=0, le=1, description="Coarsest surface sampling distance a view may "
+                                                                     "have (m/px); default: the camera's at the safety "
+                                                                     "distance × 1.5")
+    max_angle_deg: float = Field(45.0, gt=0, le=90, description="Widest angle to the surface (°)")
+    budget_frames: int | None = Field(None, ge=1, le=100_000, description="At most this many frames")
+    budget_minutes: float | None = Field(None, gt=0, le=10_000, description="At most this many minutes of flight")
+    batteries: int | None = Field(None, ge=1, le=1000, description="At most this many battery charges")
+    scale: float = Field(0.25, gt=0, le=1, description="Resolution scale the candidates are cast at")
+    aircraft: str | None = Field(None, description="Aircraft preset (p4p, m3e, m300) or 'none'. Default p4p")
+    vlos_radius_m: float | None = Field(None, ge=0, description="Visual line-of-sight radius (m); 0: no check. "
+                                                                "Default 500")
+    ground_station: list[Point3] = Field(default_factory=list, description="Pilot positions [x, y, z] to choose from")
+    altitude_limit_m: float | None = Field(None, ge=0, description="Altitude limit (m); 0: no check. Default 120")
+    min_height_m: float | None = Field(None, ge=0, description="Least height above the ground (m). Default 2")
 
 
 class PlanVersionOut(Orm):

@@ -17,7 +17,7 @@ from ..model.summary import LoadReport
 from ..plan.site import with_site
 from ..plan.templates.registry import TEMPLATES, WALKED, default_flight, plan_from_template
 from ..plan.types import Plan
-from .schemas import SettingsIn, TemplatePlanBase
+from .schemas import OptimizeIn, SettingsIn, TemplatePlanBase
 from .storage import Storage
 
 
@@ -106,7 +106,7 @@ def _aircraft(name: str):
     return presets[name]
 
 
-def flight_record(body: TemplatePlanBase) -> dict[str, Any]:
+def flight_record(body: TemplatePlanBase | OptimizeIn) -> dict[str, Any]:
     """The flight settings of a template request, with a drone's defaults or a walker's for a walked route."""
     walked = getattr(body, "template", "") in WALKED
     d = default_flight(walked)

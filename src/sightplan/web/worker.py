@@ -17,9 +17,9 @@ from sqlalchemy import select
 
 from ..errors import SightplanError
 from .db import Database
-from .models import Evaluation, Job, Model, PlanVersion, Reality, Schedule, utcnow
+from .models import Evaluation, Job, Model, Plan, PlanVersion, Reality, Schedule, utcnow
 from .scenes import evaluation_scene
-from .services import evaluation_settings, load_scene, report_summary, save_element_dates
+from .services import evaluation_settings, flight_settings, load_scene, report_summary, save_element_dates
 from .storage import Storage
 
 log = logging.getLogger("sightplan.web")
@@ -173,6 +173,8 @@ class Worker:
                 self._link_schedule(job_id)
             elif kind == "prep_reality":
                 self._prepare_reality(job_id)
+            elif kind == "optimize":
+                self._optimize(job_id)
             else:
                 self._evaluate(job_id)
         except Exception as exc:  # every failure is recorded on the job; a bug is logged with its traceback too
@@ -308,6 +310,55 @@ class Worker:
             vc = report["metrics"]["VC_pct"]
             job.message = (f"VC {vc:.1f} %" if vc is not None else "done") + \
                 (f"; {result.cache_hits} of {len(plan)} frames unchanged, taken from the cache" if result.cache_hits else "")
+
+    def _optimize(self, job_id: int) -> None:
+        """An optimised plan (``sightplan optimize``) around the job's model, saved as a new plan of one version."""
+        from ..camera.catalogue import get_camera
+        from ..optimize import Budget, OptimizeSettings, Targets, optimize
+        from ..plan.format import write_plan
+
+        with self.db.session() as s:
+            job = s.get(Job, job_id)
+            assert job is not None and job.model_id is not None and job.params is not None
+            model = s.get(Model, job.model_id)
+            if model is None or model.status != "ready":
+                raise SightplanError("the model was deleted or is not ready")
+            p, stored, project_id, model_id = dict(job.params), model.stored_name, job.project_id, model.id
+            job.message = f"optimising a plan around {model.original_name}"
+        scene = load_scene(self.storage, stored)[0]
+        flight = flight_settings(p["flight"], p.get("ground_station") or None)
+        targets = Targets(k=p["k"], max_ssd_m_px=p.get("max_ssd_m_px"), max_angle_deg=p["max_angle_deg"])
+        budget = Budget(frames=p.get("budget_frames"), minutes=p.get("budget_minutes"), batteries=p.get("batteries"))
+        stages = {"casting candidates": 0.0, "selecting": 0.8, "routing": 0.9}
+        report = self._progress(job_id, 1.0)
+
+        def progress(stage: str, i: int, n: int) -> None:
+            start = stages.get(stage, 0.0)
+            end = min([v for v in stages.values() if v > start], default=1.0)
+            report(start + (end - start) * i / max(n, 1))
+
+        result = optimize(scene, get_camera(p["camera"]), targets, budget, flight=flight,
+                          settings=OptimizeSettings(scale=p["scale"], cache_dir=self.storage.frame_cache),
+                          progress=progress)
+        path = self.storage.plan_path(self.storage.new_name(".json"))
+        write_plan(result.plan, path)
+        summary = result.summary()
+        with self.db.session() as s:
+            job = s.get(Job, job_id)
+            if job is None:
+                path.unlink(missing_ok=True)
+                return
+            row = Plan(project_id=project_id, model_id=model_id, name=p.get("name") or f"optimised (k = {p['k']})",
+                       source=f"optimize ({p['camera']})")
+            s.add(row)
+            s.flush()
+            s.add(PlanVersion(plan_id=row.id, number=1, stored_name=path.name, frames=len(result.plan),
+                              missions=len(result.plan.missions),
+                              note=f"optimised: {summary['met']} of {summary['targets']} targets met"))
+            job.plan_id = row.id
+            job.progress_done = job.progress_total = 1.0
+            job.message = (f"{summary['met']} of {summary['targets']} targets met with {summary['frames']} frames, "
+                           f"{summary['minutes']} min")
 
     def _prepare_reality(self, job_id: int) -> None:
         """A point cloud → a 3D Tiles octree for the viewer; a mesh → one GLB (glTF's Y up)."""

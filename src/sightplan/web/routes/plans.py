@@ -21,8 +21,8 @@ from ...plan.templates.registry import TEMPLATES
 from ...plan.types import Plan as PlanData
 from ..deps import PROJECT_ACCESS, ServerState, SessionDep, StateDep, in_project, ready_model
 from ..models import Job, Model, Plan, PlanVersion
-from ..schemas import ErrorOut, PlanFileOut, PlanOut, PlanVersionOut, TemplatePlanIn
-from ..services import checked_plan_json, load_scene, read_uploaded_plan, template_plan
+from ..schemas import ErrorOut, JobOut, OptimizeIn, PlanFileOut, PlanOut, PlanVersionOut, TemplatePlanIn
+from ..services import checked_plan_json, flight_record, load_scene, read_uploaded_plan, template_plan
 from ..storage import PLAN_SUFFIXES, display_name
 from ..uploads import receive_upload
 
@@ -76,6 +76,28 @@ def create_from_template(project_id: int, body: TemplatePlanIn, session: Session
     row = Plan(project_id=project_id, model_id=body.model_id, name=body.name or f"{body.template} plan",
                source=f"template {body.template} ({body.camera})")
     return commit_version(state, session, row, data, f"{body.template} template")
+
+
+@router.post("/optimize", response_model=JobOut, status_code=202, summary="Optimise a plan (background job)",
+             description="The fewest views that give every target element k serving views within the budget, routed "
+                         "and checked, as `sightplan optimize` does; the job makes a new plan (its `plan_id` once "
+                         "done). Candidates go through the per-frame cache, so a second run with other targets is "
+                         "quick.", responses={**NOT_FOUND, **BAD_PLAN, **NOT_READY})
+def create_optimised(project_id: int, body: OptimizeIn, session: SessionDep, state: StateDep) -> JobOut:
+    from ...camera.catalogue import get_camera
+    from ...camera.models import PinholeCamera
+
+    model = ready_model(session, project_id, body.model_id)
+    if not isinstance(get_camera(body.camera), PinholeCamera):
+        raise PlanError("optimised plans need a perspective (pinhole) camera")
+    flight = flight_record(body)  # an unknown aircraft is refused before the job
+    params = body.model_dump() | {"flight": flight}
+    job = Job(project_id=project_id, kind="optimize", model_id=model.id, params=params, message="queued",
+              progress_total=1.0)
+    session.add(job)
+    session.commit()
+    state.worker.submit(job.id)
+    return JobOut.model_validate(job)
 
 
 @router.post("/upload", response_model=PlanOut, status_code=201, summary="Upload a plan file",

@@ -294,9 +294,10 @@
  * @typedef {object} JobOut
  * @property {number} id Id
  * @property {number} project_id Project Id
- * @property {'load_model'|'evaluate'|'link_schedule'|'prep_reality'} kind Kind
+ * @property {'load_model'|'evaluate'|'link_schedule'|'prep_reality'|'optimize'} kind Kind
  * @property {(number|null)} model_id Model Id
  * @property {(number|null)} evaluation_id Evaluation Id
+ * @property {(number|null)} [plan_id] The plan an optimisation made, once done
  * @property {(number|null)} [schedule_id] Schedule Id
  * @property {(number|null)} [reality_id] Reality Id
  * @property {'queued'|'running'|'done'|'failed'} status Status
@@ -422,6 +423,27 @@
  * @property {string} created_at Created At
  * @property {(string|null)} last_used_at Last Used At
  * @property {string} token The secret: shown once, send it as 'Authorization: Bearer <token>'
+ */
+
+/**
+ * An optimised plan around one of the project's models (as ``sightplan optimize``): the fewest views that give every target element k serving views (≥ Ω px, SSD and angle within bounds), within a budget, routed and checked.
+ * @typedef {object} OptimizeIn
+ * @property {string} [name] Default: 'optimised (k = …)'
+ * @property {number} model_id Model Id
+ * @property {string} [camera] A perspective camera of the catalogue (GET /api/cameras)
+ * @property {number} [safety_distance_m] Least distance to the model (m)
+ * @property {number} [k] Views each target element needs
+ * @property {(number|null)} [max_ssd_m_px] Coarsest surface sampling distance a view may have (m/px); default: the camera's at the safety distance × 1.5
+ * @property {number} [max_angle_deg] Widest angle to the surface (°)
+ * @property {(number|null)} [budget_frames] At most this many frames
+ * @property {(number|null)} [budget_minutes] At most this many minutes of flight
+ * @property {(number|null)} [batteries] At most this many battery charges
+ * @property {number} [scale] Resolution scale the candidates are cast at
+ * @property {(string|null)} [aircraft] Aircraft preset (p4p, m3e, m300) or 'none'. Default p4p
+ * @property {(number|null)} [vlos_radius_m] Visual line-of-sight radius (m); 0: no check. Default 500
+ * @property {Array<Array<number>>} [ground_station] Pilot positions [x, y, z] to choose from
+ * @property {(number|null)} [altitude_limit_m] Altitude limit (m); 0: no check. Default 120
+ * @property {(number|null)} [min_height_m] Least height above the ground (m). Default 2
  */
 
 /**

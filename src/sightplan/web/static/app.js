@@ -20,6 +20,7 @@ import { bindReality } from './reality.js';
 import { bindSchedule } from './schedule.js';
 import { renderAll, set, state } from './store.js';
 import { bindTeam } from './team.js';
+import { bindOptimize } from './optimize.js';
 import { bindTemplateForm } from './templates.js';
 import { installTestHook } from './testhook.js';
 import { bindView } from './view.js';
@@ -50,6 +51,7 @@ async function init() {
   bindTeam({ projectLeft: () => loadProjects(null) });
   bindPicking();
   bindTemplateForm({ planCreated: addPlan });
+  bindOptimize({ planCreated: addPlan });
   renderAll();
   let loggedIn = true;
   await act('Reading the server information', async () => {
