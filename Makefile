@@ -58,6 +58,7 @@ bench: $(STAMP)
 	$(BIN)/python benchmarks/validation.py
 	$(BIN)/python benchmarks/large.py
 	$(BIN)/python benchmarks/pointcloud.py
+	$(BIN)/python benchmarks/optimize.py
 	$(BIN)/python benchmarks/ties.py
 
 clean:
