@@ -60,7 +60,8 @@ class Budget:
 class OptimizeSettings:
     """How candidates are made and cast: ``scale`` of the cast (default 0.25), ``engine``, candidate ``spacing_m``
     and ``distances_m`` (defaults in :mod:`.candidates`), ``oblique_deg``, ``cache_dir`` of the per-frame cache
-    (None: the default one, False: none), LKH ``runs``."""
+    (None: the default one, False: none), LKH ``runs``; ``template_views``: the facade, orbit and lawn-mower views
+    (70 % overlap) are candidates too."""
 
     scale: float = 0.25
     engine: str = "auto"
@@ -70,6 +71,7 @@ class OptimizeSettings:
     threads: int | None = None
     cache_dir: object = None
     runs: int = 4
+    template_views: bool = True
 
 
 @dataclass(frozen=True)
@@ -139,6 +141,8 @@ def optimize(scene: Scene, camera: Camera, targets: Targets | None = None, budge
                             oblique_deg=settings.oblique_deg, min_height_m=flight.min_height_m,
                             altitude_limit_m=flight.altitude_limit_m)
     pool, n_start = _with_start(cands, start)
+    if settings.template_views:
+        pool = _with_template_views(pool, scene, camera, flight)
     timings["candidates_s"] = time.perf_counter() - t0
 
     t0 = time.perf_counter()
@@ -258,6 +262,31 @@ def _with_start(cands: CandidateSet, start: Plan | None) -> tuple[Plan, int]:
                   capture_time=np.concatenate([start.capture_time, c.capture_time]),
                   missions=(Mission("candidates", 0, n + len(c)),), parameters=dict(c.parameters))
     return merged, n
+
+
+def _with_template_views(pool: Plan, scene: Scene, camera: Camera, flight: FlightSettings) -> Plan:
+    """The candidates and the views of the facade, orbit and lawn-mower templates at 70 % overlap (the lawn-mower
+    the safety distance above the targets' top): whatever a template could choose, the selection can choose too."""
+    from ..plan.ground import targets_only
+    from ..plan.templates.registry import build_template
+
+    top = float(targets_only(scene).bounds()[1][2] - scene.bounds()[0][2])
+    extra = []
+    for name, params in (("facade", {"overlap": 0.7}), ("orbit", {"overlap": 0.7}),
+                         ("lawnmower", {"overlap": 0.7, "side_overlap": 0.7, "altitude_m": top + flight.safety_distance_m})):
+        try:
+            extra.append(build_template(name, scene, camera, params, flight.safety_distance_m, flight.min_height_m))
+        except PlanError:  # a template that cannot be made here (a model too small for a grid, too high to fly over)
+            continue
+    plans = [pool, *extra]
+    n = sum(len(p) for p in plans)
+    return Plan(cameras={k: v for p in plans for k, v in p.cameras.items()},
+                frame_camera=np.concatenate([p.frame_camera for p in plans]),
+                R_world_camera=np.concatenate([p.R_world_camera for p in plans]),
+                C_world=np.concatenate([p.C_world for p in plans]),
+                frame_names=np.concatenate([p.frame_names for p in plans]),
+                capture_time=np.concatenate([p.capture_time for p in plans]),
+                missions=(Mission("candidates", 0, n),), parameters=dict(pool.parameters))
 
 
 def _targets_record(t: Targets, et: ElementTargets) -> dict:
