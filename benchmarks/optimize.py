@@ -96,7 +96,8 @@ def run_model(model: str, scale: float, cache: Path) -> dict:
         elapsed = time.perf_counter() - t
         r = score(scene, res.plan, res.report, et, scale, cache)
         r |= {"seconds": round(elapsed, 1), "candidates": res.candidates, "timings_s": res.summary()["timings_s"],
-              "covers_template": bool(set(best["met_set"]) <= set(r["met_set"]))}
+              "covers_template": bool(set(best["met_set"]) <= set(r["met_set"])),
+              "template_targets_missed": len(set(best["met_set"]) - set(r["met_set"]))}
         if mode == "equal_targets":
             r["fewer_frames_pct"] = round(100 * (1 - r["frames"] / best["frames"]), 1)
             r["fewer_minutes_pct"] = round(100 * (1 - r["minutes"] / best["minutes"]), 1) if best["minutes"] else None

@@ -103,8 +103,9 @@ class Selection:
 
 def greedy(table: CoverageTable, max_views: int | None = None, start: NDArray | None = None,
            allowed: NDArray | None = None) -> Selection:
-    """Lazy greedy from the views ``start`` (kept), adding the view of largest gain among ``allowed`` (default: all)
-    until ``max_views`` are chosen (counting ``start``) or nothing adds anything; then the removal pass."""
+    """Lazy greedy from the views ``start`` (chosen first), adding the view of largest gain among ``allowed``
+    (default: all) until ``max_views`` are chosen (counting ``start``) or nothing adds anything; then the removal
+    pass, which may drop start views too when they prove redundant."""
     z = len(table.k)
     q = np.zeros(z, np.int64)
     s = np.zeros(z, np.int64)
@@ -135,7 +136,7 @@ def greedy(table: CoverageTable, max_views: int | None = None, start: NDArray | 
         q[table.serves(f)] += 1
         s[table.sees(f)] += 1
     views = np.array(chosen, np.int64)
-    keep, removed = remove_redundant(table, views, q, s, protect=len(start) if start is not None else 0)
+    keep, removed = remove_redundant(table, views, q, s)  # a start plan's frames too, when redundant
     return Selection(keep, np.array(gains)[np.isin(views, keep)], removed)
 
 
