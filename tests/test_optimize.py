@@ -100,7 +100,10 @@ def test_an_optimised_plan_passes_the_flight_checks_and_exports_everywhere(box, 
     assert result.n_met == 5 and len(result.plan) >= 10
     report = check_plan(box, result.plan, flight)  # the checks, run again independently of the optimiser
     assert report.ok, report.violations
-    assert result.report.ok and result.candidates_blind == 0
+    assert result.report.ok and result.candidates_blind == 0 and result.blind_frames == 0
+    # the waste, counted again from an evaluation of the plan itself: every frame sees a target
+    ev = evaluate(box, result.plan, EvaluationSettings(scale=0.5), cache_dir=False)
+    assert (ev.metrics.frames.pixels_on_targets > 0).all()
     assert np.linalg.norm(np.diff(result.plan.C_world, axis=0), axis=1).max() > 0
     from sightplan.export import EXPORT_FORMATS, export_plan
 
@@ -189,6 +192,7 @@ def test_the_command_line_optimises_and_refuses_bad_targets(tmp_path):
                             "12", "-o", str(out)], env={"COLUMNS": "200"})
     assert r.exit_code == 0, r.output
     assert "targets met: 1 of 1 elements" in r.output and "no violations" in r.output
+    assert "0 frames that see no target" in r.output
     plan = read_plan(out)
     assert 2 <= len(plan) <= 12 and plan.parameters["template"] == "optimised"
     bad = tmp_path / "t.toml"

@@ -77,7 +77,8 @@ class OptimizeSettings:
 @dataclass(frozen=True)
 class OptimizeResult:
     """The optimised plan (split and checked), its flight report, and what the optimisation found: per element
-    (z,) ``met``; the targets; candidate counts; the views chosen and removed; unstable frames; timings (s)."""
+    (z,) ``met``; the targets; candidate counts; the views chosen and removed; unstable frames; frames that see no
+    target (``blind_frames``: the waste, 0 by construction); timings (s)."""
 
     plan: Plan
     report: FeasibilityReport
@@ -89,6 +90,7 @@ class OptimizeResult:
     removed: int
     forbidden_legs: int
     unstable_frames: int
+    blind_frames: int
     timings: dict = field(default_factory=dict)
 
     @property
@@ -101,7 +103,8 @@ class OptimizeResult:
                 "minutes": None if r.total_time_s is None else round(r.total_time_s / 60, 2),
                 "targets": self.targets.n_active, "met": self.n_met, "candidates": self.candidates,
                 "candidates_blind": self.candidates_blind, "removed": self.removed,
-                "forbidden_legs": self.forbidden_legs, "unstable_frames": self.unstable_frames, "ok": r.ok,
+                "forbidden_legs": self.forbidden_legs, "unstable_frames": self.unstable_frames,
+                "blind_frames": self.blind_frames, "ok": r.ok,
                 "violations": list(r.violations), "timings_s": {k: round(v, 3) for k, v in self.timings.items()}}
 
 
@@ -202,7 +205,9 @@ def optimize(scene: Scene, camera: Camera, targets: Targets | None = None, budge
     report, flown_views, forbidden, views = _repair_stability(obs, metric, views, report, flown_views, forbidden,
                                                               flown, budget, pool_size=len(pool))
     timings["stability_s"] = time.perf_counter() - t0
-    unstable = int((~compute_metrics(obs.select_frames(flown_views), metric).frames.stable).sum())
+    frames = compute_metrics(obs.select_frames(flown_views), metric).frames
+    unstable = int((~frames.stable).sum())
+    blind_frames = int((frames.pixels_on_targets <= 0).sum())  # the waste: frames that see no target at all
     met = table.met(views)
     params = {"template": "optimised", "safety_distance_m": g, "targets": _targets_record(targets, et),
               "budget": {"frames": budget.frames, "minutes": budget.minutes, "batteries": budget.batteries},
@@ -211,7 +216,7 @@ def optimize(scene: Scene, camera: Camera, targets: Targets | None = None, budge
     plan = with_site(replace(plan, parameters={**plan.parameters, **params}), scene, replace_takeoff=True)
     report = replace(report, plan=plan)
     return OptimizeResult(plan, report, et, met, len(cands.plan), cands.dropped, blind, len(sel.removed), forbidden,
-                          unstable, timings)
+                          unstable, blind_frames, timings)
 
 
 def _repair_stability(obs: Observations, metric: MetricParams, views: NDArray, report: FeasibilityReport,
