@@ -29,7 +29,7 @@ from sightplan.errors import SightplanError
 from sightplan.evaluate import EvaluationSettings, evaluate
 from sightplan.metrics import MetricParams
 from sightplan.model.load import load_model
-from sightplan.optimize import Budget, OptimizeSettings, Targets, default_ssd, optimize, table_for
+from sightplan.optimize import Budget, CoverageTable, OptimizeSettings, Targets, default_ssd, optimize
 from sightplan.plan.checks.feasibility import FlightSettings
 from sightplan.plan.ground import targets_only
 from sightplan.plan.templates.registry import plan_from_template
@@ -46,7 +46,7 @@ G = 10.0
 def score(scene, plan, report, et, scale, cache) -> dict:
     ev = evaluate(scene, plan, EvaluationSettings(scale=scale, metric=MetricParams()), cache_dir=cache)
     em = ev.metrics.elements
-    met = table_for(ev.observations, et).met(np.arange(len(plan)))
+    met = CoverageTable.build(ev.observations, et).met(np.arange(len(plan)))
     R = em.R[em.visible & et.active]
     return {"frames": len(plan), "minutes": round((report.total_time_s or 0) / 60, 2), "batteries": report.batteries,
             "ok": report.ok, "met": int(met.sum()), "met_set": np.flatnonzero(met).tolist(),

@@ -111,7 +111,7 @@ def _compare(scene, cam, result, flight, settings) -> None:
     targets met, VC and median R_i."""
     from ..evaluate import EvaluationSettings, evaluate
     from ..metrics import MetricParams
-    from ..optimize import table_for
+    from ..optimize import CoverageTable
     from ..plan.templates.registry import plan_from_template
 
     et = result.targets
@@ -128,7 +128,7 @@ def _compare(scene, cam, result, flight, settings) -> None:
     for name, plan, report in plans:
         ev = evaluate(scene, plan, EvaluationSettings(scale=settings.scale, engine=settings.engine, metric=metric),
                       cache_dir=settings.cache_dir)
-        met = table_for(ev.observations, et).met(np.arange(len(plan)))
+        met = CoverageTable.build(ev.observations, et).met(np.arange(len(plan)))
         em = ev.metrics.elements
         R = em.R[em.visible & et.active]
         rows.append((name, len(plan), report.total_time_s, int(met.sum()), ev.metrics.plan.VC, float(np.median(R)) if

@@ -104,3 +104,10 @@ def check_rotations(R: NDArray, what: str = "frame") -> NDArray[np.float64]:
         why = f"a reflection (determinant {det[i]:.3g})" if det[i] < 0 else f"not orthonormal (‖RᵀR − I‖ = {err[i]:.2g})"
         raise PlanError(f"{what} {i} has a rotation that is {why}")
     return R
+
+
+def aim_angles(C: NDArray, target: NDArray) -> tuple[NDArray, NDArray]:
+    """(n,) heading (clockwise from north, −180…180) and pitch (up positive) in degrees that aim from each of the
+    (n, 3) points C at the matching target (or at one (3,) target)."""
+    v = np.asarray(target, float) - np.asarray(C, float)
+    return np.degrees(np.arctan2(v[:, 0], v[:, 1])), np.degrees(np.arctan2(v[:, 2], np.hypot(v[:, 0], v[:, 1])))

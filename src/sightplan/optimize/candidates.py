@@ -22,7 +22,7 @@ from numpy.typing import NDArray
 
 from ..camera.models import Camera, PinholeCamera
 from ..errors import PlanError
-from ..geometry.poses import R_from_gimbal
+from ..geometry.poses import R_from_gimbal, aim_angles
 from ..model.scene import Scene
 from ..plan.checks.safety import point_distances
 from ..plan.ground import ground_z, without_terrain
@@ -94,6 +94,12 @@ def _variants(normal: NDArray, oblique_deg: float) -> list[NDArray]:
     return out
 
 
+def _gimbal(C: NDArray, look_at: NDArray) -> tuple[NDArray, NDArray]:
+    """(n,) heading (0…360) and pitch, degrees, from each view at C to its look_at."""
+    heading, pitch = aim_angles(C, look_at)
+    return heading % 360, pitch
+
+
 @dataclass(frozen=True)
 class CandidateSet:
     """The candidate views as a plan (one mission, frames in no particular order), the anchor each aims at, and
@@ -143,8 +149,7 @@ def candidate_views(scene: Scene, camera: Camera, safety_distance_m: float, *, d
     ground = ground_z(scene, C) if len(C) else ground
     if min_height_m is not None:  # a view below the minimum height rises to it, still looking at its anchor
         C[:, 2] = np.maximum(C[:, 2], ground + min_height_m)
-    v = look_at - C
-    pitch = np.degrees(np.arctan2(v[:, 2], np.hypot(v[:, 0], v[:, 1])))
+    pitch = _gimbal(C, look_at)[1]
     keep((pitch >= PITCH_RANGE_DEG[0]) & (pitch <= PITCH_RANGE_DEG[1]), "beyond the gimbal's pitch range")
     if altitude_limit_m is not None:
         keep(C[:, 2] - ground <= altitude_limit_m, "above the altitude limit")
@@ -153,9 +158,7 @@ def candidate_views(scene: Scene, camera: Camera, safety_distance_m: float, *, d
         keep(point_distances(obstacles, C) >= g * (1 - 1e-9), "nearer the model than the safety distance")
     # near-duplicates: one view per (position cell, direction bin)
     if len(C):
-        v = look_at - C
-        heading = np.degrees(np.arctan2(v[:, 0], v[:, 1])) % 360
-        pitch = np.degrees(np.arctan2(v[:, 2], np.hypot(v[:, 0], v[:, 1])))
+        heading, pitch = _gimbal(C, look_at)
         cell = np.floor(C / (spacing / 4)).astype(np.int64)
         key = np.stack([*cell.T, np.floor(heading / 10).astype(np.int64), np.floor((pitch + 90) / 10).astype(np.int64)], 1)
         _, first = np.unique(key, axis=0, return_index=True)
@@ -167,10 +170,7 @@ def candidate_views(scene: Scene, camera: Camera, safety_distance_m: float, *, d
     if not len(C):
         raise PlanError("no candidate view stands clear of the model at the safety distance and above the minimum "
                         "height: lower the safety distance")
-    v = look_at - C
-    heading = np.degrees(np.arctan2(v[:, 0], v[:, 1])) % 360
-    pitch = np.degrees(np.arctan2(v[:, 2], np.hypot(v[:, 0], v[:, 1])))
-    R = R_from_gimbal(heading, pitch, 0.0)
+    R = R_from_gimbal(*_gimbal(C, look_at), 0.0)
     plan = Plan.build(camera, R, C, missions=(Mission("candidates", 0, len(C)),),
                       frame_names=[f"candidate_{i:05d}" for i in range(len(C))],
                       parameters={"template": "candidates", "safety_distance_m": g,

@@ -25,6 +25,7 @@ from ..plan.types import Mission, Plan
 
 FORBIDDEN_S = 1e7  # a forbidden leg's cost: more than any tour
 MAX_ROUNDS = 60
+NEIGHBOURS = 6  # legs to each view's nearest views, measured before the first tour
 TUBE_RAYS = 7  # rays per leg in the pre-test: the axis and six lines around it at the safety distance
 
 
@@ -85,6 +86,25 @@ def order_views(scene: Scene, C: NDArray, takeoff: NDArray, safety_distance_m: f
     forbidden = int(blocked.sum() // 2)
     good: set[tuple[int, int]] = set()
     bad: set[tuple[int, int]] = set()
+
+    def measure(new: list[tuple[int, int]]) -> None:
+        """Exact distances of the legs ``new``: those too near are forbidden."""
+        nonlocal forbidden
+        a = np.array([p for p, _ in new])
+        b = np.array([q for _, q in new])
+        near = segment_distances(obstacles, P[a], P[b]) < safety_distance_m * (1 - 1e-9)
+        good.update(leg for leg, x in zip(new, near) if not x)
+        bad.update(leg for leg, x in zip(new, near) if x)
+        forbidden += int(near.sum())
+        cost[a[near], b[near]] = cost[b[near], a[near]] = FORBIDDEN_S
+
+    # a tour flies mostly between near neighbours: their legs measured at once spare most of the solves again
+    view_cost = cost[1:, 1:] + np.diag(np.full(n, np.inf))
+    neighbours = np.argsort(view_cost, axis=1)[:, :min(NEIGHBOURS, n - 1)] + 1
+    likely = {(min(i, j), max(i, j)) for i, row in enumerate(neighbours.tolist(), start=1) for j in row}
+    likely = sorted(leg for leg in likely if not blocked[leg])
+    if likely:
+        measure(likely)
     tour = list(range(n + 1))
     for _ in range(MAX_ROUNDS):
         tour = _tour(cost, runs)
@@ -94,13 +114,7 @@ def order_views(scene: Scene, C: NDArray, takeoff: NDArray, safety_distance_m: f
         new = [leg for leg in legs if leg not in good and leg not in bad]
         if not new:
             break
-        a = np.array([p for p, _ in new])
-        b = np.array([q for _, q in new])
-        near = segment_distances(obstacles, P[a], P[b]) < safety_distance_m * (1 - 1e-9)
-        good.update(leg for leg, x in zip(new, near) if not x)
-        bad.update(leg for leg, x in zip(new, near) if x)
-        forbidden += int(near.sum())
-        cost[a[near], b[near]] = cost[b[near], a[near]] = FORBIDDEN_S
+        measure(new)
     legs = [(min(a, b), max(a, b)) for a, b in zip(tour[1:-1], tour[2:])]
     cuts = np.array([k + 1 for k, leg in enumerate(legs) if leg in bad or blocked[leg]], np.int64)
     return np.array(tour[1:], np.int64) - 1, cuts, forbidden

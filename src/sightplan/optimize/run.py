@@ -253,20 +253,23 @@ def _aircraft(flight: FlightSettings) -> Aircraft | None:
     return flight.aircraft if isinstance(flight.aircraft, Aircraft) else None
 
 
+def _concatenated(plans: list[Plan], parameters: dict) -> Plan:
+    """The frames of ``plans`` one after the other, as one mission of candidates with ``parameters``."""
+    n = sum(len(p) for p in plans)
+    return Plan(cameras={k: v for p in plans for k, v in p.cameras.items()},
+                frame_camera=np.concatenate([p.frame_camera for p in plans]),
+                R_world_camera=np.concatenate([p.R_world_camera for p in plans]),
+                C_world=np.concatenate([p.C_world for p in plans]),
+                frame_names=np.concatenate([p.frame_names for p in plans]),
+                capture_time=np.concatenate([p.capture_time for p in plans]),
+                missions=(Mission("candidates", 0, n),), parameters=dict(parameters))
+
+
 def _with_start(cands: CandidateSet, start: Plan | None) -> tuple[Plan, int]:
     """The candidates, after the frames of ``start`` (if any): one plan to cast."""
     if start is None:
         return cands.plan, 0
-    c = cands.plan
-    cams = {**c.cameras, **start.cameras}
-    n = len(start)
-    merged = Plan(cameras=cams, frame_camera=np.concatenate([start.frame_camera, c.frame_camera]),
-                  R_world_camera=np.concatenate([start.R_world_camera, c.R_world_camera]),
-                  C_world=np.concatenate([start.C_world, c.C_world]),
-                  frame_names=np.concatenate([start.frame_names, c.frame_names]),
-                  capture_time=np.concatenate([start.capture_time, c.capture_time]),
-                  missions=(Mission("candidates", 0, n + len(c)),), parameters=dict(c.parameters))
-    return merged, n
+    return _concatenated([start, cands.plan], cands.plan.parameters), len(start)
 
 
 def _with_template_views(pool: Plan, scene: Scene, camera: Camera, flight: FlightSettings) -> Plan:
@@ -283,15 +286,7 @@ def _with_template_views(pool: Plan, scene: Scene, camera: Camera, flight: Fligh
             extra.append(build_template(name, scene, camera, params, flight.safety_distance_m, flight.min_height_m))
         except PlanError:  # a template that cannot be made here (a model too small for a grid, too high to fly over)
             continue
-    plans = [pool, *extra]
-    n = sum(len(p) for p in plans)
-    return Plan(cameras={k: v for p in plans for k, v in p.cameras.items()},
-                frame_camera=np.concatenate([p.frame_camera for p in plans]),
-                R_world_camera=np.concatenate([p.R_world_camera for p in plans]),
-                C_world=np.concatenate([p.C_world for p in plans]),
-                frame_names=np.concatenate([p.frame_names for p in plans]),
-                capture_time=np.concatenate([p.capture_time for p in plans]),
-                missions=(Mission("candidates", 0, n),), parameters=dict(pool.parameters))
+    return _concatenated([pool, *extra], pool.parameters)
 
 
 def _targets_record(t: Targets, et: ElementTargets) -> dict:
@@ -300,7 +295,3 @@ def _targets_record(t: Targets, et: ElementTargets) -> dict:
             "omega_px": t.omega_px, "min_features": t.min_features, "rules": len(t.rules),
             "elements": int(active.sum())}
 
-
-def table_for(obs: Observations, et: ElementTargets) -> CoverageTable:
-    """The coverage table of a plan's Observations for targets ``et`` (to score any plan, a template's too)."""
-    return CoverageTable.build(obs, et)

@@ -11,7 +11,7 @@ from numpy.typing import NDArray
 
 from ...camera.models import Camera, PinholeCamera
 from ...errors import PlanError
-from ...geometry.poses import R_from_gimbal
+from ...geometry.poses import R_from_gimbal, aim_angles
 from ...model.scene import Scene
 from ..aim import drop_blind_frames
 from ..ground import MIN_HEIGHT_M, ground_z, targets_only
@@ -28,7 +28,7 @@ def ring_poses(centre: NDArray, radius: float, z: float, n: int) -> tuple[NDArra
     height ``z``, and the (n,) heading and pitch in degrees that aim each at ``centre``."""
     az = np.arange(n) * 2 * np.pi / n
     C = np.stack([centre[0] + radius * np.sin(az), centre[1] + radius * np.cos(az), np.full(n, float(z))], axis=1)
-    return C, *_toward(C, centre)
+    return C, *aim_angles(C, centre)
 
 
 def orbit(scene: Scene, camera: Camera, radii_m: list[float] | None = None, heights_m: list[float] | None = None,
@@ -100,7 +100,7 @@ def orbit(scene: Scene, camera: Camera, radii_m: list[float] | None = None, heig
         missions.append(Mission(f"ring {k + 1}", first, len(C)))
     C = np.asarray(C)
     if aim == "surface":
-        heading, pitch = _toward(C, nearest_surface_points(structure, C))
+        heading, pitch = aim_angles(C, nearest_surface_points(structure, C))
     plan = Plan.build(camera, R_from_gimbal(heading, pitch, 0.0), C, missions=tuple(missions), waypoints=C,
                       parameters={"template": "orbit", "radii_m": list(map(float, radii_m)),
                                   "heights_m": list(map(float, heights_m)), "step_deg": step_deg, "overlap": overlap,
@@ -129,12 +129,6 @@ def nearest_surface_points(scene: Scene, points: NDArray) -> NDArray[np.float64]
     mesh = trimesh.Trimesh(scene.vertices, scene.faces, process=False)
     closest, _, _ = trimesh.proximity.closest_point(mesh, np.asarray(points, float))
     return np.asarray(closest, float)
-
-
-def _toward(C: NDArray, target: NDArray) -> tuple[NDArray, NDArray]:
-    """(n,) heading and pitch in degrees that aim from each of C at the matching target (or at one (3,) target)."""
-    v = target - C
-    return np.degrees(np.arctan2(v[:, 0], v[:, 1])), np.degrees(np.arctan2(v[:, 2], np.hypot(v[:, 0], v[:, 1])))
 
 
 @dataclass(frozen=True)
