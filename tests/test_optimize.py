@@ -199,3 +199,30 @@ def test_the_command_line_optimises_and_refuses_bad_targets(tmp_path):
     bad.write_text("k = -1\n", encoding="utf-8")
     r = runner.invoke(app, ["optimize", str(model), "--targets", str(bad), "-o", str(tmp_path / "x.json")])
     assert r.exit_code == 2 and "k must be" in r.output and not (tmp_path / "x.json").exists()
+
+
+def test_the_route_keeps_every_leg_clear_and_measures_no_leg_twice(box, monkeypatch):
+    """Views all around the box: the legs that would cut through it or graze it are forbidden, so every leg of the
+    tour (take-off and landing aside) stays the safety distance clear, measured again independently; a second
+    routing of the same views with the memo measures nothing new."""
+    import importlib
+
+    from sightplan.plan.checks import safety
+
+    route = importlib.import_module("sightplan.optimize.route")
+    ring = [(4 + 16 * np.cos(a), 4 + 16 * np.sin(a), z) for a in np.linspace(0, 2 * np.pi, 12, endpoint=False)
+            for z in (4.0, 20.0)]
+    C = np.array(ring)
+    takeoff = np.array([40.0, 40.0, 0.0])
+    measured = []
+    real = route.segment_distances
+    monkeypatch.setattr(route, "segment_distances", lambda s, p, q: measured.append(len(p)) or real(s, p, q))
+    memo = route.LegMemo()
+    order, cuts, forbidden = route.order_views(box, C, takeoff, G, ids=np.arange(len(C)) + 100, memo=memo)
+    assert sorted(order.tolist()) == list(range(len(C))) and len(cuts) == 0 and forbidden > 0
+    P = C[order]
+    assert safety.segment_distances(box, P[:-1], P[1:]).min() >= G  # the checks' own distances
+    first = sum(measured)
+    assert first == len(memo) > 0
+    again, _, _ = route.order_views(box, C, takeoff, G, ids=np.arange(len(C)) + 100, memo=memo)
+    assert sum(measured) == first and sorted(again.tolist()) == list(range(len(C)))

@@ -45,6 +45,8 @@ class Anchors:
     area: NDArray[np.float64]
 
 
+STANDOFF_M = 1e-3  # views stand this much beyond their distance, so the checks' strict test holds
+
 def footprint_m(camera: Camera, distance_m: float) -> float:
     """The width a head-on frame covers at ``distance_m`` (m)."""
     return distance_m * camera.width / camera.sampling_focal_px
@@ -134,7 +136,7 @@ def candidate_views(scene: Scene, camera: Camera, safety_distance_m: float, *, d
     for d in distances_m:
         for u in dirs:
             ok = np.isfinite(u).all(axis=1)
-            C.append(anchors.centre[ok] + d * u[ok])
+            C.append(anchors.centre[ok] + (d + STANDOFF_M) * u[ok])  # a millimetre out: clear of rounding
             look_at.append(anchors.centre[ok])
             which.append(np.flatnonzero(ok))
     C, look_at, which = np.concatenate(C), np.concatenate(look_at), np.concatenate(which)
@@ -155,7 +157,7 @@ def candidate_views(scene: Scene, camera: Camera, safety_distance_m: float, *, d
         keep(C[:, 2] - ground <= altitude_limit_m, "above the altitude limit")
     obstacles = without_terrain(scene)
     if len(C):
-        keep(point_distances(obstacles, C) >= g * (1 - 1e-9), "nearer the model than the safety distance")
+        keep(point_distances(obstacles, C) >= g, "nearer the model than the safety distance")
     # near-duplicates: one view per (position cell, direction bin)
     if len(C):
         heading, pitch = _gimbal(C, look_at)

@@ -26,7 +26,8 @@ from ..plan.types import Mission, Plan
 FORBIDDEN_S = 1e7  # a forbidden leg's cost: more than any tour
 MAX_ROUNDS = 60
 NEIGHBOURS = 6  # legs to each view's nearest views, measured before the first tour
-TUBE_RAYS = 7  # rays per leg in the pre-test: the axis and six lines around it at the safety distance
+TUBE_RAYS = 7
+UNKNOWN_SURCHARGE = 0.25  # share added to the time of a leg whose distance to the model is not yet measured  # rays per leg in the pre-test: the axis and six lines around it at the safety distance
 
 
 def blocked_legs(scene: Scene, P: NDArray, radius_m: float) -> NDArray[np.bool_]:
@@ -66,14 +67,33 @@ def _tour(cost: NDArray, runs: int) -> list[int]:
     return tour[:-1] if tour[-1] == tour[0] else tour
 
 
+class LegMemo:
+    """What is known of the legs between views that keep their identity across routings (the same candidate
+    pool): ``(a, b) → too near``, keyed by the views' ids (−1: the take-off). Routing a set of views that grew or
+    shrank by a few then measures only the legs it has not seen."""
+
+    def __init__(self) -> None:
+        self.near: dict[tuple[int, int], bool] = {}
+
+    def __len__(self) -> int:
+        return len(self.near)
+
+
 def order_views(scene: Scene, C: NDArray, takeoff: NDArray, safety_distance_m: float,
-                aircraft: Aircraft | None = None, runs: int = 4) -> tuple[NDArray[np.int64], NDArray[np.int64], int]:
+                aircraft: Aircraft | None = None, runs: int = 4, *, ids: NDArray | None = None,
+                memo: LegMemo | None = None) -> tuple[NDArray[np.int64], NDArray[np.int64], int]:
     """The order to fly the (n, 3) view positions ``C`` in from ``takeoff`` and back; the places in that order
     where no safe leg was left (a new mission starts there: the aircraft lands and takes off again); and how many
-    legs were forbidden for passing within ``safety_distance_m`` of the model."""
+    legs were forbidden for passing within ``safety_distance_m`` of the model.
+
+    ``ids`` (n,) and ``memo``: the views' identities and the legs measured by earlier routings of the same pool
+    (updated). The tours in between are solved with one LKH run, the last one again with ``runs``.
+    """
     n = len(C)
     if n == 0:
         return np.zeros(0, np.int64), np.zeros(0, np.int64), 0
+    key = np.concatenate([[-1], np.arange(n) if ids is None else np.asarray(ids, np.int64)]).tolist()
+    memo = memo if memo is not None else LegMemo()
     ac = aircraft or AIRCRAFT["p4p"]
     P = np.vstack([np.asarray(takeoff, float).reshape(1, 3), np.asarray(C, float)])
     i, j = np.triu_indices(n + 1, 1)
@@ -82,21 +102,42 @@ def order_views(scene: Scene, C: NDArray, takeoff: NDArray, safety_distance_m: f
     obstacles = without_terrain(scene)
     blocked = blocked_legs(obstacles, P, safety_distance_m)
     blocked[0, :] = blocked[:, 0] = False  # take-off and landing legs climb and descend: the checks skip them
+    base = cost.copy()
+    cost *= 1 + UNKNOWN_SURCHARGE  # a leg not yet measured costs more: the tours settle on measured legs sooner
+    cost[0, :], cost[:, 0] = base[0, :], base[:, 0]
     cost[blocked] = FORBIDDEN_S
     forbidden = int(blocked.sum() // 2)
     good: set[tuple[int, int]] = set()
     bad: set[tuple[int, int]] = set()
 
-    def measure(new: list[tuple[int, int]]) -> None:
-        """Exact distances of the legs ``new``: those too near are forbidden."""
+    def mark(legs: list[tuple[int, int]], near: NDArray) -> None:
         nonlocal forbidden
+        good.update(leg for leg, x in zip(legs, near) if not x)
+        bad.update(leg for leg, x in zip(legs, near) if x)
+        forbidden += int(np.count_nonzero(near))
+        a = np.array([p for p, _ in legs], np.int64)
+        b = np.array([q for _, q in legs], np.int64)
+        cost[a, b] = cost[b, a] = base[a, b]  # measured: its own time, no longer the unknown's surcharge
+        cost[a[near], b[near]] = cost[b[near], a[near]] = FORBIDDEN_S
+
+    def memo_key(leg: tuple[int, int]) -> tuple[int, int]:
+        p, q = key[leg[0]], key[leg[1]]
+        return (p, q) if p <= q else (q, p)
+
+    def measure(new: list[tuple[int, int]]) -> None:
+        """Exact distances of the legs ``new`` (those the memo knows are not measured again): those too near are
+        forbidden."""
+        known = [leg for leg in new if memo_key(leg) in memo.near]
+        if known:
+            mark(known, np.array([memo.near[memo_key(leg)] for leg in known], bool))
+        new = [leg for leg in new if memo_key(leg) not in memo.near]
+        if not new:
+            return
         a = np.array([p for p, _ in new])
         b = np.array([q for _, q in new])
-        near = segment_distances(obstacles, P[a], P[b]) < safety_distance_m * (1 - 1e-9)
-        good.update(leg for leg, x in zip(new, near) if not x)
-        bad.update(leg for leg, x in zip(new, near) if x)
-        forbidden += int(near.sum())
-        cost[a[near], b[near]] = cost[b[near], a[near]] = FORBIDDEN_S
+        near = segment_distances(obstacles, P[a], P[b]) < safety_distance_m  # the checks' own test
+        memo.near.update((memo_key(leg), bool(x)) for leg, x in zip(new, near))
+        mark(new, near)
 
     # a tour flies mostly between near neighbours: their legs measured at once spare most of the solves again
     view_cost = cost[1:, 1:] + np.diag(np.full(n, np.inf))
@@ -106,15 +147,29 @@ def order_views(scene: Scene, C: NDArray, takeoff: NDArray, safety_distance_m: f
     if likely:
         measure(likely)
     tour = list(range(n + 1))
+    final = False
     for _ in range(MAX_ROUNDS):
-        tour = _tour(cost, runs)
+        tour = _tour(cost, runs if final else 1)
         start = tour.index(0)
         tour = tour[start:] + tour[:start]
         legs = [(min(a, b), max(a, b)) for a, b in zip(tour[1:-1], tour[2:])]
         new = [leg for leg in legs if leg not in good and leg not in bad]
         if not new:
-            break
+            if final or runs <= 1:
+                break
+            final = True  # every leg of a one-run tour is known: solve again in earnest
+            continue
         measure(new)
+        # a view whose leg proved too near is in a tight spot: its next nearest legs measured at once, not one a tour
+        trouble = {v for leg in new if leg in bad for v in leg if v > 0}
+        more = set()
+        for v in trouble:
+            order = np.argsort(view_cost[v - 1]) + 1
+            unknown = [(min(v, int(w)), max(v, int(w))) for w in order[:-1]]
+            unknown = [leg for leg in unknown if leg not in good and leg not in bad and not blocked[leg]]
+            more.update(unknown[:NEIGHBOURS])
+        if more:
+            measure(sorted(more))
     legs = [(min(a, b), max(a, b)) for a, b in zip(tour[1:-1], tour[2:])]
     cuts = np.array([k + 1 for k, leg in enumerate(legs) if leg in bad or blocked[leg]], np.int64)
     return np.array(tour[1:], np.int64) - 1, cuts, forbidden

@@ -32,7 +32,7 @@ from ..plan.checks.gate import record_checks
 from ..plan.site import with_site
 from ..plan.types import Mission, Plan
 from .candidates import CandidateSet, candidate_views
-from .route import order_views, ordered_plan
+from .route import LegMemo, order_views, ordered_plan
 from .select import CoverageTable, greedy, refine
 from .targets import SSD_SLACK, ElementTargets, Targets
 
@@ -170,8 +170,11 @@ def optimize(scene: Scene, camera: Camera, targets: Targets | None = None, budge
     takeoff = (flight.ground_stations[0] if flight.ground_stations is not None
                else corner_stations(scene, pool.subset(sel.views) if len(sel.views) else pool)[0])
 
+    memo = LegMemo()  # legs measured once for every routing below
+
     def flown(views: NDArray) -> tuple[FeasibilityReport, NDArray, int]:
-        order, cuts, forbidden = order_views(scene, pool.C_world[views], takeoff, g, _aircraft(flight), settings.runs)
+        order, cuts, forbidden = order_views(scene, pool.C_world[views], takeoff, g, _aircraft(flight), settings.runs,
+                                             ids=views, memo=memo)
         report = plan_flights(scene, ordered_plan(pool, views[order], cuts), flight)
         return report, views[order], forbidden
 
