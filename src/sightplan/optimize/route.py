@@ -26,8 +26,8 @@ from ..plan.types import Mission, Plan
 FORBIDDEN_S = 1e7  # a forbidden leg's cost: more than any tour
 MAX_ROUNDS = 60
 NEIGHBOURS = 6  # legs to each view's nearest views, measured before the first tour
-TUBE_RAYS = 7
-UNKNOWN_SURCHARGE = 0.25  # share added to the time of a leg whose distance to the model is not yet measured  # rays per leg in the pre-test: the axis and six lines around it at the safety distance
+TUBE_RAYS = 7  # rays per leg in the pre-test: the axis and six lines around it at the safety distance
+UNKNOWN_SURCHARGE = 0.25  # share added to the time of a leg whose distance to the model is not yet measured
 
 
 def blocked_legs(scene: Scene, P: NDArray, radius_m: float) -> NDArray[np.bool_]:
