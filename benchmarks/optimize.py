@@ -5,7 +5,9 @@
 For each model, the facade grid (box and outline footprints), the orbit and the lawn-mower are planned at the same
 camera (P4P) and safety distance (10 m), over a grid of their overlaps, split and checked; each is evaluated at the
 same scale and scored against the same targets (k = 3 serving views, SSD ≤ the camera's at 10 m × 1.5, θ ≤ 45°).
-The best template is the one that meets the most targets (then the fewest minutes). The optimiser then runs twice:
+The best template is the one that passes the flight checks and meets the most targets (then the fewest minutes); a
+template that fails the checks (line of sight, battery, safety) cannot be flown as planned, so it is listed but not
+chosen unless none passes. The optimiser then runs twice:
 
 - at equal targets: no budget (it stops when no view adds anything) — frames and minutes against the best template;
 - at equal minutes: a budget of the best template's minutes — targets met, VC, elements with VR_i ≥ k, median R_i.
@@ -84,7 +86,7 @@ def run_model(model: str, scale: float, cache: Path) -> dict:
         r = rows[label]
         print(f"{label:>24}: {r['frames']:5d} frames {r['minutes']:6.1f} min met {r['met']:4d} VC {r['VC_pct']:5.1f} % "
               f"VR≥k {r['VR_ge_k']:4d} R {r['median_R_mm_px']}")
-    best_label = max(rows, key=lambda k: (rows[k]["met"], -rows[k]["minutes"]))
+    best_label = max(rows, key=lambda k: (rows[k]["ok"], rows[k]["met"], -rows[k]["minutes"]))
     best = rows[best_label]
     out = {"model": Path(model).name, "triangles": int(len(scene.faces)), "targets": et.n_active,
            "templates": {k: {kk: vv for kk, vv in v.items() if kk != "met_set"} for k, v in rows.items()},

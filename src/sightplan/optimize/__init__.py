@@ -1,12 +1,12 @@
 """Optimised plans: candidate views cast once, a submodular selection over their Observations, an LKH route, and
 the flight checks' split into missions. :func:`optimize` runs it all; each piece works on its own."""
 
-from .candidates import CandidateSet, candidate_views, surface_anchors
+from .candidates import CandidateSet, aimed_views, candidate_views, surface_anchors
 from .route import order_views, ordered_plan
 from .run import Budget, OptimizeResult, OptimizeSettings, default_ssd, optimize
 from .select import CoverageTable, Selection, greedy, remove_redundant
 from .targets import ElementTargets, Rule, Targets
 
 __all__ = ["Budget", "CandidateSet", "CoverageTable", "ElementTargets", "OptimizeResult", "OptimizeSettings", "Rule",
-           "Selection", "Targets", "candidate_views", "default_ssd", "greedy", "optimize", "order_views", "ordered_plan",
-           "remove_redundant", "surface_anchors"]
+           "Selection", "Targets", "aimed_views", "candidate_views", "default_ssd", "greedy", "optimize", "order_views",
+           "ordered_plan", "remove_redundant", "surface_anchors"]

@@ -140,26 +140,44 @@ def candidate_views(scene: Scene, camera: Camera, safety_distance_m: float, *, d
             look_at.append(anchors.centre[ok])
             which.append(np.flatnonzero(ok))
     C, look_at, which = np.concatenate(C), np.concatenate(look_at), np.concatenate(which)
+    kept, C, look_at, dropped = _kept_views(scene, C, look_at, g, spacing, min_height_m, altitude_limit_m)
+    which = which[kept]
+    if len(C) > MAX_CANDIDATES:
+        raise PlanError(f"{len(C):,} candidate views: more than {MAX_CANDIDATES:,}; give a larger spacing")
+    if not len(C):
+        raise PlanError("no candidate view stands clear of the model at the safety distance and above the minimum "
+                        "height: lower the safety distance")
+    plan = _views_plan(camera, C, look_at, "candidate",
+                       {"template": "candidates", "safety_distance_m": g,
+                        "distances_m": [float(d) for d in distances_m], "spacing_m": spacing,
+                        "oblique_deg": oblique_deg})
+    return CandidateSet(plan, which.astype(np.int64), anchors, dropped)
+
+
+def _kept_views(scene: Scene, C: NDArray, look_at: NDArray, g: float, spacing: float, min_height_m: float | None,
+                altitude_limit_m: float | None) -> tuple[NDArray, NDArray, NDArray, dict[str, int]]:
+    """The views at ``C`` looking at ``look_at`` that pass the filters of the module docstring: the indices kept,
+    their (possibly raised) positions, their targets, and how many each filter removed."""
+    C = np.array(C, np.float64).reshape(-1, 3)
+    look_at = np.asarray(look_at, np.float64).reshape(-1, 3)
+    idx = np.arange(len(C))
     dropped: dict[str, int] = {}
-    ground = np.zeros(len(C))
 
     def keep(mask: NDArray, why: str) -> None:
-        nonlocal C, look_at, which, ground
+        nonlocal C, look_at, idx, ground
         dropped[why] = dropped.get(why, 0) + int((~mask).sum())
-        C, look_at, which, ground = C[mask], look_at[mask], which[mask], ground[mask]
+        C, look_at, idx, ground = C[mask], look_at[mask], idx[mask], ground[mask]
 
-    ground = ground_z(scene, C) if len(C) else ground
+    ground = ground_z(scene, C) if len(C) else np.zeros(0)
     if min_height_m is not None:  # a view below the minimum height rises to it, still looking at its anchor
         C[:, 2] = np.maximum(C[:, 2], ground + min_height_m)
     pitch = _gimbal(C, look_at)[1]
     keep((pitch >= PITCH_RANGE_DEG[0]) & (pitch <= PITCH_RANGE_DEG[1]), "beyond the gimbal's pitch range")
     if altitude_limit_m is not None:
         keep(C[:, 2] - ground <= altitude_limit_m, "above the altitude limit")
-    obstacles = without_terrain(scene)
     if len(C):
-        keep(point_distances(obstacles, C) >= g, "nearer the model than the safety distance")
-    # near-duplicates: one view per (position cell, direction bin)
-    if len(C):
+        keep(point_distances(without_terrain(scene), C) >= g, "nearer the model than the safety distance")
+    if len(C):  # near-duplicates: one view per (position cell, direction bin)
         heading, pitch = _gimbal(C, look_at)
         cell = np.floor(C / (spacing / 4)).astype(np.int64)
         key = np.stack([*cell.T, np.floor(heading / 10).astype(np.int64), np.floor((pitch + 90) / 10).astype(np.int64)], 1)
@@ -167,15 +185,45 @@ def candidate_views(scene: Scene, camera: Camera, safety_distance_m: float, *, d
         mask = np.zeros(len(C), bool)
         mask[first] = True
         keep(mask, "duplicates")
-    if len(C) > MAX_CANDIDATES:
-        raise PlanError(f"{len(C):,} candidate views: more than {MAX_CANDIDATES:,}; give a larger spacing")
-    if not len(C):
-        raise PlanError("no candidate view stands clear of the model at the safety distance and above the minimum "
-                        "height: lower the safety distance")
+    return idx, C, look_at, dropped
+
+
+def _views_plan(camera: Camera, C: NDArray, look_at: NDArray, prefix: str, parameters: dict) -> Plan:
     R = R_from_gimbal(*_gimbal(C, look_at), 0.0)
-    plan = Plan.build(camera, R, C, missions=(Mission("candidates", 0, len(C)),),
-                      frame_names=[f"candidate_{i:05d}" for i in range(len(C))],
-                      parameters={"template": "candidates", "safety_distance_m": g,
-                                  "distances_m": [float(d) for d in distances_m], "spacing_m": spacing,
-                                  "oblique_deg": oblique_deg})
-    return CandidateSet(plan, which.astype(np.int64), anchors, dropped)
+    return Plan.build(camera, R, C, missions=(Mission("candidates", 0, len(C)),),
+                      frame_names=[f"{prefix}_{i:05d}" for i in range(len(C))], parameters=parameters)
+
+
+def aimed_views(scene: Scene, camera: Camera, safety_distance_m: float, elements: NDArray, seen_from: list[NDArray],
+                spacing_m: float, *, min_height_m: float | None = 2.0,
+                altitude_limit_m: float | None = None) -> Plan | None:
+    """More views for targets the candidates see but cannot meet: from each position in ``seen_from[j]`` (the
+    centres of the views that see ``elements[j]``), and from four positions ``spacing_m`` to its sides and above
+    and below it, a view aimed at the element's centre (its faces' area-weighted centroid). The same filters as
+    :func:`candidate_views`. None when none is left."""
+    g = float(safety_distance_m)
+    areas = scene.face_areas()
+    centroids = scene.vertices[scene.faces].mean(axis=1)
+    C, look_at = [], []
+    for e, P in zip(np.asarray(elements, np.int64), seen_from, strict=True):
+        sel = scene.face_element == e
+        if not sel.any() or not len(P):
+            continue
+        a = areas[sel]
+        centre = (centroids[sel] * a[:, None]).sum(axis=0) / max(a.sum(), 1e-300)
+        P = np.asarray(P, np.float64).reshape(-1, 3)
+        u = centre - P
+        u /= np.maximum(np.linalg.norm(u, axis=1, keepdims=True), 1e-12)
+        side = np.cross(u, [0.0, 0.0, 1.0])
+        side /= np.maximum(np.linalg.norm(side, axis=1, keepdims=True), 1e-12)
+        up = np.cross(side, u)
+        for shift in (np.zeros_like(side), side, -side, up, -up):
+            C.append(P + spacing_m * shift)
+            look_at.append(np.broadcast_to(centre, P.shape))
+    if not C:
+        return None
+    _, C, look_at, _ = _kept_views(scene, np.concatenate(C), np.concatenate(look_at), g, spacing_m, min_height_m,
+                                   altitude_limit_m)
+    if not len(C):
+        return None
+    return _views_plan(camera, C, look_at, "aimed", {"template": "candidates", "safety_distance_m": g})

@@ -31,13 +31,14 @@ from ..plan.checks.feasibility import FeasibilityReport, FlightSettings, corner_
 from ..plan.checks.gate import record_checks
 from ..plan.site import with_site
 from ..plan.types import Mission, Plan
-from .candidates import CandidateSet, candidate_views
+from .candidates import CandidateSet, aimed_views, candidate_views
 from .route import LegMemo, order_views, ordered_plan
 from .select import CoverageTable, greedy, refine
 from .targets import SSD_SLACK, ElementTargets, Targets
 
 Progress = Callable[[str, int, int], None]
 REPAIR_ROUNDS = 6
+AIM_FROM = 6  # views aimed at a target that is seen but not met: from near this many of those that see it
 REFINE_FACTOR = 4  # under a budget of minutes or batteries, up to this many times the views the targets need
 
 
@@ -61,7 +62,8 @@ class OptimizeSettings:
     """How candidates are made and cast: ``scale`` of the cast (default 0.25), ``engine``, candidate ``spacing_m``
     and ``distances_m`` (defaults in :mod:`.candidates`), ``oblique_deg``, ``cache_dir`` of the per-frame cache
     (None: the default one, False: none), LKH ``runs``; ``template_views``: the facade, orbit and lawn-mower views
-    (70 % overlap) are candidates too."""
+    (70 % overlap) are candidates too; ``aimed_views``: targets some candidate sees but none meets get views aimed at
+    them (:func:`~.candidates.aimed_views`), cast in a second round."""
 
     scale: float = 0.25
     engine: str = "auto"
@@ -72,6 +74,7 @@ class OptimizeSettings:
     cache_dir: object = None
     runs: int = 4
     template_views: bool = True
+    aimed_views: bool = True
 
 
 @dataclass(frozen=True)
@@ -155,11 +158,20 @@ def optimize(scene: Scene, camera: Camera, targets: Targets | None = None, budge
                                                   threads=settings.threads, metric=metric),
                   cache_dir=settings.cache_dir,
                   progress=None if progress is None else (lambda i, n: progress("casting candidates", i, n)))
+    table = CoverageTable.build(ev.observations, et)
+    if settings.aimed_views:  # targets seen but not met: views aimed at them from near those that see them
+        aimed = _aimed(scene, camera, pool, table, flight, cands.plan.parameters["spacing_m"])
+        if aimed is not None:
+            pool = _concatenated([pool, aimed], pool.parameters)
+            ev = evaluate(scene, pool, EvaluationSettings(engine=settings.engine, scale=settings.scale,  # type: ignore[arg-type]
+                                                          threads=settings.threads, metric=metric),
+                          cache_dir=settings.cache_dir,
+                          progress=None if progress is None else (lambda i, n: progress("casting aimed views", i, n)))
+            table = CoverageTable.build(ev.observations, et)
     timings["cast_s"] = time.perf_counter() - t0
     obs = ev.observations
 
     t0 = time.perf_counter()
-    table = CoverageTable.build(obs, et)
     blind = int(sum(len(table.sees(f)) == 0 for f in range(n_start, table.n_views)))
     sel = greedy(table, budget.frames, start=np.arange(n_start) if n_start else None)
     timings["select_s"] = time.perf_counter() - t0
@@ -250,6 +262,25 @@ def _repair_stability(obs: Observations, metric: MetricParams, views: NDArray, r
             break
         best, n_unstable = (r, fv, fb, candidate), count
     return best
+
+
+def _aimed(scene: Scene, camera: Camera, pool: Plan, table: CoverageTable, flight: FlightSettings,
+           spacing_m: float) -> Plan | None:
+    """Views aimed at the targets that the pool sees (≥ Ω px) but cannot meet, from near up to ``AIM_FROM`` of the
+    views that see each."""
+    q, s = table.counts(np.arange(table.n_views))
+    short = (q < table.k) & (table.weight > 0) & (s > 0)
+    if not short.any():
+        return None
+    view_of = np.repeat(np.arange(table.n_views), np.diff(table.seen_ptr))
+    elements = np.flatnonzero(short)
+    seen_from = []
+    for e in elements:
+        views = view_of[table.seen_el == e]
+        pick = views[np.unique(np.linspace(0, len(views) - 1, min(AIM_FROM, len(views))).round().astype(int))]
+        seen_from.append(pool.C_world[pick])
+    return aimed_views(scene, camera, flight.safety_distance_m, elements, seen_from, spacing_m,
+                       min_height_m=flight.min_height_m, altitude_limit_m=flight.altitude_limit_m)
 
 
 def _aircraft(flight: FlightSettings) -> Aircraft | None:
