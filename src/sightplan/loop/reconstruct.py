@@ -27,9 +27,11 @@ from ..errors import SightplanError
 from .files import Reconstruction, write_reconstruction
 from .render import read_renders
 
-MATCHERS = ("auto", "exhaustive", "sequential")
-EXHAUSTIVE_MAX_IMAGES = 60  # "auto" matches every pair up to this many images, neighbours in plan order beyond
+MATCHERS = ("auto", "exhaustive", "spatial", "sequential")
+EXHAUSTIVE_MAX_IMAGES = 60  # "auto" matches every pair up to this many images, spatial neighbours beyond
 SEQUENTIAL_OVERLAP = 10
+SPATIAL_NEIGHBOURS = 20
+SPATIAL_MAX_ANGLE_DEG = 75.0
 MAX_FEATURES = 8192
 MIN_REGISTERED = 3
 SEED = 1  # pycolmap's random seed: the same images give the same reconstruction
@@ -80,6 +82,25 @@ def rotation_angle_deg(Ra: NDArray, Rb: NDArray) -> NDArray[np.float64]:
     return np.degrees(np.arccos(np.clip(c, -1.0, 1.0)))
 
 
+def spatial_pairs(C: NDArray, R: NDArray, k: int = SPATIAL_NEIGHBOURS, max_angle_deg: float = SPATIAL_MAX_ANGLE_DEG
+                  ) -> list[tuple[int, int]]:
+    """Image pairs (i < j) to match: each frame with its ``k`` nearest frames by camera centre among those whose
+    optical axes lie within ``max_angle_deg`` of its own, as a drone's positions and gimbal angles would choose."""
+    C = np.asarray(C, float)
+    axes = np.asarray(R, float)[:, :, 2]
+    n = len(C)
+    cos_max = math.cos(math.radians(max_angle_deg))
+    pairs: set[tuple[int, int]] = set()
+    for i in range(n):
+        d = np.linalg.norm(C - C[i], axis=1)
+        d[axes @ axes[i] < cos_max] = np.inf
+        d[i] = np.inf
+        for j in np.argsort(d, kind="stable")[:k]:
+            if np.isfinite(d[j]):
+                pairs.add((min(i, int(j)), max(i, int(j))))
+    return sorted(pairs)
+
+
 def _pycolmap():
     from ..extras import require
 
@@ -114,8 +135,10 @@ def reconstruct(images_dir: str | Path, out_dir: str | Path, *, matcher: str = "
     """Run SfM on the renders in ``images_dir`` (a folder written by :func:`~.render.render_plan`) and register it to
     the model; the result is also written into ``out_dir``.
 
-    matcher: "exhaustive" (every pair), "sequential" (each image with its next images in plan order), or "auto"
-    (exhaustive up to :data:`EXHAUSTIVE_MAX_IMAGES` images). threads: CPU threads (default all).
+    matcher: "exhaustive" (every pair), "spatial" (each image with its nearest frames that look the same way,
+    :func:`spatial_pairs`, from the true poses as a drone's log would give them), "sequential" (each image with
+    its next images in plan order), or "auto" (exhaustive up to :data:`EXHAUSTIVE_MAX_IMAGES` images, spatial
+    beyond). threads: CPU threads (default all).
     progress(done, total): work units over the whole run: one per image extracted, one per image matched (reported
     when matching ends), one per image registered. stage(text): called as each step begins. verbose: let COLMAP
     log its progress to stderr."""
@@ -140,7 +163,7 @@ def _run(pycolmap, renders, src: Path, out: Path, matcher: str, threads: int | N
         raise SightplanError(f"{src} lacks {len(missing)} of its rendered images (e.g. {missing[0]}): render again")
     n = len(renders)
     n_threads = int(threads) if threads else (os.cpu_count() or 1)
-    chosen = matcher if matcher != "auto" else ("exhaustive" if n <= EXHAUSTIVE_MAX_IMAGES else "sequential")
+    chosen = matcher if matcher != "auto" else ("exhaustive" if n <= EXHAUSTIVE_MAX_IMAGES else "spatial")
     done = 0
     total = 3 * n
 
@@ -188,6 +211,14 @@ def _run(pycolmap, renders, src: Path, out: Path, matcher: str, threads: int | N
     matching.use_gpu = False
     if chosen == "exhaustive":
         pycolmap.match_exhaustive(database, matching_options=matching, device=pycolmap.Device.cpu)
+    elif chosen == "spatial":
+        pairs = spatial_pairs(renders.C_world, renders.R_world_camera)
+        match_list = out / "pairs.txt"
+        match_list.write_text("".join(f"{renders.image_names[i]} {renders.image_names[j]}\n" for i, j in pairs))
+        pairing = pycolmap.ImportedPairingOptions()
+        pairing.match_list_path = str(match_list)
+        pycolmap.match_image_pairs(database, matching_options=matching, pairing_options=pairing,
+                                   device=pycolmap.Device.cpu)
     else:
         pairing = pycolmap.SequentialPairingOptions()
         pairing.overlap = SEQUENTIAL_OVERLAP
