@@ -1,5 +1,6 @@
 """Optional parts of sightplan and what installs them: ``gl`` (the OpenGL engine), ``web`` (``sightplan serve``),
-``cluster`` (``--cluster``); ``all`` is every one (what ``make setup`` installs)."""
+``cluster`` (``--cluster``), ``loop`` (``sightplan reconstruct``: structure from motion with pycolmap); ``all`` is every
+one (what ``make setup`` installs)."""
 
 from __future__ import annotations
 
@@ -8,7 +9,7 @@ import importlib
 from .errors import SightplanError
 
 EXTRAS = {"gl": ("moderngl",), "web": ("fastapi", "uvicorn", "sqlalchemy", "alembic", "multipart", "argon2"),
-          "cluster": ("distributed",)}
+          "cluster": ("distributed",), "loop": ("pycolmap",)}
 
 
 def install_hint(extra: str) -> str:

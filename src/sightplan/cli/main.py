@@ -11,6 +11,7 @@ from . import (  # noqa: F401  (registers the commands)
     optimize_cmd,
     plan_cmd,
     progress_cmd,
+    render_cmd,
     serve_cmd,
     study_cmd,
     validate_cmd,
