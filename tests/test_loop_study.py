@@ -152,3 +152,46 @@ def test_bad_threshold_and_predictor():
         loop_study(ev, m, threshold=0)
     with pytest.raises(LoopStudyError, match="unknown predictor"):
         loop_study(ev, m, logit=("VR", "colour"))
+
+
+# --------------------------------------------------------------------------- the loop's back half, end to end
+def test_loop_from_a_reconstruction_folder(tmp_path):
+    """`sightplan loop --reconstruction` on the walls of test_loop_measure: wall A reconstructed, wall B not, the
+    hidden box seen by no frame."""
+    from sightplan.engines.registry import available_engines
+    from sightplan.loop import write_reconstruction
+    from sightplan.plan.format import write_plan
+    from sightplan.plan.types import Plan
+    from test_cli import assert_clean_error, run_cli
+    from test_loop_measure import BOXES, CAM, CENTRES, R_NORTH, A, box_mesh, box_points, recon
+
+    if not available_engines():
+        pytest.skip("no visibility engine")
+    lines = []
+    for i, b in enumerate(BOXES):
+        v, f = box_mesh(b)
+        lines += [f"o E{i}"] + [f"v {x:.6f} {y:.6f} {z:.6f}" for x, y, z in v]
+        lines += [f"f {a + 1 + 8 * i} {c + 1 + 8 * i} {d + 1 + 8 * i}" for a, c, d in f]
+    (tmp_path / "boxes.obj").write_text("\n".join(lines) + "\n")
+    write_plan(Plan.build(CAM, np.repeat(R_NORTH[None], 2, axis=0), CENTRES), tmp_path / "plan.json")
+    write_reconstruction(recon(box_points(A, 3000, np.random.default_rng(8)), registered=(True, False)),
+                         tmp_path / "recon")
+    args = ["loop", "boxes.obj", "plan.json", "-o", "out", "--reconstruction", "recon", "--eval-scale", "0.5",
+            "--no-cache"] + (["--paper-table", str(TABLE2)] if TABLE2.is_file() else [])
+    res = run_cli(*args, cwd=tmp_path)
+    assert res.returncode == 0, res.stdout + res.stderr
+    assert "frames registered: 1 of 2" in res.stdout and "Pearson r" in res.stdout
+    out = tmp_path / "out"
+    rows = {r["name"]: r for r in csv.DictReader((out / "elements.csv").open())}
+    assert len(rows) == 3
+    assert float(rows["E0"]["completeness"]) > 0.95 and float(rows["E1"]["completeness"]) == 0.0
+    assert rows["E2"]["completeness"] == "" and rows["E2"]["points"] == "0"
+    assert float(rows["E0"]["points"]) == pytest.approx(3000 * 18.3, rel=0.01)
+    page = (out / "index.html").read_text()
+    assert "id='comparison'" in page and "data:image/png;base64," in page and "the model coloured" in page
+    assert "No logistic fit" in page  # three elements: too few for a fit, and the page says so
+    data = json.loads((out / "study.json").read_text())
+    assert data["frames"]["registered"] == 1 and data["elements"] == 3
+    assert json.loads((out / "validation.json").read_text())["metrics"]["Ce"] > 0.3
+    assert_clean_error(run_cli("loop", "boxes.obj", "plan.json", "--reconstruction", "nowhere", "-o", "x",
+                               cwd=tmp_path), "not a reconstruction directory")
