@@ -140,7 +140,7 @@ def test_counts_completeness_and_the_hidden_element(gamma, plan, ev):
     near = face_points(B, 1, 0, 40, rng)  # 40 points 1 cm south of wall B: within τ
     near[:, 1] -= 0.01
     rec = recon(np.concatenate([pa, ph, off, near]))
-    m = measure_reconstruction(gamma, plan, rec, ev, tolerance_m=0.03, radius_m=0.05)
+    m = measure_reconstruction(gamma, plan, rec, ev, tolerance_m=0.03, radius_m=0.05, samples_per_m2=400)
     assert m.points.tolist() == [len(pa), 40, len(ph)]
     assert (m.point_element == -1).sum() == len(off)
     # visible shares of the surface, by construction: 8.4/18.3, 6.72/14.94 and 0
@@ -161,7 +161,7 @@ def test_counts_completeness_and_the_hidden_element(gamma, plan, ev):
 def test_no_points_means_no_count_and_no_completeness(gamma, plan, ev):
     rng = np.random.default_rng(2)
     rec = recon(box_points(H, 500, rng))  # points only where no camera looks
-    m = measure_reconstruction(gamma, plan, rec, ev, tolerance_m=0.03, radius_m=0.05)
+    m = measure_reconstruction(gamma, plan, rec, ev, tolerance_m=0.03, radius_m=0.05, samples_per_m2=400)
     assert m.points[:2].tolist() == [0, 0]
     assert m.completeness[:2].tolist() == [0.0, 0.0]
     assert m.density_per_m2[:2].tolist() == [0.0, 0.0]
@@ -173,7 +173,7 @@ def test_half_a_face_gives_its_share_of_the_visible_surface(gamma, plan, ev):
     rng = np.random.default_rng(4)
     pts = face_points(A, 1, 0, 150_000, rng, hi={0: -1.75})
     r = 0.02
-    m = measure_reconstruction(gamma, plan, recon(pts), ev, tolerance_m=0.01, radius_m=r)
+    m = measure_reconstruction(gamma, plan, recon(pts), ev, tolerance_m=0.01, radius_m=r, samples_per_m2=400)
     assert m.completeness[0] == pytest.approx((3.75 + 3 * r) / 8.4, abs=0.015)
 
 

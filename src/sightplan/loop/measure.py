@@ -45,9 +45,9 @@ from .files import Reconstruction
 
 ProgressCallback = Callable[[int, int], None]
 
-SAMPLES_PER_M2 = 400.0
+SAMPLES_PER_M2 = 100.0
 MIN_SAMPLES_PER_ELEMENT = 50
-MAX_SAMPLES = 2_000_000
+MAX_SAMPLES = 1_000_000
 TOLERANCE_PX = 3.0
 RADIUS_PX = 20.0
 #: Samples are lifted this far along their normal for the visibility test, as the simulated features are.

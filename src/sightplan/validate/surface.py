@@ -168,8 +168,10 @@ def nearest_faces(points: ArrayLike, vertices: ArrayLike, faces: ArrayLike, radi
     """(n,) the index of the triangle nearest each point among those within ``radius`` (m) — −1 where none is —
     and (n,) its exact point–triangle distance (inf where none is).
 
-    The triangles are bisected and indexed as in :func:`points_near_mesh`; every piece whose centroid lies
-    within radius + (largest centroid–vertex distance) of a point is measured, so the nearest is exact.
+    The triangles are bisected until no edge exceeds max(radius, √(4·area/10⁶)) (doubled while that makes over
+    4·10⁶ pieces) and indexed by centroid, in groups of like size; a point measures its pieces nearest first until
+    the next centroid lies beyond (the nearest distance so far, at most radius) + (the group's largest
+    centroid–vertex distance), so the nearest triangle is exact.
     """
     from scipy.spatial import cKDTree
 
@@ -186,34 +188,46 @@ def nearest_faces(points: ArrayLike, vertices: ArrayLike, faces: ArrayLike, radi
         return face, dist
     tri = tri[keep]
     area = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1).sum()
-    edge = max(4.0 * radius, math.sqrt(4.0 * area / _MAX_PIECES), 1e-6)
+    edge = max(radius, math.sqrt(4.0 * area / _MAX_PIECES), 1e-6)
     cut = _bisect_with_ids(tri, keep.astype(np.int64), edge, _PIECE_LIMIT)
     while cut is None:
         edge *= 2.0
         cut = _bisect_with_ids(tri, keep.astype(np.int64), edge, _PIECE_LIMIT)
     pieces, origin = np.ascontiguousarray(cut[0]), cut[1]
     centroid = pieces.mean(axis=1)
-    reach = math.sqrt(max(float(((pieces[:, j] - centroid) ** 2).sum(axis=1).max()) for j in range(3)))
-    bound = radius + reach + 1e-9 * (1.0 + float(np.abs(centroid).max()))
-    tree = cKDTree(centroid)
-    m = len(pieces)
+    reach = np.sqrt(np.max([((pieces[:, j] - centroid) ** 2).sum(axis=1) for j in range(3)], axis=0))
+    # pieces grouped by their reach (factors of 2), so that small pieces are searched within a small bound
+    group = np.floor(np.log2(np.maximum(reach, 1e-9) / max(float(reach.max()), 1e-9))).astype(np.int64)
+    group = np.maximum(group, -6)
     r2 = radius * radius
     best = np.full(len(pts), -1, np.int64)
     best_sq = np.full(len(pts), np.inf)
-    for b0 in range(0, len(pts), _QUERY_BATCH):
-        todo = np.arange(b0, min(b0 + _QUERY_BATCH, len(pts)))
-        k = 8
-        while len(todo):
-            kk = min(k, m)
-            d, idx = tree.query(pts[todo], k=kk, distance_upper_bound=bound, workers=-1)
-            d, idx = d.reshape(len(todo), kk), idx.reshape(len(todo), kk)
-            b, bs = best[todo], best_sq[todo]
-            _nearest_within(pts[todo], idx.astype(np.int64), pieces, r2, b, bs)
-            best[todo], best_sq[todo] = b, bs
-            if kk == m:
-                break
-            todo = todo[np.isfinite(d[:, -1])]  # all kk within reach: there may be more candidates
-            k *= 4
+    pad = 1e-9 * (1.0 + float(np.abs(centroid).max()))
+    for g in np.unique(group):
+        members = np.flatnonzero(group == g)
+        part = np.ascontiguousarray(pieces[members])
+        bound = radius + float(reach[members].max()) + pad
+        tree = cKDTree(centroid[members])
+        m = len(members)
+        for b0 in range(0, len(pts), _QUERY_BATCH):
+            todo = np.arange(b0, min(b0 + _QUERY_BATCH, len(pts)))
+            k = 8
+            while len(todo):
+                kk = min(k, m)
+                d, idx = tree.query(pts[todo], k=kk, distance_upper_bound=bound, workers=-1)
+                d, idx = d.reshape(len(todo), kk), idx.reshape(len(todo), kk)
+                local = np.full(len(todo), -1, np.int64)
+                local_sq = best_sq[todo].copy()
+                _nearest_within(pts[todo], idx.astype(np.int64), part, r2, local, local_sq)
+                better = local >= 0
+                best[todo[better]] = members[local[better]]
+                best_sq[todo] = local_sq
+                if kk == m:
+                    break
+                # a piece whose centroid lies farther than (the best distance so far) + reach cannot be nearer
+                limit = np.minimum(np.sqrt(best_sq[todo]), radius) + float(reach[members].max()) + pad
+                todo = todo[d[:, -1] <= limit]
+                k *= 4
     found = best >= 0
     face[found] = origin[best[found]]
     dist[found] = np.sqrt(best_sq[found])
