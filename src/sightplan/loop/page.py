@@ -18,7 +18,7 @@ from numpy.typing import NDArray
 
 from ..engines.views import SceneView
 from ..metrics.elements import ElementMetrics
-from ..report.colours import metric_colours, traffic_light
+from ..report.colours import colour_bounds, metric_colours, traffic_light
 from ..report.files import write_bytes
 from ..report.html import CSS
 from ..report.overview import OCCLUDER, UNSEEN, shaded_image
@@ -50,7 +50,9 @@ def model_png(view: SceneView, em: ElementMetrics, measures: ReconstructionMeasu
     cam = view.camera
     fig = Figure(figsize=(2 * cam.width / 130, cam.height / 130 + 0.5), dpi=100)
     FigureCanvasAgg(fig)
-    titles = ("predicted: VR_i (green many frames → red none)", "measured: completeness (green 1 → red 0)")
+    lo, hi = colour_bounds(em, "vr")
+    titles = (f"predicted: VR_i (green {hi:.3g} → red {lo:.3g} frames; unseen red)",
+              "measured: completeness (green 1 → red 0; no visible surface: unseen red)")
     for k, (colours, title) in enumerate(zip((predicted, measured_colours(measures)), titles, strict=True)):
         ax = fig.add_subplot(1, 2, k + 1)
         ax.imshow(shaded_image(view, colours), interpolation="nearest")

@@ -162,7 +162,7 @@ def loop(
     except ReportError:
         pass  # no three.js here: the page keeps its pictures
     with make_engine(ray_engine_name(settings.engine), scene, threads=settings.threads) as engine:
-        view = overview_view(engine, plan.C_world)
+        view = overview_view(engine)
     facts = {"validation": "A {} m, Ce {}, Cv {}, Ct {} (λ = {:.4g} m)".format(
         *(("—" if x is None else f"{x:.4g}") for x in (v.A, v.Ce, v.Cv, v.Ct)), v.lam)}
     title = " × ".join(x for x in ((labels or {}).get("model"), (labels or {}).get("plan")) if x)
