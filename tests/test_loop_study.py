@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import csv
 import json
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -174,8 +175,8 @@ def test_loop_from_a_reconstruction_folder(tmp_path):
         lines += [f"f {a + 1 + 8 * i} {c + 1 + 8 * i} {d + 1 + 8 * i}" for a, c, d in f]
     (tmp_path / "boxes.obj").write_text("\n".join(lines) + "\n")
     write_plan(Plan.build(CAM, np.repeat(R_NORTH[None], 2, axis=0), CENTRES), tmp_path / "plan.json")
-    write_reconstruction(recon(box_points(A, 3000, np.random.default_rng(8)), registered=(True, False)),
-                         tmp_path / "recon")
+    rec = recon(box_points(A, 3000, np.random.default_rng(8)), registered=(True, False))
+    write_reconstruction(replace(rec, info={"render_scale": 0.5}), tmp_path / "recon")
     args = ["loop", "boxes.obj", "plan.json", "-o", "out", "--reconstruction", "recon", "--eval-scale", "0.5",
             "--no-cache"] + (["--paper-table", str(TABLE2)] if TABLE2.is_file() else [])
     res = run_cli(*args, cwd=tmp_path)
@@ -192,6 +193,11 @@ def test_loop_from_a_reconstruction_folder(tmp_path):
     assert "No logistic fit" in page  # three elements: too few for a fit, and the page says so
     data = json.loads((out / "study.json").read_text())
     assert data["frames"]["registered"] == 1 and data["elements"] == 3
+    # the photographs were taken at half the plan's resolution: the evaluation counts their pixels, a quarter of
+    # the plan's, and ρ is the walls' 20 m over the halved 400 px focal length
+    assert data["info"]["render_scale"] == 0.5
+    measures = json.loads((out / "measures.json").read_text())
+    assert measures["resolution_m_px"] == pytest.approx(20.0 / 400.0, rel=0.05)
     assert json.loads((out / "validation.json").read_text())["metrics"]["Ce"] > 0.3
     assert_clean_error(run_cli("loop", "boxes.obj", "plan.json", "--reconstruction", "nowhere", "-o", "x",
                                cwd=tmp_path), "not a reconstruction directory")

@@ -50,7 +50,8 @@ def loop_command(
     plan: Annotated[str, typer.Argument(help="The plan (any format `sightplan evaluate` reads)")],
     out: Annotated[Path, typer.Option("--out", "-o", help="Folder for the images, the reconstruction and the study")
                    ] = Path("sightplan-loop"),
-    scale: Annotated[float, typer.Option(help="Resolution scale of the rendered photographs")] = 1.0,
+    scale: Annotated[float | None, typer.Option(
+        help="Resolution scale of the rendered photographs (default 1, or the --reconstruction's own)")] = None,
     matcher: Annotated[str, typer.Option(help="SfM matcher: auto, sequential, spatial or exhaustive")] = "auto",
     render_engine: Annotated[str, typer.Option(help="Renderer: embree (CPU) or gl")] = "embree",
     reconstruction: Annotated[Path | None, typer.Option(
@@ -89,7 +90,7 @@ def loop_command(
     from ..plan.load import load_plan
 
     check_date_options(date_basis, unscheduled)
-    if not 0 < scale <= 1:
+    if scale is not None and not 0 < scale <= 1:
         raise SightplanError(f"--scale must be in (0, 1], got {scale}")
     if paper_table is not None and not paper_table.is_file():
         raise SightplanError(f"--paper-table: no such file: {paper_table}")

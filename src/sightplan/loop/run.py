@@ -76,7 +76,7 @@ def loop(
     plan: Plan,
     out_dir: str | Path,
     *,
-    scale: float = 1.0,
+    scale: float | None = None,
     matcher: str = "auto",
     render_engine: str = "embree",
     settings: EvaluationSettings | None = None,
@@ -92,7 +92,8 @@ def loop(
 ) -> LoopResult:
     """Render, reconstruct, validate, measure and study ``plan`` on ``scene`` into ``out_dir`` (module docstring).
 
-    scale: the renders' resolution scale. matcher: the SfM's matcher (``reconstruct``). settings: the evaluation's
+    scale: the renders' resolution scale (default 1; with ``reconstruction``, the scale its run records as
+    ``render_scale``, else 1). matcher: the SfM's matcher (``reconstruct``). settings: the evaluation's
     (its scale is the evaluation's ray scale, independent of the renders'). registration_error_m: e for the
     validation (default: the reconstruction's residual). tolerance_m, radius_m: the measures' τ and r (default:
     :mod:`.measure`'s). paper_table: the paper's Table 2 CSV to set beside the correlations. reconstruction: an
@@ -102,11 +103,14 @@ def loop(
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     settings = settings or EvaluationSettings()
-    photo = photographed_plan(plan, scale)
     timings: dict[str, float] = {}
     renders = None
+    rec = read_reconstruction(reconstruction) if reconstruction is not None else None
+    if scale is None:
+        scale = float(rec.info.get("render_scale", 1.0)) if rec is not None else 1.0
+    photo = photographed_plan(plan, scale)
     t0 = time.perf_counter()
-    if reconstruction is None:
+    if rec is None:
         from .reconstruct import reconstruct
         from .render import render_plan
 
@@ -117,8 +121,6 @@ def loop(
         rec = reconstruct(renders.directory, out / "recon", matcher=matcher, threads=threads,
                           progress=_stage(progress, "reconstruct"))
         timings["reconstruct_s"] = time.perf_counter() - t0
-    else:
-        rec = read_reconstruction(reconstruction)
     if len(rec.frame_names) != len(plan):
         raise SightplanError(f"the reconstruction has {len(rec.frame_names)} frames and the plan {len(plan)}")
 
