@@ -8,6 +8,7 @@ from . import (  # noqa: F401  (registers the commands)
     evaluate_cmd,
     export_cmd,
     info_cmd,
+    loop_cmd,
     optimize_cmd,
     plan_cmd,
     progress_cmd,

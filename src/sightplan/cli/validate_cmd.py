@@ -1,16 +1,20 @@
-"""``sightplan validate MODEL PLAN REALITY --registration-error E``: a plan against the reconstruction it produced."""
+"""``sightplan validate MODEL PLAN REALITY --registration-error E`` (or ``--reconstruction FOLDER``): a plan against
+the reconstruction it produced."""
 
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 from typing import Annotated
 
+import numpy as np
 import typer
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 from rich.table import Table
 
 from ..engines.base import EngineName
+from ..errors import SightplanError
 from .base import ENGINE_HELP, app, console
 from .camera_opts import CAMERA_FORMS, FocalOpt, cli_camera
 from .errors import cell, friendly_errors
@@ -49,6 +53,36 @@ def validation_table(v, title: str) -> Table:
     return t
 
 
+def registration_summary(rec) -> dict:
+    """Frames registered, pose errors and the residual of a reconstruction, JSON-ready."""
+    reg = rec.registered
+    pe, re = rec.position_error_m[reg], rec.rotation_error_deg[reg]
+    pe, re = pe[np.isfinite(pe)], re[np.isfinite(re)]
+    stat = lambda a, f: float(f(a)) if len(a) else None  # noqa: E731
+    return {"frames": len(rec.frame_names), "frames_registered": rec.n_registered,
+            "unregistered": [n for n, ok in zip(rec.frame_names, reg, strict=True) if not ok],
+            "position_error_m_mean": stat(pe, np.mean), "position_error_m_max": stat(pe, np.max),
+            "rotation_error_deg_mean": stat(re, np.mean), "rotation_error_deg_max": stat(re, np.max),
+            "residual_m": rec.residual_m, "scene_size_m": rec.scene_size_m,
+            "residual_share": rec.residual_share if math.isfinite(rec.residual_share) else None,
+            "points": len(rec.points)}
+
+
+def registration_table(rec) -> Table:
+    """Frames registered, pose errors and the registration residual, one per row."""
+    s = registration_summary(rec)
+    t = Table("registration", "value", "unit", title="the reconstruction", title_justify="left")
+    t.add_row("frames registered", f"{s['frames_registered']} of {s['frames']}", "", "")
+    t.add_row("position error", cell(s["position_error_m_mean"], ".4f"), "m",
+              f"mean; max {cell(s['position_error_m_max'], '.4f')} m")
+    t.add_row("rotation error", cell(s["rotation_error_deg_mean"], ".3f"), "°",
+              f"mean; max {cell(s['rotation_error_deg_max'], '.3f')}°")
+    t.add_row("residual", f"{s['residual_m']:.4f}", "m",
+              f"{100 * (s['residual_share'] or 0):.3f} % of the scene's size {s['scene_size_m']:.2f} m")
+    t.add_row("points", f"{s['points']:,}", "", "triangulated")
+    return t
+
+
 def load_reality_input(path: Path, scale: float, cache: bool):
     """A point cloud file as its points (scaled), a mesh file as a Scene (load_reality)."""
     from ..errors import ModelError
@@ -69,10 +103,15 @@ def load_reality_input(path: Path, scale: float, cache: bool):
 def validate_command(
     model: Annotated[str, typer.Argument(help="IFC or mesh file; 'sample' for the bundled Duplex model")],
     plan: Annotated[str, typer.Argument(help="The plan as flown (any format `sightplan evaluate` reads)")],
-    reality: Annotated[Path, typer.Argument(help="Reconstructed reality registered to the model: a mesh "
-                                                 "(OBJ, PLY, STL, glTF) or a point cloud (PLY without faces, LAS, LAZ)")],
-    registration_error: Annotated[float, typer.Option("--registration-error", "-e",
-                                                      help="Registration error e of the reality (m); λ = 1.2·e")],
+    reality: Annotated[Path | None, typer.Argument(
+        help="Reconstructed reality registered to the model: a mesh (OBJ, PLY, STL, glTF) or a point cloud (PLY "
+             "without faces, LAS, LAZ); leave out with --reconstruction")] = None,
+    registration_error: Annotated[float | None, typer.Option(
+        "--registration-error", "-e", help="Registration error e of the reality (m); λ = 1.2·e. With "
+                                           "--reconstruction: its registration residual unless given")] = None,
+    reconstruction: Annotated[Path | None, typer.Option(
+        help="A reconstruction folder (`sightplan reconstruct`): its points are the reality, its residual e, and "
+             "its frames' registration and pose errors are reported")] = None,
     date: DateOpt = None,
     schedule: ScheduleOpt = None,
     rules: RulesOpt = None,
@@ -103,16 +142,40 @@ def validate_command(
     from ..validate import validate
 
     check_date_options(date_basis, unscheduled)
+    rec = None
+    if reconstruction is not None:
+        from ..loop import read_reconstruction
+
+        if reality is not None:
+            raise SightplanError("give either a REALITY file or --reconstruction, not both")
+        rec = read_reconstruction(reconstruction)
+    elif reality is None:
+        raise SightplanError("give the REALITY file (a mesh or a point cloud) or --reconstruction FOLDER")
+    elif registration_error is None:
+        raise SightplanError("give the reality's registration error: --registration-error E (m)")
     settings = EvaluationSettings(engine=engine, scale=scale, d_max=d_max, threads=threads, metric=MetricParams(omega=omega))
     scene, _ = load_with_progress(console, model, cache)
     scene = dated_scene(console, scene, model, schedule, rules, prefer_actual, date, date_basis, unscheduled)
     the_plan = load_plan(plan, camera=cli_camera(camera, focal_mm), transform=transform, **georef_kwargs(scene))
     print_warnings(console, the_plan.parameters.get("warnings", []))
-    with console.status(f"loading {reality.name}…"):
-        psi = load_reality_input(reality, reality_scale, cache)
+    if rec is not None:
+        from ..loop.measure import reconstruction_error, reconstruction_reality
+
+        psi = reconstruction_reality(rec)
+        registration_error = reconstruction_error(rec, registration_error)
+        source = reconstruction
+        if len(rec.frame_names) != len(the_plan):
+            raise SightplanError(f"the reconstruction has {len(rec.frame_names)} frames and the plan "
+                                 f"{len(the_plan)}: reconstruct the photographs of this plan")
+    else:
+        with console.status(f"loading {reality.name}…"):
+            psi = load_reality_input(reality, reality_scale, cache)
+        source = reality
     what = (f"{len(psi.faces):,} triangles" if hasattr(psi, "faces") else f"{len(psi.points):,} points")
     console.print(f"model: {scene.source or model} — {int(scene.targets.sum())} target elements; "
-                  f"reality {reality.name}: {what}", highlight=False)
+                  f"reality {source.name}: {what}", highlight=False)
+    if rec is not None:
+        console.print(registration_table(rec))
     with Progress(TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
                   TimeRemainingColumn(), console=console, transient=True) as bar:
         task = bar.add_task("evaluating the plan", total=len(the_plan))
@@ -122,11 +185,14 @@ def validate_command(
         v = validate(scene, the_plan, psi, registration_error, settings, ev, point_spacing_m=point_spacing, seed=seed,
                      progress=lambda i, n: bar.update(task, completed=i))
     print_warnings(console, v.warnings)
-    console.print(validation_table(v, f"{Path(str(model)).name} × {Path(plan).name} × {reality.name}"))
+    console.print(validation_table(v, f"{Path(str(model)).name} × {Path(plan).name} × {source.name}"))
     out.mkdir(parents=True, exist_ok=True)
     report = v.to_dict()
-    report["inputs"] = {"model": str(model), "plan": str(plan), "reality": str(reality), "reality_scale": reality_scale,
+    report["inputs"] = {"model": str(model), "plan": str(plan), "reality": str(source),
+                        "reality_scale": reality_scale if rec is None else 1.0,
                         "date": None if scene.date is None else str(scene.date)}
+    if rec is not None:
+        report["reconstruction"] = registration_summary(rec)
     json_path = out / "validation.json"
     json_path.write_text(json.dumps(report, indent=1, allow_nan=False, ensure_ascii=False, default=str), encoding="utf-8")
     csv_path = v.write_csv(out / "validation_elements.csv")

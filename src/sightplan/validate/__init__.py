@@ -40,9 +40,9 @@ sphere about the camera), so on a surface inclined by θ to that, d_p(Ψ) errs b
 from .caster import FrameCaster
 from .run import FAR_SHARE_WARNING, LAMBDA_PER_E, OVERLAP_WARNING, Validation, validate
 from .splat import MAX_SPLAT_PX, SPACING_NEIGHBOUR, point_spacing, splat_distances
-from .surface import CT_DENSITY_PER_M2, CT_MAX_SAMPLES, CT_MIN_SAMPLES, points_near_mesh, sample_surface
+from .surface import CT_DENSITY_PER_M2, CT_MAX_SAMPLES, CT_MIN_SAMPLES, nearest_faces, points_near_mesh, sample_surface
 from .synthetic import outward_normal, synthetic_reality
 
 __all__ = ["CT_DENSITY_PER_M2", "CT_MAX_SAMPLES", "CT_MIN_SAMPLES", "FAR_SHARE_WARNING", "LAMBDA_PER_E", "MAX_SPLAT_PX",
-           "OVERLAP_WARNING", "SPACING_NEIGHBOUR", "FrameCaster", "Validation", "outward_normal", "point_spacing",
-           "points_near_mesh", "sample_surface", "splat_distances", "synthetic_reality", "validate"]
+           "OVERLAP_WARNING", "SPACING_NEIGHBOUR", "FrameCaster", "Validation", "nearest_faces", "outward_normal",
+           "point_spacing", "points_near_mesh", "sample_surface", "splat_distances", "synthetic_reality", "validate"]

@@ -39,12 +39,37 @@ def _any_within(points, idx, tri, r2):  # pragma: no cover - compiled
                 break
     return out
 
+@nb.njit(cache=True, nogil=True)
+def _nearest_within(points, idx, tri, r2, best, best_sq):  # pragma: no cover - compiled
+    """For each point i, the candidate triangle idx[i, :] (index ≥ len(tri): none) nearest to it if closer than
+    best_sq[i] (and within √r2): its index into ``best`` and its squared distance into ``best_sq``."""
+    n, k = idx.shape
+    m = tri.shape[0]
+    for i in range(n):
+        for j in range(k):
+            f = idx[i, j]
+            if f >= m:
+                break
+            d = point_triangle_sq(points[i, 0], points[i, 1], points[i, 2], tri[f])
+            if d <= r2 and d < best_sq[i]:
+                best_sq[i] = d
+                best[i] = f
+
+
 def _bisect(tri: NDArray[np.float64], max_edge: float, limit: int | None = None) -> NDArray[np.float64] | None:
     """Triangles (m, 3, 3) split at the midpoint of their longest edge until no edge exceeds ``max_edge``.
 
     The pieces cover exactly the same surface. None once there would be more than ``limit`` pieces.
     """
+    out = _bisect_with_ids(tri, np.zeros(len(tri), np.int64), max_edge, limit)
+    return None if out is None else out[0]
+
+
+def _bisect_with_ids(tri: NDArray[np.float64], ids: NDArray[np.int64], max_edge: float, limit: int | None = None
+                     ) -> tuple[NDArray[np.float64], NDArray[np.int64]] | None:
+    """:func:`_bisect`, each piece with the id of the triangle it came from."""
     done = []
+    done_ids = []
     n_done = 0
     while len(tri):
         e = np.stack([np.linalg.norm(tri[:, 1] - tri[:, 0], axis=1), np.linalg.norm(tri[:, 2] - tri[:, 1], axis=1),
@@ -52,6 +77,7 @@ def _bisect(tri: NDArray[np.float64], max_edge: float, limit: int | None = None)
         longest = np.argmax(e, axis=1)
         split = e[np.arange(len(tri)), longest] > max_edge
         done.append(tri[~split])
+        done_ids.append(ids[~split])
         n_done += len(done[-1])
         s, k = tri[split], longest[split]
         if len(s) == 0:
@@ -63,7 +89,10 @@ def _bisect(tri: NDArray[np.float64], max_edge: float, limit: int | None = None)
         a, b, c = s[:, 0], s[:, 1], s[:, 2]
         m = 0.5 * (a + b)
         tri = np.concatenate([np.stack([a, m, c], axis=1), np.stack([m, b, c], axis=1)])
-    return np.concatenate(done) if done else np.zeros((0, 3, 3))
+        ids = np.concatenate([ids[split], ids[split]])
+    if not done:
+        return np.zeros((0, 3, 3)), np.zeros(0, np.int64)
+    return np.concatenate(done), np.concatenate(done_ids)
 
 def points_near_mesh(points: ArrayLike, vertices: ArrayLike, faces: ArrayLike, radius: float) -> NDArray[np.bool_]:
     """(n,) whether each point lies within ``radius`` (m) of the triangle mesh — exact point–triangle distances.
@@ -132,3 +161,74 @@ def sample_surface(vertices: ArrayLike, faces: ArrayLike, n: int, rng: np.random
 
 def n_samples(area: float, density: float) -> int:
     return int(np.clip(round(area * density), CT_MIN_SAMPLES, CT_MAX_SAMPLES)) if area > 0 else 0
+
+
+def nearest_faces(points: ArrayLike, vertices: ArrayLike, faces: ArrayLike, radius: float
+                  ) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
+    """(n,) the index of the triangle nearest each point among those within ``radius`` (m) — −1 where none is —
+    and (n,) its exact point–triangle distance (inf where none is).
+
+    The triangles are bisected until no edge exceeds max(radius, √(4·area/10⁶)) (doubled while that makes over
+    4·10⁶ pieces) and indexed by centroid, in groups of like size; a point measures its pieces nearest first until
+    the next centroid lies beyond (the nearest distance so far, at most radius) + (the group's largest
+    centroid–vertex distance), so the nearest triangle is exact.
+    """
+    from scipy.spatial import cKDTree
+
+    pts = np.ascontiguousarray(points, np.float64).reshape(-1, 3)
+    face = np.full(len(pts), -1, np.int64)
+    dist = np.full(len(pts), np.inf)
+    faces = np.asarray(faces)
+    if len(pts) == 0 or len(faces) == 0:
+        return face, dist
+    tri = np.asarray(vertices, np.float64)[faces]
+    lo, hi = pts.min(axis=0) - radius, pts.max(axis=0) + radius
+    keep = np.flatnonzero((tri.max(axis=1) >= lo).all(axis=1) & (tri.min(axis=1) <= hi).all(axis=1))
+    if len(keep) == 0:
+        return face, dist
+    tri = tri[keep]
+    area = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1).sum()
+    edge = max(radius, math.sqrt(4.0 * area / _MAX_PIECES), 1e-6)
+    cut = _bisect_with_ids(tri, keep.astype(np.int64), edge, _PIECE_LIMIT)
+    while cut is None:
+        edge *= 2.0
+        cut = _bisect_with_ids(tri, keep.astype(np.int64), edge, _PIECE_LIMIT)
+    pieces, origin = np.ascontiguousarray(cut[0]), cut[1]
+    centroid = pieces.mean(axis=1)
+    reach = np.sqrt(np.max([((pieces[:, j] - centroid) ** 2).sum(axis=1) for j in range(3)], axis=0))
+    # pieces grouped by their reach (factors of 2), so that small pieces are searched within a small bound
+    group = np.floor(np.log2(np.maximum(reach, 1e-9) / max(float(reach.max()), 1e-9))).astype(np.int64)
+    group = np.maximum(group, -6)
+    r2 = radius * radius
+    best = np.full(len(pts), -1, np.int64)
+    best_sq = np.full(len(pts), np.inf)
+    pad = 1e-9 * (1.0 + float(np.abs(centroid).max()))
+    for g in np.unique(group):
+        members = np.flatnonzero(group == g)
+        part = np.ascontiguousarray(pieces[members])
+        bound = radius + float(reach[members].max()) + pad
+        tree = cKDTree(centroid[members])
+        m = len(members)
+        for b0 in range(0, len(pts), _QUERY_BATCH):
+            todo = np.arange(b0, min(b0 + _QUERY_BATCH, len(pts)))
+            k = 8
+            while len(todo):
+                kk = min(k, m)
+                d, idx = tree.query(pts[todo], k=kk, distance_upper_bound=bound, workers=-1)
+                d, idx = d.reshape(len(todo), kk), idx.reshape(len(todo), kk)
+                local = np.full(len(todo), -1, np.int64)
+                local_sq = best_sq[todo].copy()
+                _nearest_within(pts[todo], idx.astype(np.int64), part, r2, local, local_sq)
+                better = local >= 0
+                best[todo[better]] = members[local[better]]
+                best_sq[todo] = local_sq
+                if kk == m:
+                    break
+                # a piece whose centroid lies farther than (the best distance so far) + reach cannot be nearer
+                limit = np.minimum(np.sqrt(best_sq[todo]), radius) + float(reach[members].max()) + pad
+                todo = todo[d[:, -1] <= limit]
+                k *= 4
+    found = best >= 0
+    face[found] = origin[best[found]]
+    dist[found] = np.sqrt(best_sq[found])
+    return face, dist
