@@ -60,6 +60,7 @@ bench: $(STAMP)
 	$(BIN)/python benchmarks/pointcloud.py
 	$(BIN)/python benchmarks/optimize.py
 	$(BIN)/python benchmarks/ties.py
+	$(BIN)/python benchmarks/loop.py
 
 clean:
 	rm -rf $(VENV) sightplan-demo sightplan-out sightplan-progress sightplan-study sightplan-validate .pytest_cache

@@ -220,3 +220,24 @@ def test_the_reconstruct_command_prints_what_it_registered(box_run):
     assert f"{100 * rec.residual_share:.3g} % of the scene's size" in res.stdout
     bad = run_cli("reconstruct", "recon-cli", "-o", "again", cwd=root)
     assert bad.returncode == 2 and "not a folder written by `sightplan render`" in bad.stderr
+
+
+def test_the_loop_measures_and_studies_the_run_per_element(box_run, tmp_path):
+    """The loop on the box's own SfM run: every frame registered; each wall carries points and most of its seen
+    surface is complete, the roof seen edge-on far fewer; the cube no frame sees has no visible surface and no
+    point; the study, its page and tables are written."""
+    from sightplan.loop import loop
+
+    scene, plan, renders, rec, root, *_ = box_run
+    result = loop(scene, plan, tmp_path / "loop", reconstruction=root / "recon")
+    m = result.measures
+    assert m.registered.all() and len(m.frame_names) == len(plan)
+    assert m.points[HIDDEN] == 0 and m.visible_samples[HIDDEN] == 0 and not np.isfinite(m.completeness[HIDDEN])
+    walls, roof = [0, 1, 2, 3], 4
+    assert (m.points[walls] > 100).all() and (m.completeness[walls] > 0.5).all()
+    assert m.points[roof] < m.points[walls].min()  # the orbit, a metre above it, sees the roof at a grazing angle
+    assert sum(m.points) <= len(rec.points)
+    pairs = {(c.predictor, c.measure): c for c in result.study.correlations}
+    assert pairs[("VR", "completeness")].n == 6  # four walls, the roof and the plot: every target but the cube
+    for key in ("page", "measures", "validation"):
+        assert result.paths[key].is_file() and result.paths[key].stat().st_size > 0
