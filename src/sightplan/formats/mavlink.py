@@ -76,7 +76,7 @@ from ..geo import Georeference, GeoreferenceError
 from ..geometry.poses import R_from_gimbal
 from ..plan.types import Mission, Plan
 from .flight import Flight, Photo, Waypoint, same_angle
-from .reading import DEFAULT_PITCH_DEG, bearing, differs, given_camera
+from .reading import DEFAULT_PITCH_DEG, DEFAULT_SPEED_M_S, bearing, differs, given_camera
 
 # MAV_CMD: navigation
 NAV_WAYPOINT, NAV_LOITER_UNLIM, NAV_LOITER_TURNS, NAV_LOITER_TIME = 16, 17, 18, 19
@@ -105,7 +105,6 @@ WAYPOINTS = {NAV_WAYPOINT, NAV_LOITER_UNLIM, NAV_LOITER_TURNS, NAV_LOITER_TIME, 
 POSITIONAL = WAYPOINTS | {NAV_TAKEOFF, NAV_LAND, NAV_RETURN_TO_LAUNCH}
 ABSOLUTE_FRAMES, RELATIVE_FRAMES, TERRAIN_FRAMES = {0, 5}, {3, 6}, {10, 11}
 GIMBAL_YAW_LOCK = 16
-DEFAULT_SPEED_M_S = 5.0
 SAME_WAYPOINT_M = 0.01
 MANUAL_CAMERAS = {"", "manual (no camera specs)", "custom camera", "manual"}
 

@@ -12,6 +12,8 @@ from ..errors import CameraError, PlanError
 
 #: The gimbal pitch of a photo taken before the mission sets one: nadir.
 DEFAULT_PITCH_DEG = -90.0
+#: The flight speed of a mission that gives none (photos on a timer are that far apart per second).
+DEFAULT_SPEED_M_S = 5.0
 
 
 def differs(camera: Camera | str | dict | None, cam: Camera) -> bool:

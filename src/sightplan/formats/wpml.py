@@ -95,7 +95,7 @@ from ..plan.types import Mission, Plan
 from .base import FlightFormat, ReadOptions, Source, Target
 from .flight import Flight, Waypoint, number_text, same_angle, wrap180
 from .kml import KML_NS
-from .reading import DEFAULT_PITCH_DEG, bearing, differs, given_camera
+from .reading import DEFAULT_PITCH_DEG, DEFAULT_SPEED_M_S, bearing, differs, given_camera
 
 WPML_NS = "http://www.dji.com/wpmz/1.0.2"
 SPEED_RANGE_M_S = (1.0, 15.0)  # autoFlightSpeed, waypointSpeed and globalTransitionalSpeed
@@ -380,7 +380,7 @@ def _arrival_heading(wp: _Waypoint, folder: ET.Element, P: NDArray, n: int, geor
 def _fly_wayline(wayline: int, folder: ET.Element, wps: list[_Waypoint], P: NDArray, georef: Georeference,
                  gimbal: _Gimbal, is_template: bool, where: str) -> list[_Photo]:
     """The photos one wayline takes (see the module docstring)."""
-    speed = _num(folder, "autoFlightSpeed", where, 5.0) or 5.0
+    speed = _num(folder, "autoFlightSpeed", where) or DEFAULT_SPEED_M_S
     reach: dict[int, list[ET.Element]] = {}
     spans: list[dict] = []
     for g in _groups(folder):
