@@ -129,11 +129,6 @@ def check_value(name: str, value: Any, info: ParamInfo) -> None:
             raise PlanError(f"{name} must be {info.bounds_text()}, got {v:g}")
 
 
-def field_types(cls: type) -> dict[str, Any]:
-    """The resolved annotations of a parameter dataclass."""
-    return typing.get_type_hints(cls)
-
-
 #: builds a template's frames: (scene, camera, parameters, safety distance (m), least height (m)) → Plan
 Builder = Callable[[Scene, Camera, Any, float, float], Plan]
 
@@ -152,7 +147,7 @@ class Template:
 
     def fields(self) -> list[tuple[str, Any, ParamInfo, Any]]:
         """(name, type, declaration, default) per parameter, in declaration order."""
-        hints = field_types(self.params)
+        hints = typing.get_type_hints(self.params)
         return [(f.name, hints[f.name], info_of(f), f.default) for f in dataclasses.fields(self.params)]
 
     def make(self, values: dict[str, Any]) -> Params:
