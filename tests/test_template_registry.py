@@ -10,7 +10,7 @@ import math
 import pytest
 
 from sightplan.errors import PlanError
-from sightplan.plan.templates.base import info_of, unit_of
+from sightplan.plan.templates.base import ParamInfo, cli_name, info_of, label_of, unit_of
 from sightplan.plan.templates.registry import TEMPLATE_NAMES, TEMPLATES, WALKED, build_template
 
 pytest.importorskip("fastapi")
@@ -52,6 +52,15 @@ def test_every_template_module_is_found_once_with_unit_suffixed_fields():
         if info.kind in ("number", "numbers") and name not in ("overlap", "side_overlap"):  # overlaps are ratios
             assert unit_of(name), f"{name} carries no unit"
         assert info.help and not info.help.endswith(".")
+
+
+def test_names_without_their_unit_make_the_labels_and_the_options():
+    plain, named = ParamInfo("h"), ParamInfo("h", cli="point", label="Axis")
+    assert [cli_name(n, plain) for n in ("gsd_m_px", "oblique_pitch_deg", "deck_z_m", "side_overlap")] == [
+        "gsd", "oblique-pitch", "deck-z", "side-overlap"]
+    assert [label_of(n, plain) for n in ("gsd_m_px", "oblique_pitch_deg", "deck_z_m")] == ["Gsd", "Oblique pitch",
+                                                                                          "Deck z"]
+    assert (cli_name("axis", named), label_of("axis", named)) == ("point", "Axis")
 
 
 def test_the_command_line_options_are_the_declared_parameters():

@@ -12,7 +12,7 @@ import typer
 
 from ..errors import PlanError
 from ..plan.site import with_site
-from ..plan.templates.base import ParamInfo, unit_of
+from ..plan.templates.base import ParamInfo, cli_name, unit_of
 from ..plan.templates.registry import TEMPLATE_NAMES, TEMPLATES, WALKED, plan_from_template
 from .base import app, console
 from .camera_opts import CAMERA_FORMS, FocalOpt, cli_camera
@@ -114,8 +114,7 @@ def template_options() -> list[TemplateOption]:
     groups: dict[str, list[tuple[str, str, ParamInfo, Any]]] = {}
     for t in TEMPLATES.values():
         for name, _, info, default in t.fields():
-            cli = info.cli or name.removesuffix("_m_px").removesuffix("_deg").removesuffix("_m").replace("_", "-")
-            groups.setdefault(cli, []).append((t.name, name, info, default))
+            groups.setdefault(cli_name(name, info), []).append((t.name, name, info, default))
     options = []
     for cli, members in groups.items():
         kinds = {"points" if m[2].kind.startswith("points") else m[2].kind for m in members}

@@ -19,17 +19,14 @@ from numpy.typing import ArrayLike
 
 from ..errors import PlanError
 from ..formats.base import Target
-from ..formats.flight import Flight, Photo, Takeoff, Waypoint, build_flight, mission_paths
-from ..formats.mavlink import AUTOPILOT_LABELS, AUTOPILOTS, Autopilot, resolve_autopilot
-from ..formats.registry import EXPORT_FORMATS, FORMATS, WRITERS, ExportFormat, writer, writers_with
-from ..formats.wpml import AIRCRAFT, AircraftError, DjiAircraft  # kept importable from here: export_plan raises it
+from ..formats.flight import Flight, Takeoff, build_flight, mission_paths
+from ..formats.mavlink import AUTOPILOT_LABELS, Autopilot, resolve_autopilot
+from ..formats.registry import EXPORT_FORMATS, FORMATS, WRITERS, ExportFormat, writer
+from ..formats.wpml import AircraftError  # importable from here: export_plan raises it
 from ..geo import Georeference
 from ..plan.types import Plan
 
 EXTENSIONS = {f.name: f.suffix for f in WRITERS}
-MAVLINK_FORMATS = writers_with("autopilot")  # the formats written for one autopilot (``autopilot=``)
-PER_MISSION_FORMATS = writers_with("per_mission")  # one file (or more) per mission, each from its own take-off
-DEFAULT_AUTOPILOT = {f.name: f.autopilot for f in WRITERS if f.autopilot}
 
 
 def file_summary(fmt: str, autopilot: str | None = None, aircraft: str | None = None) -> str:
@@ -81,7 +78,7 @@ def export_plan(plan: Plan, fmt: ExportFormat, path: str | Path, georef: Georefe
     a file per mission, numbered from 1: ``stem_m01``…).
     autopilot: for ``qgc`` and ``wpl``, the flight controller the file is for, ``"px4"`` or
     ``"ardupilot"`` (they accept different commands and frames; see :mod:`sightplan.formats.mavlink`); None: PX4
-    for ``qgc``, ArduPilot for ``wpl`` (:data:`DEFAULT_AUTOPILOT`). Ignored by the other formats.
+    for ``qgc``, ArduPilot for ``wpl`` (the format's ``autopilot``). Ignored by the other formats.
     aircraft: for ``wpml``, a key of :data:`~sightplan.formats.wpml.AIRCRAFT`; None: the aircraft that
     carries the plan's camera (a camera none carries is refused, naming the choices).
     report: a list to which an :class:`ExportedFile` is appended per file written.
@@ -126,6 +123,5 @@ def export_plan(plan: Plan, fmt: ExportFormat, path: str | Path, georef: Georefe
     return written
 
 
-__all__ = ["AIRCRAFT", "AUTOPILOTS", "DEFAULT_AUTOPILOT", "EXPORT_FORMATS", "EXTENSIONS", "MAVLINK_FORMATS",
-           "PER_MISSION_FORMATS", "AircraftError", "Autopilot", "DjiAircraft", "ExportFormat", "ExportedFile", "Flight",
-           "Photo", "Takeoff", "Waypoint", "build_flight", "export_plan", "file_summary"]
+__all__ = ["EXPORT_FORMATS", "EXTENSIONS", "AircraftError", "Autopilot", "ExportFormat", "ExportedFile", "export_plan",
+           "file_summary"]

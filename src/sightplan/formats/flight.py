@@ -25,6 +25,7 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -229,6 +230,15 @@ def mission_paths(path: Path, numbers: list[int], *, several: bool) -> dict[int,
     if not several:
         return {numbers[0]: path} if numbers else {}
     return {m: path.with_name(f"{path.stem}_m{m:02d}{path.suffix}") for m in numbers}
+
+
+def write_missions(flight: Flight, path: Path, text: Callable[[list[Waypoint]], str]) -> list[Path]:
+    """One text file per mission of ``flight`` (:func:`mission_paths`), each the ``text`` of its waypoints."""
+    groups = flight.by_mission()
+    paths = mission_paths(path, [m for m, _ in groups], several=len(groups) > 1)
+    for m, wps in groups:
+        paths[m].write_text(text(wps), encoding="utf-8")
+    return [paths[m] for m, _ in groups]
 
 
 def footprint(plan: Plan, i: int, plane_z: float) -> NDArray[np.float64] | None:

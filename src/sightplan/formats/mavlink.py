@@ -70,14 +70,13 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..camera.catalogue import get_camera
-from ..camera.files import parse_camera_spec
 from ..camera.models import Camera, PinholeCamera, camera_from_dict
 from ..errors import CameraError, PlanError
 from ..geo import Georeference, GeoreferenceError
 from ..geometry.poses import R_from_gimbal
 from ..plan.types import Mission, Plan
 from .flight import Flight, Photo, Waypoint, same_angle
-from .reading import bearing, differs
+from .reading import DEFAULT_PITCH_DEG, DEFAULT_SPEED_M_S, bearing, differs, given_camera
 
 # MAV_CMD: navigation
 NAV_WAYPOINT, NAV_LOITER_UNLIM, NAV_LOITER_TURNS, NAV_LOITER_TIME = 16, 17, 18, 19
@@ -106,8 +105,6 @@ WAYPOINTS = {NAV_WAYPOINT, NAV_LOITER_UNLIM, NAV_LOITER_TURNS, NAV_LOITER_TIME, 
 POSITIONAL = WAYPOINTS | {NAV_TAKEOFF, NAV_LAND, NAV_RETURN_TO_LAUNCH}
 ABSOLUTE_FRAMES, RELATIVE_FRAMES, TERRAIN_FRAMES = {0, 5}, {3, 6}, {10, 11}
 GIMBAL_YAW_LOCK = 16
-DEFAULT_PITCH_DEG = -90.0
-DEFAULT_SPEED_M_S = 5.0
 SAME_WAYPOINT_M = 0.01
 MANUAL_CAMERAS = {"", "manual (no camera specs)", "custom camera", "manual"}
 
@@ -367,7 +364,6 @@ def fly(src: MissionSource, georef: Georeference, home_xyz: NDArray, home: tuple
     return frames, waypoints
 
 
-
 # ---- camera and plan ---------------------------------------------------------------------------
 
 
@@ -397,10 +393,7 @@ def resolve_camera(settings: dict, camera: Camera | str | dict | None, where: st
         except CameraError:
             pass
     if camera is not None:
-        try:
-            return parse_camera_spec(camera)
-        except CameraError as exc:
-            raise PlanError(f"{where}: {exc}") from None
+        return given_camera(camera, where)
     said = f"names the camera {name!r}, which the catalogue lacks" if name else "names no camera"
     raise PlanError(f"{where} {said}: say which camera took the photos with --camera (camera=, e.g. 'm3e')")
 

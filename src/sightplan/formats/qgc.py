@@ -32,7 +32,7 @@ from ..geo import Georeference
 from ..plan.format import read_json
 from ..plan.types import Plan
 from .base import FlightFormat, ReadOptions, Source, Target
-from .flight import Flight, Waypoint, mission_paths
+from .flight import Flight, Waypoint, write_missions
 from .mavlink import (
     DO_SET_CAM_TRIGG_DIST,
     DO_SET_ROI_NONE,
@@ -58,9 +58,6 @@ def _float(value: Any, where: str) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise PlanError(f"{where}: {value!r} is not a number")
     return float(value)
-
-
-# ---- QGroundControl .plan ----------------------------------------------------------------------
 
 
 def _simple(item: Any, where: str, ident: int, survey: bool) -> Command:
@@ -213,7 +210,6 @@ def parse_qgc_plan(path: Path) -> MissionSource:
     return src
 
 
-
 def read_qgc_plan(path: str | Path, georef: Georeference | None = None, camera: Camera | str | dict | None = None,
                   ground_z: float | None = None) -> Plan:
     """A plan from a QGroundControl ``.plan`` mission; see the module docstring (``ground_z``:
@@ -267,12 +263,8 @@ def plan_document(flight: Flight, waypoints: list[Waypoint], autopilot: Autopilo
 def write_qgc(flight: Flight, path: Path, autopilot: Autopilot | None = None) -> list[Path]:
     """One ``.plan`` per mission for ``autopilot`` (default :data:`DEFAULT_AUTOPILOT`: PX4)."""
     autopilot = resolve_autopilot(autopilot, DEFAULT_AUTOPILOT)
-    groups = flight.by_mission()
-    paths = mission_paths(path, [m for m, _ in groups], several=len(groups) > 1)
-    for m, wps in groups:
-        doc = plan_document(flight, wps, autopilot)
-        paths[m].write_text(json.dumps(doc, indent=2, allow_nan=False), encoding="utf-8")
-    return [paths[m] for m, _ in groups]
+    return write_missions(flight, path,
+                          lambda wps: json.dumps(plan_document(flight, wps, autopilot), indent=2, allow_nan=False))
 
 
 def _write(flight: Flight, path: Path, target: Target) -> list[Path]:

@@ -8,7 +8,12 @@ from numpy.typing import NDArray
 
 from ..camera.files import parse_camera_spec
 from ..camera.models import Camera
-from ..errors import CameraError
+from ..errors import CameraError, PlanError
+
+#: The gimbal pitch of a photo taken before the mission sets one: nadir.
+DEFAULT_PITCH_DEG = -90.0
+#: The flight speed of a mission that gives none (photos on a timer are that far apart per second).
+DEFAULT_SPEED_M_S = 5.0
 
 
 def differs(camera: Camera | str | dict | None, cam: Camera) -> bool:
@@ -19,6 +24,15 @@ def differs(camera: Camera | str | dict | None, cam: Camera) -> bool:
         return parse_camera_spec(camera) != cam
     except CameraError:
         return True
+
+
+def given_camera(camera: Camera | str | dict, where: str) -> Camera:
+    """The camera given for a mission whose file names none the catalogue knows; a PlanError starting with ``where``
+    when it is not a camera."""
+    try:
+        return parse_camera_spec(camera)
+    except CameraError as exc:
+        raise PlanError(f"{where}: {exc}") from None
 
 
 def bearing(a: NDArray, b: NDArray) -> float | None:

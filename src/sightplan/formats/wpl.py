@@ -20,7 +20,7 @@ from ..errors import PlanError
 from ..geo import Georeference
 from ..plan.types import Plan
 from .base import FlightFormat, ReadOptions, Source, Target
-from .flight import Flight, mission_paths, number_text
+from .flight import Flight, number_text, write_missions
 from .mavlink import (
     FRAME_GLOBAL,
     NAV_WAYPOINT,
@@ -108,11 +108,7 @@ def wpl_text(flight: Flight, waypoints, autopilot: Autopilot | None = None) -> s
 def write_wpl(flight: Flight, path: Path, autopilot: Autopilot | None = None) -> list[Path]:
     """One ``.waypoints`` file per mission for ``autopilot`` (default ArduPilot)."""
     autopilot = resolve_autopilot(autopilot, DEFAULT_AUTOPILOT)
-    groups = flight.by_mission()
-    paths = mission_paths(path, [m for m, _ in groups], several=len(groups) > 1)
-    for m, wps in groups:
-        paths[m].write_text(wpl_text(flight, wps, autopilot), encoding="utf-8")
-    return [paths[m] for m, _ in groups]
+    return write_missions(flight, path, lambda wps: wpl_text(flight, wps, autopilot))
 
 
 def _write(flight: Flight, path: Path, target: Target) -> list[Path]:

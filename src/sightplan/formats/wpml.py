@@ -87,16 +87,15 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..camera.catalogue import get_camera, list_cameras
-from ..camera.files import parse_camera_spec
 from ..camera.models import Camera
-from ..errors import CameraError, PlanError
+from ..errors import PlanError
 from ..geo import Georeference, GeoreferenceError
 from ..geometry.poses import R_from_gimbal
 from ..plan.types import Mission, Plan
 from .base import FlightFormat, ReadOptions, Source, Target
 from .flight import Flight, Waypoint, number_text, same_angle, wrap180
 from .kml import KML_NS
-from .reading import bearing, differs
+from .reading import DEFAULT_PITCH_DEG, DEFAULT_SPEED_M_S, bearing, differs, given_camera
 
 WPML_NS = "http://www.dji.com/wpmz/1.0.2"
 SPEED_RANGE_M_S = (1.0, 15.0)  # autoFlightSpeed, waypointSpeed and globalTransitionalSpeed
@@ -136,7 +135,6 @@ BUILT_IN_CAMERAS: dict[tuple[int, int], str] = {(a.drone, a.sub): a.cameras[0] f
 # ---- reading -----------------------------------------------------------------------------------
 
 AREA_TEMPLATES = {"mapping2d": "area", "mapping3d": "area", "mappingStrip": "strip"}
-DEFAULT_PITCH_DEG = -90.0
 ABSOLUTE_HEIGHT_MODES = {"WGS84", "EGM96"}
 
 
@@ -285,10 +283,7 @@ def _camera(config: ET.Element | None, camera, where: str, warnings: list[str]) 
             warnings.append(f"the mission's payload is the catalogue camera {key!r}: it is used, not the camera given")
         return cam
     if camera is not None:
-        try:
-            return parse_camera_spec(camera)
-        except CameraError as exc:
-            raise PlanError(f"{where}: {exc}") from None
+        return given_camera(camera, where)
     raise PlanError(f"{where}: the mission's payload (payloadEnumValue {payload or 'none'}) is not a camera sightplan "
                     "knows: say which camera took the photos with --camera (camera=, e.g. 'm3e')")
 
@@ -385,7 +380,7 @@ def _arrival_heading(wp: _Waypoint, folder: ET.Element, P: NDArray, n: int, geor
 def _fly_wayline(wayline: int, folder: ET.Element, wps: list[_Waypoint], P: NDArray, georef: Georeference,
                  gimbal: _Gimbal, is_template: bool, where: str) -> list[_Photo]:
     """The photos one wayline takes (see the module docstring)."""
-    speed = _num(folder, "autoFlightSpeed", where, 5.0) or 5.0
+    speed = _num(folder, "autoFlightSpeed", where) or DEFAULT_SPEED_M_S
     reach: dict[int, list[ET.Element]] = {}
     spans: list[dict] = []
     for g in _groups(folder):

@@ -9,11 +9,6 @@ import numba as nb
 import numpy as np
 
 
-@nb.njit(cache=True, inline="always")
-def _dot(a0, a1, a2, b0, b1, b2):
-    return a0 * b0 + a1 * b1 + a2 * b2
-
-
 @nb.njit(cache=True, nogil=True)
 def point_triangle_sq(px, py, pz, t):
     """Squared distance from point (px, py, pz) to triangle t, (3, 3) vertices by rows (closest point by Voronoi

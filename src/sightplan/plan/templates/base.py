@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import types
 import typing
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -66,12 +65,20 @@ def unit_of(name: str) -> str:
     return next((u for suffix, u in _UNITS.items() if name.endswith(suffix)), "")
 
 
+def bare_name(name: str) -> str:
+    """A field's name without its unit ("deck_z_m" → "deck_z")."""
+    return next((name.removesuffix(s) for s in _UNITS if name.endswith(s)), name)
+
+
 def label_of(name: str, info: ParamInfo) -> str:
     """A parameter's label on a form: its declared one, else its name without the unit ("deck_z_m" → "Deck z")."""
-    if info.label:
-        return info.label
-    bare = next((name.removesuffix(s) for s in _UNITS if name.endswith(s)), name)
-    return bare.replace("_", " ").capitalize()
+    return info.label or bare_name(name).replace("_", " ").capitalize()
+
+
+def cli_name(name: str, info: ParamInfo) -> str:
+    """A parameter's command-line option, without dashes: its declared one, else its name without the unit
+    ("oblique_pitch_deg" → "oblique-pitch")."""
+    return info.cli or bare_name(name).replace("_", "-")
 
 
 def param(default: Any, help: str, *, ge: float | None = None, gt: float | None = None, le: float | None = None,
@@ -122,19 +129,6 @@ def check_value(name: str, value: Any, info: ParamInfo) -> None:
             raise PlanError(f"{name} must be {info.bounds_text()}, got {v:g}")
 
 
-def base_type(tp: Any) -> Any:
-    """``float`` for ``float | None``; the annotation itself otherwise."""
-    if typing.get_origin(tp) in (typing.Union, types.UnionType):
-        args = [a for a in typing.get_args(tp) if a is not type(None)]
-        return args[0] if len(args) == 1 else tp
-    return tp
-
-
-def field_types(cls: type) -> dict[str, Any]:
-    """The resolved annotations of a parameter dataclass."""
-    return typing.get_type_hints(cls)
-
-
 #: builds a template's frames: (scene, camera, parameters, safety distance (m), least height (m)) → Plan
 Builder = Callable[[Scene, Camera, Any, float, float], Plan]
 
@@ -153,7 +147,7 @@ class Template:
 
     def fields(self) -> list[tuple[str, Any, ParamInfo, Any]]:
         """(name, type, declaration, default) per parameter, in declaration order."""
-        hints = field_types(self.params)
+        hints = typing.get_type_hints(self.params)
         return [(f.name, hints[f.name], info_of(f), f.default) for f in dataclasses.fields(self.params)]
 
     def make(self, values: dict[str, Any]) -> Params:
