@@ -126,6 +126,12 @@ def test_info_says_single_user_without_login(client, data_dir):
     assert info["database"] == "embedded SQLite" and Path(info["data_dir"]) == data_dir.resolve()
     assert (data_dir / "sightplan.db").is_file()
     assert {"qgc", "wpl", "wpml", "litchi", "kml", "geojson"} <= set(info["export_formats"])  # and any format added
+    # the export menu: every format the registry writes, each with its few words (the page's menu entries)
+    from sightplan.formats.registry import EXPORT_FORMATS
+
+    assert info["export_formats"] == list(EXPORT_FORMATS)
+    assert list(info["export_format_help"]) == list(EXPORT_FORMATS) and all(info["export_format_help"].values())
+    assert {"facade", "orbit", "lawnmower", "bridge", "route"} <= set(info["templates"])
     cams = client.get("/api/cameras").json()
     assert any(c["id"] == "p4p" and c["model"] == "pinhole" for c in cams)
 

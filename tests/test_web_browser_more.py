@@ -196,7 +196,13 @@ def test_bridge_plan_from_the_form_with_a_picked_ground_station(browser, server,
         wait_for(page, "(window.sightplanTest.planName() || '').startsWith('optimised')", timeout_s=240)
         made = server.get(f"/api/projects/{project}/plans")[-1]
         assert made["source"] == "optimize (p4p)" and made["versions"][0]["frames"] >= 1
-        assert server.get(f"/api/projects/{project}/plans/{made['id']}/versions/1")["parameters"]["checks"]["ok"]
+        assert made["name"] == page.evaluate("window.sightplanTest.planName()") == "optimised (k = 1)"
+        made_v1 = server.get(f"/api/projects/{project}/plans/{made['id']}/versions/1")
+        assert made_v1["parameters"]["checks"]["ok"]
+        # made with what the two forms hold, and drawn as the API gives it
+        assert made_v1["parameters"]["safety_distance_m"] == 15 and made_v1["parameters"]["scale"] == 0.05
+        assert made_v1["parameters"]["targets"]["k"] == 1
+        wait_for(page, f"window.sightplanTest.view.planFrames() === {len(made_v1['frames'])}")
         assert not [p for p in problems if "page error" in p], problems
     finally:
         ctx.close()

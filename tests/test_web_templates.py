@@ -174,3 +174,25 @@ def _write(mesh, folder):
     path = folder / "box.obj"
     mesh.export(path)
     return path
+
+
+def test_an_optimisation_job_s_progress_only_goes_forward():
+    """Every stage optimize() reports has its band of the job's bar, so the bar never goes back (the aimed views'
+    second round of casting included) and ends at 1."""
+    import importlib
+    import re
+    from pathlib import Path
+
+    from sightplan.web.worker import OPTIMIZE_STAGES, staged_progress
+
+    run = Path(importlib.import_module("sightplan.optimize.run").__file__).read_text(encoding="utf-8")
+    reported = set(re.findall(r'progress\("([^"]+)"', run))
+    assert reported == set(OPTIMIZE_STAGES)
+    seen: list[float] = []
+    progress = staged_progress(seen.append, OPTIMIZE_STAGES)
+    for stage in OPTIMIZE_STAGES:
+        n = 4 if stage.startswith("casting") else 1
+        for i in range(n + 1):
+            progress(stage, i, n)
+    assert seen == sorted(seen) and seen[0] == 0.0 and seen[-1] == pytest.approx(1.0)
+    assert seen[4] == pytest.approx(0.6) and seen[-3] == pytest.approx(0.9)  # candidates end where aimed views begin

@@ -105,18 +105,12 @@ Point2 = Annotated[list[float], Field(min_length=2, max_length=2)]
 Point3 = Annotated[list[float], Field(min_length=3, max_length=3)]
 
 
-class TemplatePlanBase(BaseModel):
-    """What every template request holds besides the template's own parameters: the model, the camera, and the
-    flight settings the plan is split and checked with (defaults: a drone's, or a walker's for a walked route)."""
+class FlightIn(BaseModel):
+    """The flight settings a plan request (a template's, an optimisation's) is split and checked with (defaults: a
+    drone's, or a walker's for a walked route)."""
 
     model_config = ConfigDict(extra="forbid")
 
-    name: str = Field("", max_length=200, description="Default: the template's name")
-    model_id: int
-    camera: str = Field("p4p", description="A camera of the catalogue (GET /api/cameras)")
-    safety_distance_m: float | None = Field(None, gt=0, description="Distance to the model the facade and bridge "
-                                                                    "templates keep (m); also the flight check's "
-                                                                    "least distance. Default 10, 0.3 for a route")
     aircraft: str | None = Field(None, description="Aircraft preset (p4p, m3e, m300), rover preset for a route "
                                                    "(walker-360, spot, tracked), or 'none' for no battery check. "
                                                    "Default p4p, walker-360 for a route")
@@ -128,6 +122,18 @@ class TemplatePlanBase(BaseModel):
                                                                    "for a route")
     min_height_m: float | None = Field(None, ge=0, description="Least height of a waypoint above the ground under it "
                                                                "(m). Default 2, none for a route")
+
+
+class TemplatePlanBase(FlightIn):
+    """What every template request holds besides the template's own parameters: the model, the camera, and the
+    flight settings the plan is split and checked with."""
+
+    name: str = Field("", max_length=200, description="Default: the template's name")
+    model_id: int
+    camera: str = Field("p4p", description="A camera of the catalogue (GET /api/cameras)")
+    safety_distance_m: float | None = Field(None, gt=0, description="Distance to the model the facade and bridge "
+                                                                    "templates keep (m); also the flight check's "
+                                                                    "least distance. Default 10, 0.3 for a route")
     split: bool = Field(True, description="Split into missions that keep line of sight and fit a battery")
 
 
@@ -186,11 +192,9 @@ class TemplateOut(BaseModel):
     fields: list[TemplateFieldOut]
 
 
-class OptimizeIn(BaseModel):
+class OptimizeIn(FlightIn):
     """An optimised plan around one of the project's models (as ``sightplan optimize``): the fewest views that give
     every target element k serving views (≥ Ω px, SSD and angle within bounds), within a budget, routed and checked."""
-
-    model_config = ConfigDict(extra="forbid")
 
     name: str = Field("", max_length=200, description="Default: 'optimised (k = …)'")
     model_id: int
@@ -205,12 +209,6 @@ class OptimizeIn(BaseModel):
     budget_minutes: float | None = Field(None, gt=0, le=10_000, description="At most this many minutes of flight")
     batteries: int | None = Field(None, ge=1, le=1000, description="At most this many battery charges")
     scale: float = Field(0.25, gt=0, le=1, description="Resolution scale the candidates are cast at")
-    aircraft: str | None = Field(None, description="Aircraft preset (p4p, m3e, m300) or 'none'. Default p4p")
-    vlos_radius_m: float | None = Field(None, ge=0, description="Visual line-of-sight radius (m); 0: no check. "
-                                                                "Default 500")
-    ground_station: list[Point3] = Field(default_factory=list, description="Pilot positions [x, y, z] to choose from")
-    altitude_limit_m: float | None = Field(None, ge=0, description="Altitude limit (m); 0: no check. Default 120")
-    min_height_m: float | None = Field(None, ge=0, description="Least height above the ground (m). Default 2")
 
 
 class PlanVersionOut(Orm):

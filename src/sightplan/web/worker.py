@@ -23,6 +23,21 @@ from .services import evaluation_settings, flight_settings, load_scene, report_s
 from .storage import Storage
 
 log = logging.getLogger("sightplan.web")
+
+#: where each stage of :func:`~sightplan.optimize.optimize` starts on its job's bar (0 to 1), in the order they run
+OPTIMIZE_STAGES = {"casting candidates": 0.0, "casting aimed views": 0.6, "selecting": 0.8, "routing": 0.9}
+
+
+def staged_progress(report: Callable[[float], None], stages: dict[str, float]) -> Callable[[str, int, int], None]:
+    """A ``progress(stage, i, n)`` callback reporting to ``report`` the fraction done: ``i`` of ``n`` of the way from
+    the stage's start to the next stage's (or 1)."""
+
+    def progress(stage: str, i: int, n: int) -> None:
+        start = stages.get(stage, 0.0)
+        end = min([v for v in stages.values() if v > start], default=1.0)
+        report(start + (end - start) * i / max(n, 1))
+
+    return progress
 INTERRUPTED = "interrupted: the server stopped before this job finished; start it again"
 CANCELLED = "cancelled"
 
@@ -329,14 +344,7 @@ class Worker:
         flight = flight_settings(p["flight"], p.get("ground_station") or None)
         targets = Targets(k=p["k"], max_ssd_m_px=p.get("max_ssd_m_px"), max_angle_deg=p["max_angle_deg"])
         budget = Budget(frames=p.get("budget_frames"), minutes=p.get("budget_minutes"), batteries=p.get("batteries"))
-        stages = {"casting candidates": 0.0, "selecting": 0.8, "routing": 0.9}
-        report = self._progress(job_id, 1.0)
-
-        def progress(stage: str, i: int, n: int) -> None:
-            start = stages.get(stage, 0.0)
-            end = min([v for v in stages.values() if v > start], default=1.0)
-            report(start + (end - start) * i / max(n, 1))
-
+        progress = staged_progress(self._progress(job_id, 1.0), OPTIMIZE_STAGES)
         result = optimize(scene, get_camera(p["camera"]), targets, budget, flight=flight,
                           settings=OptimizeSettings(scale=p["scale"], cache_dir=self.storage.frame_cache),
                           progress=progress)

@@ -43,15 +43,15 @@
 /**
  * A plan from the bridge template (passes along an axis).
  * @typedef {object} BridgePlanIn
- * @property {string} [name] Default: the template's name
- * @property {number} model_id Model Id
- * @property {string} [camera] A camera of the catalogue (GET /api/cameras)
- * @property {(number|null)} [safety_distance_m] Distance to the model the facade and bridge templates keep (m); also the flight check's least distance. Default 10, 0.3 for a route
  * @property {(string|null)} [aircraft] Aircraft preset (p4p, m3e, m300), rover preset for a route (walker-360, spot, tracked), or 'none' for no battery check. Default p4p, walker-360 for a route
  * @property {(number|null)} [vlos_radius_m] Visual line-of-sight radius around the pilot (m); 0: no check. Default 500, none for a route
  * @property {Array<Array<number>>} [ground_station] Pilot positions [x, y, z] to choose from (default: the corners of the plan's region)
  * @property {(number|null)} [altitude_limit_m] Altitude limit (m); 0: no check. Default 120, none for a route
  * @property {(number|null)} [min_height_m] Least height of a waypoint above the ground under it (m). Default 2, none for a route
+ * @property {string} [name] Default: the template's name
+ * @property {number} model_id Model Id
+ * @property {string} [camera] A camera of the catalogue (GET /api/cameras)
+ * @property {(number|null)} [safety_distance_m] Distance to the model the facade and bridge templates keep (m); also the flight check's least distance. Default 10, 0.3 for a route
  * @property {boolean} [split] Split into missions that keep line of sight and fit a battery
  * @property {'bridge'} template passes along an axis
  * @property {Array<Array<number>>} [axis] points [x, y] of the axis, in order
@@ -160,15 +160,15 @@
 /**
  * A plan from the facade template (grids around the sides).
  * @typedef {object} FacadePlanIn
- * @property {string} [name] Default: the template's name
- * @property {number} model_id Model Id
- * @property {string} [camera] A camera of the catalogue (GET /api/cameras)
- * @property {(number|null)} [safety_distance_m] Distance to the model the facade and bridge templates keep (m); also the flight check's least distance. Default 10, 0.3 for a route
  * @property {(string|null)} [aircraft] Aircraft preset (p4p, m3e, m300), rover preset for a route (walker-360, spot, tracked), or 'none' for no battery check. Default p4p, walker-360 for a route
  * @property {(number|null)} [vlos_radius_m] Visual line-of-sight radius around the pilot (m); 0: no check. Default 500, none for a route
  * @property {Array<Array<number>>} [ground_station] Pilot positions [x, y, z] to choose from (default: the corners of the plan's region)
  * @property {(number|null)} [altitude_limit_m] Altitude limit (m); 0: no check. Default 120, none for a route
  * @property {(number|null)} [min_height_m] Least height of a waypoint above the ground under it (m). Default 2, none for a route
+ * @property {string} [name] Default: the template's name
+ * @property {number} model_id Model Id
+ * @property {string} [camera] A camera of the catalogue (GET /api/cameras)
+ * @property {(number|null)} [safety_distance_m] Distance to the model the facade and bridge templates keep (m); also the flight check's least distance. Default 10, 0.3 for a route
  * @property {boolean} [split] Split into missions that keep line of sight and fit a battery
  * @property {'facade'} template grids around the sides
  * @property {number} [overlap] image overlap l between neighbouring frames
@@ -313,15 +313,15 @@
 /**
  * A plan from the lawnmower template (nadir grid).
  * @typedef {object} LawnmowerPlanIn
- * @property {string} [name] Default: the template's name
- * @property {number} model_id Model Id
- * @property {string} [camera] A camera of the catalogue (GET /api/cameras)
- * @property {(number|null)} [safety_distance_m] Distance to the model the facade and bridge templates keep (m); also the flight check's least distance. Default 10, 0.3 for a route
  * @property {(string|null)} [aircraft] Aircraft preset (p4p, m3e, m300), rover preset for a route (walker-360, spot, tracked), or 'none' for no battery check. Default p4p, walker-360 for a route
  * @property {(number|null)} [vlos_radius_m] Visual line-of-sight radius around the pilot (m); 0: no check. Default 500, none for a route
  * @property {Array<Array<number>>} [ground_station] Pilot positions [x, y, z] to choose from (default: the corners of the plan's region)
  * @property {(number|null)} [altitude_limit_m] Altitude limit (m); 0: no check. Default 120, none for a route
  * @property {(number|null)} [min_height_m] Least height of a waypoint above the ground under it (m). Default 2, none for a route
+ * @property {string} [name] Default: the template's name
+ * @property {number} model_id Model Id
+ * @property {string} [camera] A camera of the catalogue (GET /api/cameras)
+ * @property {(number|null)} [safety_distance_m] Distance to the model the facade and bridge templates keep (m); also the flight check's least distance. Default 10, 0.3 for a route
  * @property {boolean} [split] Split into missions that keep line of sight and fit a battery
  * @property {'lawnmower'} template nadir grid
  * @property {number} [overlap] image overlap along a line
@@ -428,6 +428,11 @@
 /**
  * An optimised plan around one of the project's models (as ``sightplan optimize``): the fewest views that give every target element k serving views (≥ Ω px, SSD and angle within bounds), within a budget, routed and checked.
  * @typedef {object} OptimizeIn
+ * @property {(string|null)} [aircraft] Aircraft preset (p4p, m3e, m300), rover preset for a route (walker-360, spot, tracked), or 'none' for no battery check. Default p4p, walker-360 for a route
+ * @property {(number|null)} [vlos_radius_m] Visual line-of-sight radius around the pilot (m); 0: no check. Default 500, none for a route
+ * @property {Array<Array<number>>} [ground_station] Pilot positions [x, y, z] to choose from (default: the corners of the plan's region)
+ * @property {(number|null)} [altitude_limit_m] Altitude limit (m); 0: no check. Default 120, none for a route
+ * @property {(number|null)} [min_height_m] Least height of a waypoint above the ground under it (m). Default 2, none for a route
  * @property {string} [name] Default: 'optimised (k = …)'
  * @property {number} model_id Model Id
  * @property {string} [camera] A perspective camera of the catalogue (GET /api/cameras)
@@ -439,25 +444,20 @@
  * @property {(number|null)} [budget_minutes] At most this many minutes of flight
  * @property {(number|null)} [batteries] At most this many battery charges
  * @property {number} [scale] Resolution scale the candidates are cast at
- * @property {(string|null)} [aircraft] Aircraft preset (p4p, m3e, m300) or 'none'. Default p4p
- * @property {(number|null)} [vlos_radius_m] Visual line-of-sight radius (m); 0: no check. Default 500
- * @property {Array<Array<number>>} [ground_station] Pilot positions [x, y, z] to choose from
- * @property {(number|null)} [altitude_limit_m] Altitude limit (m); 0: no check. Default 120
- * @property {(number|null)} [min_height_m] Least height above the ground (m). Default 2
  */
 
 /**
  * A plan from the orbit template (rings).
  * @typedef {object} OrbitPlanIn
- * @property {string} [name] Default: the template's name
- * @property {number} model_id Model Id
- * @property {string} [camera] A camera of the catalogue (GET /api/cameras)
- * @property {(number|null)} [safety_distance_m] Distance to the model the facade and bridge templates keep (m); also the flight check's least distance. Default 10, 0.3 for a route
  * @property {(string|null)} [aircraft] Aircraft preset (p4p, m3e, m300), rover preset for a route (walker-360, spot, tracked), or 'none' for no battery check. Default p4p, walker-360 for a route
  * @property {(number|null)} [vlos_radius_m] Visual line-of-sight radius around the pilot (m); 0: no check. Default 500, none for a route
  * @property {Array<Array<number>>} [ground_station] Pilot positions [x, y, z] to choose from (default: the corners of the plan's region)
  * @property {(number|null)} [altitude_limit_m] Altitude limit (m); 0: no check. Default 120, none for a route
  * @property {(number|null)} [min_height_m] Least height of a waypoint above the ground under it (m). Default 2, none for a route
+ * @property {string} [name] Default: the template's name
+ * @property {number} model_id Model Id
+ * @property {string} [camera] A camera of the catalogue (GET /api/cameras)
+ * @property {(number|null)} [safety_distance_m] Distance to the model the facade and bridge templates keep (m); also the flight check's least distance. Default 10, 0.3 for a route
  * @property {boolean} [split] Split into missions that keep line of sight and fit a battery
  * @property {'orbit'} template rings
  * @property {number} [overlap] image overlap l between neighbouring frames
@@ -597,15 +597,15 @@
 /**
  * A plan from the route template (indoor polyline, walked or driven).
  * @typedef {object} RoutePlanIn
- * @property {string} [name] Default: the template's name
- * @property {number} model_id Model Id
- * @property {string} [camera] A camera of the catalogue (GET /api/cameras)
- * @property {(number|null)} [safety_distance_m] Distance to the model the facade and bridge templates keep (m); also the flight check's least distance. Default 10, 0.3 for a route
  * @property {(string|null)} [aircraft] Aircraft preset (p4p, m3e, m300), rover preset for a route (walker-360, spot, tracked), or 'none' for no battery check. Default p4p, walker-360 for a route
  * @property {(number|null)} [vlos_radius_m] Visual line-of-sight radius around the pilot (m); 0: no check. Default 500, none for a route
  * @property {Array<Array<number>>} [ground_station] Pilot positions [x, y, z] to choose from (default: the corners of the plan's region)
  * @property {(number|null)} [altitude_limit_m] Altitude limit (m); 0: no check. Default 120, none for a route
  * @property {(number|null)} [min_height_m] Least height of a waypoint above the ground under it (m). Default 2, none for a route
+ * @property {string} [name] Default: the template's name
+ * @property {number} model_id Model Id
+ * @property {string} [camera] A camera of the catalogue (GET /api/cameras)
+ * @property {(number|null)} [safety_distance_m] Distance to the model the facade and bridge templates keep (m); also the flight check's least distance. Default 10, 0.3 for a route
  * @property {boolean} [split] Split into missions that keep line of sight and fit a battery
  * @property {'route'} template indoor polyline, walked or driven
  * @property {Array<Array<number>>} [points] points [x, y, z] of the walked polyline, in order

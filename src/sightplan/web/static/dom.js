@@ -1,5 +1,5 @@
 // What every part of the page uses to draw: $ and $$ (querySelector), el (an element with attributes, listeners and
-// children), fillSelect, progress bars, and messages (act runs a user action, any failure shown as one message).
+// children), fillSelect, progress bars (set, or marked failed), and messages (act runs a user action, any failure shown as one message).
 
 export const $ = (sel) => document.querySelector(sel);
 export const $$ = (sel) => [...document.querySelectorAll(sel)];
@@ -31,6 +31,12 @@ export function setProgress(box, fraction, label) {
   box.querySelector('.bar').style.width = `${pct}%`;
   box.querySelector('.label').textContent = label ?? `${pct} %`;
   box.classList.remove('failed');
+}
+
+// a progress bar marked failed, with what went wrong in a word or two
+export function markFailed(box, label) {
+  box.classList.add('failed');
+  box.querySelector('.label').textContent = label;
 }
 
 export function showMessage(text, kind = 'info') {

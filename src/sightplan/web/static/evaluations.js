@@ -151,16 +151,22 @@ function renderCompare() {
 }
 
 // ---------------------------------------------------------------------------------------------- charts
-function renderHistogram() {
-  const canvas = $('#histogram');
-  if ($('[data-panel="histogram"]').hidden) return;
-  const ctx = canvas.getContext('2d');
-  const fb = state.feedback;
-  if (!fb) {
+// a chart's canvas when its tab is shown (else null); with no feedback it only says what it will show
+function chartCanvas(sel, panel, empty) {
+  if ($(`[data-panel="${panel}"]`).hidden) return null;
+  const canvas = $(sel);
+  if (!state.feedback) {
+    const ctx = canvas.getContext('2d');
     ctx.clearRect(0, 0, canvas.width, canvas.height);
-    ctx.fillText('Evaluate a plan to see the distribution of the per-element metrics.', 20, 30);
-    return;
+    ctx.fillText(empty, 20, 30);
   }
+  return canvas;
+}
+
+function renderHistogram() {
+  const canvas = chartCanvas('#histogram', 'histogram', 'Evaluate a plan to see the distribution of the per-element metrics.');
+  const fb = state.feedback;
+  if (!canvas || !fb) return;
   const { colourer, metric } = state;
   const targets = fb.elements.target;
   if (metric === 'visibility') {
@@ -179,13 +185,10 @@ function renderHistogram() {
 
 let stabilityChart = null;
 function renderStability() {
-  const canvas = $('#nu-chart');
-  if ($('[data-panel="stability"]').hidden) return;
-  const ctx = canvas.getContext('2d');
+  const canvas = chartCanvas('#nu-chart', 'stability', 'Evaluate a plan to see ν_f, its stable features per frame, along the path.');
   const fb = state.feedback;
+  if (!canvas) return;
   if (!fb) {
-    ctx.clearRect(0, 0, canvas.width, canvas.height);
-    ctx.fillText('Evaluate a plan to see ν_f, its stable features per frame, along the path.', 20, 30);
     stabilityChart = null;
     return;
   }

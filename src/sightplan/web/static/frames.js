@@ -12,7 +12,7 @@ let viewToken = null;  // the simulated view asked last: an older one is dropped
 
 const headingPitchOf = (R) => headingPitch([[R[0], R[1], R[2]], [R[3], R[4], R[5]], [R[6], R[7], R[8]]]);
 
-export function renderFrameList() {
+function renderFrameList() {
   const tbody = $('#frame-list tbody');
   if (!state.geom) {
     tbody.replaceChildren();

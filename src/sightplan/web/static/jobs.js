@@ -2,7 +2,7 @@
 // followed in the top bar's tray with a progress bar and a cancel button. Each area says what a job of its kind
 // shows and does when it ends: onJob(kind, { name, box, progress, finished, done, failed }).
 import * as api from './api.js';
-import { $, act, el, errorText, setProgress, showMessage } from './dom.js';
+import { $, act, el, errorText, markFailed, setProgress, showMessage } from './dom.js';
 
 const kinds = {};
 const tracked = new Map();  // job id → its item in the tray
@@ -11,6 +11,21 @@ const tracked = new Map();  // job id → its item in the tray
 // progress(job, fraction), finished(job): on each update and when it ends; done(job), failed(job, err): async
 export function onJob(kind, handlers) {
   kinds[kind] = handlers;
+}
+
+// progress(job, fraction) for an area's bar (selector box): `queued` while the job waits, then its message (else
+// `working`) and the percentage
+export const barProgress = (box, queued, working) => (j, frac) => setProgress($(box), frac,
+  j.status === 'queued' ? queued : `${j.message || working} — ${Math.round(frac * 100)} %`);
+
+// a file sent with its progress in an area's bar (the job it starts follows); the bar says `refused` if refused
+export async function uploadInto(bar, url, form, refused = 'upload refused') {
+  try {
+    return await api.upload(url, form, (f) => setProgress(bar, f, `uploading ${Math.round(f * 100)} %`));
+  } catch (err) {
+    markFailed(bar, refused);
+    throw err;
+  }
 }
 
 export function trackJob(job) {
@@ -43,10 +58,7 @@ export function trackJob(job) {
   }).catch(async (err) => {
     finished();
     const box = kind.box && $(kind.box);
-    if (box) {
-      box.classList.add('failed');
-      box.querySelector('.label').textContent = /cancel/i.test(errorText(err)) ? 'cancelled' : 'failed';
-    }
+    if (box) markFailed(box, /cancel/i.test(errorText(err)) ? 'cancelled' : 'failed');
     showMessage(`${name} failed: ${errorText(err)}`, 'error');
     if (kind.failed) await kind.failed(job, err);
   });

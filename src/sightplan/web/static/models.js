@@ -4,7 +4,7 @@ import * as api from './api.js';
 import { $, act, el, fillSelect, setProgress, showMessage } from './dom.js';
 import { projectUrl, viewer } from './context.js';
 import { set, state, subscribe } from './store.js';
-import { onJob, trackJob } from './jobs.js';
+import { barProgress, onJob, trackJob, uploadInto } from './jobs.js';
 import { loadSchedules } from './schedule.js';
 import { frameColours } from './view.js';
 import { parseGeometry } from './viewer3d.js';
@@ -67,14 +67,7 @@ async function uploadModel() {
   form.append('file', file);
   const bar = $('#upload-progress');
   setProgress(bar, 0, `uploading ${file.name}…`);
-  let res;
-  try {
-    res = await api.upload(projectUrl('/models'), form, (f) => setProgress(bar, f, `uploading ${Math.round(f * 100)} %`));
-  } catch (err) {
-    bar.classList.add('failed');
-    bar.querySelector('.label').textContent = 'upload refused';
-    throw err;
-  }
+  const res = await uploadInto(bar, projectUrl('/models'), form);
   $('#model-file').value = '';
   set({ models: [...state.models, res.model], model: res.model });
   renderLoadReport(res.model);
@@ -88,8 +81,7 @@ export function bindModels({ reopenProject }) {
   onJob('load_model', {
     name: (job) => `model ${job.model_id}`,
     box: '#upload-progress',
-    progress: (j, frac) => setProgress($('#upload-progress'), frac, j.status === 'queued' ? 'queued for tessellation'
-      : `${j.message || 'loading'} — ${Math.round(frac * 100)} %`),
+    progress: barProgress('#upload-progress', 'queued for tessellation', 'loading'),
     done: async (done) => {
       setProgress($('#upload-progress'), 1, done.message);
       showMessage(`Model loaded: ${done.message}.`, 'ok');

@@ -39,7 +39,7 @@ export async function selectProject(id) {
   set({ project, models: [], model: null, elements: null, geometryModel: null, plans: [], plan: null, version: null,
     saved: null, draft: null, dirty: false, geom: null, checks: null, evaluations: [], evaluation: null, feedback: null,
     colourer: null, compareChosen: false, frameColourChosen: false, selectedFrame: null, selectedElement: null,
-    dateStates: null, fitted: null, realities: [], realityHidden: new Set(), allSchedules: [], schedules: [],
+    dateStates: null, fitted: null, realities: [], realityHidden: new Set(), allSchedules: [],
     members: [], links: [] });
   delete document.body.dataset.model;
   resetPanels();

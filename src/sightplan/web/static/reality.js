@@ -4,7 +4,7 @@ import * as api from './api.js';
 import { $, act, el, errorText, fillSelect, setProgress, showMessage } from './dom.js';
 import { canEdit, projectUrl, viewer } from './context.js';
 import { set, state, subscribe } from './store.js';
-import { onJob, trackJob } from './jobs.js';
+import { barProgress, onJob, trackJob, uploadInto } from './jobs.js';
 import { updateEvalSite } from './schedule.js';
 
 export async function loadRealities() {
@@ -68,14 +68,7 @@ async function uploadReality() {
   form.append('file', file);
   const bar = $('#reality-progress');
   setProgress(bar, 0, `uploading ${file.name}…`);
-  let res;
-  try {
-    res = await api.upload(projectUrl('/reality'), form, (f) => setProgress(bar, f, `uploading ${Math.round(f * 100)} %`));
-  } catch (err) {
-    bar.classList.add('failed');
-    bar.querySelector('.label').textContent = 'upload refused';
-    throw err;
-  }
+  const res = await uploadInto(bar, projectUrl('/reality'), form);
   $('#reality-file').value = '';
   set({ realities: [...state.realities, res.reality] });
   setProgress(bar, 0, 'queued for preparation');
@@ -87,8 +80,7 @@ export function bindReality() {
   onJob('prep_reality', {
     name: () => 'reality capture',
     box: '#reality-progress',
-    progress: (j, frac) => setProgress($('#reality-progress'), frac, j.status === 'queued' ? 'queued for preparation'
-      : `${j.message || 'preparing'} — ${Math.round(frac * 100)} %`),
+    progress: barProgress('#reality-progress', 'queued for preparation', 'preparing'),
     done: async (done) => {
       setProgress($('#reality-progress'), 1, `ready — ${done.message}`);
       showMessage(`Reality capture ready: ${done.message}.`, 'ok');

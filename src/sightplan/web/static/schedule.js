@@ -5,11 +5,17 @@ import * as api from './api.js';
 import { $, act, el, errorText, fillSelect, setProgress, showMessage } from './dom.js';
 import { canEdit, projectUrl } from './context.js';
 import { set, state, subscribe } from './store.js';
-import { onJob, trackJob } from './jobs.js';
+import { barProgress, onJob, trackJob, uploadInto } from './jobs.js';
 
 const DAY = 86400000;
 let schedulesToken = null;  // the schedules asked last: an older answer is dropped
 let dateToken = null;  // the states asked last
+
+// the linked schedules of the model shown that are ready, with their first and last date: the slider's
+function datedSchedules() {
+  return state.allSchedules.map((s) => ({ ...s, start: s.start || s.first_date, finish: s.finish || s.last_date }))
+    .filter((s) => s.start && s.finish && (s.status === undefined || s.status === 'ready'));
+}
 
 export async function loadSchedules({ prefer = null } = {}) {
   const panel = $('#date-panel');
@@ -19,28 +25,26 @@ export async function loadSchedules({ prefer = null } = {}) {
   }
   const token = Symbol('schedules');
   schedulesToken = token;
-  let schedules = [];
+  let rows = [];
   try {
-    schedules = await api.get(projectUrl('/schedules'));
+    rows = await api.get(projectUrl('/schedules'));
   } catch {
-    schedules = [];  // no schedule support on this server, or none readable: no slider
+    rows = [];  // no schedule support on this server, or none readable: no slider
   }
   if (schedulesToken !== token) return;
   const ofModel = (s) => s.model_id === undefined || !state.model || s.model_id === state.model.id;
-  const allSchedules = (Array.isArray(schedules) ? schedules : []).filter(ofModel);
-  // a linked schedule of the model shown, with its first and last date
-  const span = (s) => ({ ...s, start: s.start || s.first_date, finish: s.finish || s.last_date });
-  set({ allSchedules, schedules: allSchedules.map(span).filter((s) => s.start && s.finish
-    && (s.status === undefined || s.status === 'ready')) });
-  panel.hidden = !state.schedules.length || !state.model;
+  const allSchedules = (Array.isArray(rows) ? rows : []).filter(ofModel);
+  set({ allSchedules });
+  const schedules = datedSchedules();
+  panel.hidden = !schedules.length || !state.model;
   if (panel.hidden) {
     set({ dateStates: null });
     updateEvalSite();
     return;
   }
   const current = $('#schedule-select').value;
-  const pick = [prefer, current].find((v) => v !== null && v !== '' && state.schedules.some((x) => String(x.id) === String(v)));
-  fillSelect($('#schedule-select'), state.schedules.map((s) => [s.id, s.name]), pick ?? state.schedules.at(-1).id);
+  const pick = [prefer, current].find((v) => v !== null && v !== '' && schedules.some((x) => String(x.id) === String(v)));
+  fillSelect($('#schedule-select'), schedules.map((s) => [s.id, s.name]), pick ?? schedules.at(-1).id);
   if (pick === undefined || prefer !== null || String(pick) !== current) setDateRange();
   await applyDate();
 }
@@ -96,14 +100,7 @@ async function addSchedule() {
   const bar = $('#schedule-progress');
   setProgress(bar, 0, own ? 'asking for the model’s work schedule…' : `uploading ${file.name}…`);
   $('#schedule-report').hidden = true;
-  let res;
-  try {
-    res = await api.upload(projectUrl('/schedules'), form, (f) => setProgress(bar, f, `uploading ${Math.round(f * 100)} %`));
-  } catch (err) {
-    bar.classList.add('failed');
-    bar.querySelector('.label').textContent = 'refused';
-    throw err;
-  }
+  const res = await uploadInto(bar, projectUrl('/schedules'), form, 'refused');
   for (const sel of ['#schedule-file', '#schedule-rules']) $(sel).value = '';
   $('#schedule-new').open = false;
   setProgress(bar, 0, 'queued for linking');
@@ -113,7 +110,8 @@ async function addSchedule() {
 
 // ---------------------------------------------------------------------------------------------- the date slider
 function setDateRange() {
-  const s = state.schedules.find((x) => String(x.id) === $('#schedule-select').value) || state.schedules[0];
+  const schedules = datedSchedules();
+  const s = schedules.find((x) => String(x.id) === $('#schedule-select').value) || schedules[0];
   const start = Date.parse(s.start.slice(0, 10));
   const finish = Date.parse(s.finish.slice(0, 10));
   const slider = $('#date-slider');
@@ -134,7 +132,7 @@ function updateDateLabel() {
   updateEvalSite();
 }
 
-const scheduleShown = () => !$('#date-panel').hidden && $('#date-on').checked && state.schedules.length > 0;
+const scheduleShown = () => !$('#date-panel').hidden && $('#date-on').checked && datedSchedules().length > 0;
 
 // the element states at the slider's date, which colour the model
 async function applyDate() {
@@ -186,7 +184,7 @@ export function updateEvalSite() {
   const site = evalSite();
   const bits = [];
   if (site.date) {
-    const sched = state.schedules.find((x) => x.id === site.schedule_id);
+    const sched = datedSchedules().find((x) => x.id === site.schedule_id);
     bits.push(`at ${site.date}${sched ? ` (schedule ${sched.name})` : ''}`);
   }
   if (site.reality_id) {
@@ -202,8 +200,7 @@ export function bindSchedule() {
   onJob('link_schedule', {
     name: () => 'schedule',
     box: '#schedule-progress',
-    progress: (j, frac) => setProgress($('#schedule-progress'), frac, j.status === 'queued' ? 'queued for linking'
-      : `${j.message || 'linking'} — ${Math.round(frac * 100)} %`),
+    progress: barProgress('#schedule-progress', 'queued for linking', 'linking'),
     done: async (done) => {
       setProgress($('#schedule-progress'), 1, done.message);
       showMessage(`Schedule linked: ${done.message}.`, 'ok');

@@ -1,11 +1,11 @@
-// The page's state, in one place. Every change goes through set(patch) (or update(fn)); render functions subscribe
+// The page's state, in one place. Every change goes through set(patch); render functions subscribe
 // to the keys they read and run after a change of any of them.
 //
 //   import { set, state, subscribe } from './store.js';
 //   subscribe(['plans', 'plan'], renderPlans);     // runs after each change of state.plans or state.plan
 //   set({ plans: [...state.plans, plan] });        // a new value: never change one in place
 //
-// `state` (also get()) is a read-only view: an assignment through it throws. A change is seen when a key gets
+// `state` is a read-only view: an assignment through it throws. A change is seen when a key gets
 // another value (Object.is), so arrays, sets and objects are replaced, not changed in place. A set() made while
 // subscribers run is applied at once; its subscribers run after the current ones, once each.
 
@@ -15,7 +15,7 @@ const S = {
   plans: [], plan: null, version: null, saved: null, draft: null, dirty: false, geom: null, checks: null,
   evaluations: [], evaluation: null, feedback: null, colourer: null, compareChosen: false,
   metric: 'visibility', bounds: {}, frameColourChosen: false, selectedFrame: null, selectedElement: null,
-  schedules: [], allSchedules: [], dateStates: null, realities: [], realityHidden: new Set(), pick: null,
+  allSchedules: [], dateStates: null, realities: [], realityHidden: new Set(), pick: null,
 };
 
 const refuse = (key) => {
@@ -27,8 +27,6 @@ export const state = new Proxy(S, {
   deleteProperty: (_, key) => refuse(key),
   defineProperty: (_, key) => refuse(key),
 });
-
-export const get = () => state;
 
 const subscribers = [];
 let pending = null;  // keys changed while subscribers run
@@ -47,10 +45,6 @@ export function set(patch) {
     }
   }
   if (changed.length) notify(changed);
-}
-
-export function update(fn) {
-  set(fn(state));
 }
 
 // fn(state) after every change of one of keys; returns a function that ends the subscription

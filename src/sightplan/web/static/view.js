@@ -22,7 +22,7 @@ export function frameColours() {
 
 // each element's colour and mode (solid or ghost): the site at the date shown, else the metric chosen, else
 // target or occluder
-export function refreshModelColours() {
+function refreshModelColours() {
   if (!viewer.model || !state.elements || !state.model || state.geometryModel !== state.model.id) return;
   const fb = feedbackOfModel();
   const { colourer, metric } = state;
