@@ -8,6 +8,9 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
+from sqlalchemy import func, select
+from sqlalchemy.orm import Session
+
 from ..errors import PlanError
 from ..evaluate import Evaluation, EvaluationSettings
 from ..metrics import MetricParams
@@ -17,6 +20,8 @@ from ..model.summary import LoadReport
 from ..plan.site import with_site
 from ..plan.templates.registry import TEMPLATES, WALKED, default_flight, plan_from_template
 from ..plan.types import Plan
+from .models import Plan as PlanRow
+from .models import PlanVersion
 from .schemas import OptimizeIn, SettingsIn, TemplatePlanBase
 from .storage import Storage
 
@@ -184,3 +189,24 @@ def rebuilt_evaluation(result: Path, settings: dict[str, Any], metrics_json: dic
                       int(metrics_json.get("features", obs.n_features)),
                       {k: v for k, v in (meta.get("timings") or {}).items() if v is not None},
                       int(meta.get("cache_hits", 0)))
+
+
+def add_plan_version(storage: Storage, session: Session, plan_row: PlanRow, data: Plan, note: str) -> Path:
+    """Write ``data`` as the next version of ``plan_row`` (added to ``session`` if new): its file and its row, not yet
+    committed. The path written; on a failure here the file is removed. The caller commits, and removes the file
+    should the commit fail."""
+    from ..plan.format import write_plan
+
+    path = storage.plan_path(storage.new_name(".json"))
+    try:
+        session.add(plan_row)
+        session.flush()
+        number = (session.scalar(select(func.max(PlanVersion.number)).where(PlanVersion.plan_id == plan_row.id))
+                  or 0) + 1
+        write_plan(data, path)
+        session.add(PlanVersion(plan_id=plan_row.id, number=number, stored_name=path.name, frames=len(data),
+                                missions=len(data.missions), note=note[:500]))
+    except BaseException:
+        path.unlink(missing_ok=True)
+        raise
+    return path

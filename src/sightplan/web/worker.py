@@ -19,7 +19,14 @@ from ..errors import SightplanError
 from .db import Database
 from .models import Evaluation, Job, Model, Plan, PlanVersion, Reality, Schedule, utcnow
 from .scenes import evaluation_scene
-from .services import evaluation_settings, flight_settings, load_scene, report_summary, save_element_dates
+from .services import (
+    add_plan_version,
+    evaluation_settings,
+    flight_settings,
+    load_scene,
+    report_summary,
+    save_element_dates,
+)
 from .storage import Storage
 
 log = logging.getLogger("sightplan.web")
@@ -330,7 +337,6 @@ class Worker:
         """An optimised plan (``sightplan optimize``) around the job's model, saved as a new plan of one version."""
         from ..camera.catalogue import get_camera
         from ..optimize import Budget, OptimizeSettings, Targets, optimize
-        from ..plan.format import write_plan
 
         with self.db.session() as s:
             job = s.get(Job, job_id)
@@ -348,25 +354,25 @@ class Worker:
         result = optimize(scene, get_camera(p["camera"]), targets, budget, flight=flight,
                           settings=OptimizeSettings(scale=p["scale"], cache_dir=self.storage.frame_cache),
                           progress=progress)
-        path = self.storage.plan_path(self.storage.new_name(".json"))
-        write_plan(result.plan, path)
         summary = result.summary()
-        with self.db.session() as s:
-            job = s.get(Job, job_id)
-            if job is None:
+        path = None
+        try:
+            with self.db.session() as s:
+                job = s.get(Job, job_id)
+                if job is None:
+                    return
+                row = Plan(project_id=project_id, model_id=model_id,
+                           name=p.get("name") or f"optimised (k = {p['k']})", source=f"optimize ({p['camera']})")
+                path = add_plan_version(self.storage, s, row, result.plan,
+                                        f"optimised: {summary['met']} of {summary['targets']} targets met")
+                job.plan_id = row.id
+                job.progress_done = job.progress_total = 1.0
+                job.message = (f"{summary['met']} of {summary['targets']} targets met with {summary['frames']} "
+                               f"frames, {summary['minutes']} min")
+        except BaseException:
+            if path is not None:
                 path.unlink(missing_ok=True)
-                return
-            row = Plan(project_id=project_id, model_id=model_id, name=p.get("name") or f"optimised (k = {p['k']})",
-                       source=f"optimize ({p['camera']})")
-            s.add(row)
-            s.flush()
-            s.add(PlanVersion(plan_id=row.id, number=1, stored_name=path.name, frames=len(result.plan),
-                              missions=len(result.plan.missions),
-                              note=f"optimised: {summary['met']} of {summary['targets']} targets met"))
-            job.plan_id = row.id
-            job.progress_done = job.progress_total = 1.0
-            job.message = (f"{summary['met']} of {summary['targets']} targets met with {summary['frames']} frames, "
-                           f"{summary['minutes']} min")
+            raise
 
     def _prepare_reality(self, job_id: int) -> None:
         """A point cloud → a 3D Tiles octree for the viewer; a mesh → one GLB (glTF's Y up)."""

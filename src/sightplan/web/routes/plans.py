@@ -10,7 +10,7 @@ from typing import Annotated, Any, Literal
 
 from fastapi import APIRouter, BackgroundTasks, Body, File, Form, HTTPException, Query, Response, UploadFile
 from fastapi.responses import FileResponse
-from sqlalchemy import func, select
+from sqlalchemy import select
 from sqlalchemy.orm import Session
 from starlette.concurrency import run_in_threadpool
 
@@ -22,7 +22,14 @@ from ...plan.types import Plan as PlanData
 from ..deps import PROJECT_ACCESS, ServerState, SessionDep, StateDep, in_project, ready_model
 from ..models import Job, Model, Plan, PlanVersion
 from ..schemas import ErrorOut, JobOut, OptimizeIn, PlanFileOut, PlanOut, PlanVersionOut, TemplatePlanIn
-from ..services import checked_plan_json, flight_record, load_scene, read_uploaded_plan, template_plan
+from ..services import (
+    add_plan_version,
+    checked_plan_json,
+    flight_record,
+    load_scene,
+    read_uploaded_plan,
+    template_plan,
+)
 from ..storage import PLAN_SUFFIXES, display_name
 from ..uploads import receive_upload
 
@@ -46,21 +53,14 @@ def ready_scene(state: ServerState, session: Session, project_id: int, model_id:
 
 def commit_version(state: ServerState, session: Session, plan_row: Plan, data: PlanData, note: str) -> PlanOut:
     """Write ``data`` as the plan's next version (file and row) and commit; on any failure neither is left."""
-    from ...plan.format import write_plan
-
-    path = state.storage.plan_path(state.storage.new_name(".json"))
+    path = None
     try:
-        session.add(plan_row)
-        session.flush()
-        number = (session.scalar(select(func.max(PlanVersion.number)).where(PlanVersion.plan_id == plan_row.id))
-                  or 0) + 1
-        write_plan(data, path)
-        session.add(PlanVersion(plan_id=plan_row.id, number=number, stored_name=path.name, frames=len(data),
-                                missions=len(data.missions), note=note[:500]))
+        path = add_plan_version(state.storage, session, plan_row, data, note)
         session.commit()
     except BaseException:
         session.rollback()
-        path.unlink(missing_ok=True)
+        if path is not None:
+            path.unlink(missing_ok=True)
         raise
     session.refresh(plan_row)
     return plan_out(plan_row)
