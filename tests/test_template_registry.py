@@ -103,7 +103,7 @@ def test_the_api_schema_is_a_union_on_template_generated_from_the_declarations(c
     for t in TEMPLATES.values():
         props = schemas[f"{t.name.capitalize()}PlanIn"]["properties"]
         assert props["template"]["const"] == t.name
-        for name, _, info, default in t.fields():
+        for name, info, default in t.fields():
             if not info.web:
                 assert name not in props
                 continue
@@ -126,7 +126,7 @@ def test_the_form_description_is_the_declarations(client):
     listed = client.get("/api/templates").json()
     assert [t["name"] for t in listed] == list(TEMPLATE_NAMES)
     for t in listed:
-        decl = [(n, info, d) for n, _, info, d in TEMPLATES[t["name"]].fields() if info.web]
+        decl = [(n, info, d) for n, info, d in TEMPLATES[t["name"]].fields() if info.web]
         assert [f["name"] for f in t["fields"]] == [n for n, _, _ in decl]
         for f, (_, info, default) in zip(t["fields"], decl, strict=True):
             assert f["kind"] == info.kind and f["help"] == info.help and f["choices"] == list(info.choices)

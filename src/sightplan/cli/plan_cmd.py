@@ -113,7 +113,7 @@ def template_options() -> list[TemplateOption]:
     """One option per command-line name among every template's parameters, in declaration order."""
     groups: dict[str, list[tuple[str, str, ParamInfo, Any]]] = {}
     for t in TEMPLATES.values():
-        for name, _, info, default in t.fields():
+        for name, info, default in t.fields():
             groups.setdefault(cli_name(name, info), []).append((t.name, name, info, default))
     options = []
     for cli, members in groups.items():

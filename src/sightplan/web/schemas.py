@@ -157,9 +157,8 @@ def _param_field(name: str, info: ParamInfo, default: Any) -> tuple[Any, Any]:
 
 def _template_request(t: Template) -> type[BaseModel]:
     fields: dict[str, Any] = {"template": (Literal[t.name], Field(description=t.summary))}  # type: ignore[valid-type]
-    for name, _, info, default in t.fields():
-        if info.web:
-            fields[name] = _param_field(name, info, default)
+    for name, info, default in t.web_fields():
+        fields[name] = _param_field(name, info, default)
     return create_model(f"{t.name.capitalize()}PlanIn", __base__=TemplatePlanBase,
                         __doc__=f"A plan from the {t.name} template ({t.summary}).", **fields)
 

@@ -146,7 +146,7 @@ def template_plan(scene: Scene, body: TemplatePlanBase) -> Plan:
 
     name = body.template
     record = flight_record(body)
-    fields = {f for f, _, info, _ in TEMPLATES[name].fields() if info.web}
+    fields = {f for f, _, _ in TEMPLATES[name].web_fields()}
     params = TEMPLATES[name].make({f: getattr(body, f) for f in fields})
     plan, _ = plan_from_template(name, scene, get_camera(body.camera), params,
                                  flight_settings(record, body.ground_station), split=body.split)

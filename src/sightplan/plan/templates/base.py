@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import typing
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, Literal
@@ -145,10 +144,13 @@ class Template:
     walked: bool = False
     order: int = 100
 
-    def fields(self) -> list[tuple[str, Any, ParamInfo, Any]]:
-        """(name, type, declaration, default) per parameter, in declaration order."""
-        hints = typing.get_type_hints(self.params)
-        return [(f.name, hints[f.name], info_of(f), f.default) for f in dataclasses.fields(self.params)]
+    def fields(self) -> list[tuple[str, ParamInfo, Any]]:
+        """(name, declaration, default) per parameter, in declaration order."""
+        return [(f.name, info_of(f), f.default) for f in dataclasses.fields(self.params)]
+
+    def web_fields(self) -> list[tuple[str, ParamInfo, Any]]:
+        """:meth:`fields` that the web application's request and form carry."""
+        return [f for f in self.fields() if f[1].web]
 
     def make(self, values: dict[str, Any]) -> Params:
         """The parameters from ``values`` (unknown names refused; missing ones take their defaults), checked."""

@@ -39,7 +39,7 @@ def templates() -> list[TemplateOut]:
         fields = [TemplateFieldOut(name=name, label=label_of(name, info), kind=info.kind,
                                    unit=unit_of(name), help=info.help, default=default if default != () else None,
                                    ge=info.ge, gt=info.gt, le=info.le, lt=info.lt, choices=list(info.choices))
-                  for name, _, info, default in t.fields() if info.web]
+                  for name, info, default in t.web_fields()]
         out.append(TemplateOut(name=t.name, summary=t.summary, walked=t.walked,
                                safety_distance_m=default_flight(t.walked)["safety_distance_m"], fields=fields))
     return out
