@@ -8,7 +8,6 @@ import math
 from pathlib import Path
 from typing import Annotated
 
-import numpy as np
 import typer
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 from rich.table import Table
@@ -55,14 +54,11 @@ def validation_table(v, title: str) -> Table:
 
 def registration_summary(rec) -> dict:
     """Frames registered, pose errors and the residual of a reconstruction, JSON-ready."""
-    reg = rec.registered
-    pe, re = rec.position_error_m[reg], rec.rotation_error_deg[reg]
-    pe, re = pe[np.isfinite(pe)], re[np.isfinite(re)]
-    stat = lambda a, f: float(f(a)) if len(a) else None  # noqa: E731
+    from ..loop.files import pose_error_summary
+
     return {"frames": len(rec.frame_names), "frames_registered": rec.n_registered,
-            "unregistered": [n for n, ok in zip(rec.frame_names, reg, strict=True) if not ok],
-            "position_error_m_mean": stat(pe, np.mean), "position_error_m_max": stat(pe, np.max),
-            "rotation_error_deg_mean": stat(re, np.mean), "rotation_error_deg_max": stat(re, np.max),
+            "unregistered": [n for n, ok in zip(rec.frame_names, rec.registered, strict=True) if not ok],
+            **pose_error_summary(rec.registered, rec.position_error_m, rec.rotation_error_deg),
             "residual_m": rec.residual_m, "scene_size_m": rec.scene_size_m,
             "residual_share": rec.residual_share if math.isfinite(rec.residual_share) else None,
             "points": len(rec.points)}

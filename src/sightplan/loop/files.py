@@ -71,6 +71,18 @@ class Reconstruction:
         return self.residual_m / self.scene_size_m if self.scene_size_m > 0 else math.inf
 
 
+def pose_error_summary(registered: NDArray, position_error_m: NDArray, rotation_error_deg: NDArray) -> dict:
+    """Mean and max position error (m) and rotation error (°) over the registered frames (None when none has one)."""
+    reg = np.asarray(registered, bool)
+    out = {}
+    for key, values in (("position_error_m", position_error_m), ("rotation_error_deg", rotation_error_deg)):
+        v = np.asarray(values, np.float64)[reg]
+        v = v[np.isfinite(v)]
+        out[f"{key}_mean"] = float(v.mean()) if len(v) else None
+        out[f"{key}_max"] = float(v.max()) if len(v) else None
+    return out
+
+
 def _nan_to_none(values: NDArray) -> list[float | None]:
     return [None if not math.isfinite(v) else float(v) for v in np.asarray(values, np.float64)]
 
