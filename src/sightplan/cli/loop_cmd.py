@@ -11,7 +11,7 @@ from rich.table import Table
 
 from ..engines.base import EngineName
 from .base import ENGINE_HELP, app, console
-from .camera_opts import CAMERA_FORMS, FocalOpt, cli_camera
+from .camera_opts import FocalOpt, PlanCameraOpt, cli_camera
 from .errors import cell, friendly_errors
 from .fourd import (
     ActualOpt,
@@ -72,8 +72,7 @@ def loop_command(
     prefer_actual: ActualOpt = False,
     date_basis: BasisOpt = "finish",
     unscheduled: UnscheduledOpt = "present",
-    camera: Annotated[str | None, typer.Option(
-        help="Camera of a poses CSV or flight-app mission (" + CAMERA_FORMS + "); replaces the plan's own")] = None,
+    camera: PlanCameraOpt = None,
     focal_mm: FocalOpt = None,
     engine: Annotated[EngineName, typer.Option(help=ENGINE_HELP)] = "auto",
     eval_scale: Annotated[float, typer.Option(help="Resolution scale s of the evaluation's rays")] = 1.0,

@@ -15,7 +15,7 @@ from rich.table import Table
 from ..engines.base import EngineName
 from ..errors import SightplanError
 from .base import ENGINE_HELP, app, console
-from .camera_opts import CAMERA_FORMS, FocalOpt, cli_camera
+from .camera_opts import FocalOpt, PlanCameraOpt, cli_camera
 from .errors import cell, friendly_errors
 from .fourd import (
     ActualOpt,
@@ -114,8 +114,7 @@ def validate_command(
     prefer_actual: ActualOpt = False,
     date_basis: BasisOpt = "finish",
     unscheduled: UnscheduledOpt = "present",
-    camera: Annotated[str | None, typer.Option(
-        help="Camera of a poses CSV or flight-app mission (" + CAMERA_FORMS + "); replaces the plan's own")] = None,
+    camera: PlanCameraOpt = None,
     focal_mm: FocalOpt = None,
     transform: Annotated[Path | None, typer.Option(help="JSON 4×4 similarity from the poses' frame to the model's")] = None,
     reality_scale: Annotated[float, typer.Option(help="Metres per reality file unit (0.001 for millimetres)")] = 1.0,
