@@ -83,8 +83,12 @@ def pose_error_summary(registered: NDArray, position_error_m: NDArray, rotation_
     return out
 
 
-def _nan_to_none(values: NDArray) -> list[float | None]:
-    return [None if not math.isfinite(v) else float(v) for v in np.asarray(values, np.float64)]
+def _num(x) -> float | None:
+    """``x`` as a float, None where it is None or not finite (JSON has no NaN)."""
+    if x is None:
+        return None
+    x = float(x)
+    return x if math.isfinite(x) else None
 
 
 def write_reconstruction(rec: Reconstruction, directory: str | Path) -> list[Path]:
@@ -98,8 +102,8 @@ def write_reconstruction(rec: Reconstruction, directory: str | Path) -> list[Pat
     reg = d / REGISTRATION_FILE
     reg.write_text(json.dumps({
         "frames": [{"name": name, "registered": bool(ok), "position_error_m": pe, "rotation_error_deg": re}
-                   for name, ok, pe, re in zip(rec.frame_names, rec.registered, _nan_to_none(rec.position_error_m),
-                                               _nan_to_none(rec.rotation_error_deg), strict=True)],
+                   for name, ok, pe, re in zip(rec.frame_names, rec.registered, map(_num, rec.position_error_m),
+                                               map(_num, rec.rotation_error_deg), strict=True)],
         "similarity": {"scale": float(rec.scale), "R": np.asarray(rec.R, float).tolist(),
                        "t": np.asarray(rec.t, float).tolist()},
         "residual_m": float(rec.residual_m), "scene_size_m": float(rec.scene_size_m), "info": rec.info,

@@ -41,7 +41,7 @@ from ..model.scene import Scene
 from ..observations.features import FeatureSet
 from ..plan.types import Plan
 from ..validate import LAMBDA_PER_E, Validation, nearest_faces, sample_surface, validate
-from .files import Reconstruction, pose_error_summary
+from .files import Reconstruction, _num, pose_error_summary
 
 ProgressCallback = Callable[[int, int], None]
 
@@ -145,11 +145,6 @@ class ReconstructionMeasures:
                 "radius_m": self.radius_m, "resolution_m_px": self.resolution_m_px,
                 "samples_per_m2": self.samples_per_m2, "summary": self.summary(), "parameters": dict(self.parameters),
                 "warnings": list(self.warnings), "elements": self.element_rows(), "frames": self.frame_rows()}
-
-
-def _num(x: float) -> float | None:
-    x = float(x)
-    return x if math.isfinite(x) else None
 
 
 # =========================================================================== pieces
