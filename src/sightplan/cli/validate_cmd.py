@@ -3,7 +3,6 @@ the reconstruction it produced."""
 
 from __future__ import annotations
 
-import json
 import math
 from pathlib import Path
 from typing import Annotated
@@ -182,13 +181,10 @@ def validate_command(
     print_warnings(console, v.warnings)
     console.print(validation_table(v, f"{Path(str(model)).name} × {Path(plan).name} × {source.name}"))
     out.mkdir(parents=True, exist_ok=True)
-    report = v.to_dict()
-    report["inputs"] = {"model": str(model), "plan": str(plan), "reality": str(source),
-                        "reality_scale": reality_scale if rec is None else 1.0,
-                        "date": None if scene.date is None else str(scene.date)}
-    if rec is not None:
-        report["reconstruction"] = registration_summary(rec)
-    json_path = out / "validation.json"
-    json_path.write_text(json.dumps(report, indent=1, allow_nan=False, ensure_ascii=False, default=str), encoding="utf-8")
+    inputs = {"model": str(model), "plan": str(plan), "reality": str(source),
+              "reality_scale": reality_scale if rec is None else 1.0,
+              "date": None if scene.date is None else str(scene.date)}
+    extra = {} if rec is None else {"reconstruction": registration_summary(rec)}
+    json_path = v.write_json(out / "validation.json", inputs=inputs, **extra)
     csv_path = v.write_csv(out / "validation_elements.csv")
     console.print(f"wrote {json_path}, {csv_path}", highlight=False)
