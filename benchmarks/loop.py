@@ -19,11 +19,11 @@ import time
 from pathlib import Path
 
 import numpy as np
-from scipy import stats
 
 from sightplan.camera.catalogue import get_camera
 from sightplan.errors import SightplanError
 from sightplan.loop import loop
+from sightplan.loop.study import correlation
 from sightplan.model.load import load_model
 from sightplan.plan.checks.feasibility import FlightSettings
 from sightplan.plan.templates.registry import plan_from_template
@@ -39,18 +39,10 @@ PAPER = {"VR": "VR", "R": "R", "O": "O", "seen_share": "VC"}
 
 
 def _pair(x: np.ndarray, y: np.ndarray) -> dict:
-    ok = np.isfinite(x) & np.isfinite(y)
-    n = int(ok.sum())
-    if n < 3 or np.ptp(x[ok]) == 0 or np.ptp(y[ok]) == 0:
-        return {"n": n, "pearson_r": None, "pearson_p": None, "spearman_r": None, "spearman_p": None}
-    pr, pp = stats.pearsonr(x[ok], y[ok])
-    sr, sp = stats.spearmanr(x[ok], y[ok])
-    return {"n": n, "pearson_r": round(float(pr), 3), "pearson_p": float(pp), "spearman_r": round(float(sr), 3),
-            "spearman_p": float(sp)}
-
-
-def _floats(values) -> np.ndarray:
-    return np.array([np.nan if v is None else float(v) for v in values], float)
+    c = correlation("", "", x, y)
+    rounded = lambda r: None if r is None else round(r, 3)  # noqa: E731
+    return {"n": c.n, "pearson_r": rounded(c.pearson_r), "pearson_p": c.pearson_p,
+            "spearman_r": rounded(c.spearman_r), "spearman_p": c.spearman_p}
 
 
 def main(argv=None) -> int:
@@ -80,7 +72,7 @@ def main(argv=None) -> int:
                        labels={"model": Path(model).name, "plan": name})
             cols = res.study.columns
             for k in (*PREDICTORS, "completeness"):
-                pooled[name][k].append(_floats(cols[k]))
+                pooled[name][k].append(np.asarray(cols[k], float))
             m = res.measures
             frames.append((m.nu.astype(float), m.registered.astype(float)))
             rec = res.reconstruction

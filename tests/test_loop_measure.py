@@ -18,6 +18,7 @@ from sightplan.camera.models import PinholeCamera
 from sightplan.engines.registry import available_engines
 from sightplan.errors import SightplanError
 from sightplan.evaluate import EvaluationSettings, evaluate
+from sightplan.geometry.distance import point_triangle_sq
 from sightplan.loop import Reconstruction, read_reconstruction, write_reconstruction
 from sightplan.loop.measure import (
     RADIUS_PX,
@@ -29,6 +30,7 @@ from sightplan.loop.measure import (
 from sightplan.model.scene import ElementTable, Scene
 from sightplan.plan.types import Plan
 from sightplan.validate import nearest_faces, validate
+from test_validate import box_mesh
 
 pytestmark = pytest.mark.skipif(not available_engines(), reason="no visibility engine")
 
@@ -40,14 +42,6 @@ H = (-2.5, -1.0, 25.0, 25.5, -1.0, 1.0)
 BOXES = [A, B, H]
 CENTRES = np.array([[0.0, 0.0, 0.0], [0.3, 0.0, 0.1]])
 SETTINGS = EvaluationSettings(engine="auto", scale=0.5)
-
-
-def box_mesh(b):
-    x0, x1, y0, y1, z0, z1 = b
-    v = np.array([[x, y, z] for z in (z0, z1) for y in (y0, y1) for x in (x0, x1)], float)
-    f = np.array([[0, 2, 3], [0, 3, 1], [4, 5, 7], [4, 7, 6], [0, 1, 5], [0, 5, 4],
-                  [2, 6, 7], [2, 7, 3], [0, 4, 6], [0, 6, 2], [1, 3, 7], [1, 7, 5]])
-    return v, f
 
 
 def scene_of(boxes) -> Scene:
@@ -86,6 +80,16 @@ def box_points(b, n_per_m2: float, rng):
         n = int(round(others[0] * others[1] * n_per_m2))
         out += [face_points(b, axis, 0, n, rng), face_points(b, axis, 1, n, rng)]
     return np.concatenate(out)
+
+
+def write_boxes_obj(path) -> None:
+    """The three boxes as an OBJ file, one object (element) per box: E0, E1, E2."""
+    lines = []
+    for i, b in enumerate(BOXES):
+        v, f = box_mesh(b)
+        lines += [f"o E{i}"] + [f"v {x:.6f} {y:.6f} {z:.6f}" for x, y, z in v]
+        lines += [f"f {a + 1 + 8 * i} {c + 1 + 8 * i} {d + 1 + 8 * i}" for a, c, d in f]
+    path.write_text("\n".join(lines) + "\n")
 
 
 def recon(points, registered=(True, True), pos=(0.01, 0.02), rot=(0.1, 0.2), residual=0.005) -> Reconstruction:
@@ -128,6 +132,12 @@ def test_nearest_faces_matches_a_brute_force_distance():
     assert (face >= 0).sum() == near.sum() > 1000
     assert np.allclose(dist[near], truth[near], atol=1e-9)
     assert np.all(face[~near] == -1) and np.all(np.isinf(dist[~near]))
+    # the face given is one at that distance, and no face of the box is nearer
+    tri = v[f]
+    to_face = np.sqrt([point_triangle_sq(*p, tri[k]) for p, k in zip(pts[near], face[near], strict=True)])
+    assert np.allclose(to_face, dist[near], rtol=0, atol=1e-12)
+    to_all = np.sqrt([[point_triangle_sq(*p, t) for t in tri] for p in pts[near][:300]])
+    assert np.allclose(to_all.min(axis=1), to_face[:300], rtol=0, atol=1e-12)
 
 
 # --------------------------------------------------------------------------- per element
@@ -222,12 +232,7 @@ def test_validate_cli_with_a_reconstruction_folder(tmp_path, gamma):
     from sightplan.plan.format import write_plan
     from test_cli import assert_clean_error, run_cli
 
-    lines = []
-    for i, b in enumerate(BOXES):
-        v, f = box_mesh(b)
-        lines += [f"o E{i}"] + [f"v {x:.6f} {y:.6f} {z:.6f}" for x, y, z in v]
-        lines += [f"f {a + 1 + 8 * i} {c + 1 + 8 * i} {d + 1 + 8 * i}" for a, c, d in f]
-    (tmp_path / "boxes.obj").write_text("\n".join(lines) + "\n")
+    write_boxes_obj(tmp_path / "boxes.obj")
     write_plan(Plan.build(CAM, np.repeat(R_NORTH[None], 2, axis=0), CENTRES), tmp_path / "plan.json")
     rng = np.random.default_rng(7)
     rec = recon(box_points(A, 5000, rng), registered=(True, False), residual=0.03)

@@ -164,16 +164,11 @@ def test_loop_from_a_reconstruction_folder(tmp_path):
     from sightplan.plan.format import write_plan
     from sightplan.plan.types import Plan
     from test_cli import assert_clean_error, run_cli
-    from test_loop_measure import BOXES, CAM, CENTRES, R_NORTH, A, box_mesh, box_points, recon
+    from test_loop_measure import CAM, CENTRES, R_NORTH, A, box_points, recon, write_boxes_obj
 
     if not available_engines():
         pytest.skip("no visibility engine")
-    lines = []
-    for i, b in enumerate(BOXES):
-        v, f = box_mesh(b)
-        lines += [f"o E{i}"] + [f"v {x:.6f} {y:.6f} {z:.6f}" for x, y, z in v]
-        lines += [f"f {a + 1 + 8 * i} {c + 1 + 8 * i} {d + 1 + 8 * i}" for a, c, d in f]
-    (tmp_path / "boxes.obj").write_text("\n".join(lines) + "\n")
+    write_boxes_obj(tmp_path / "boxes.obj")
     write_plan(Plan.build(CAM, np.repeat(R_NORTH[None], 2, axis=0), CENTRES), tmp_path / "plan.json")
     rec = recon(box_points(A, 3000, np.random.default_rng(8)), registered=(True, False))
     write_reconstruction(replace(rec, info={"render_scale": 0.5}), tmp_path / "recon")

@@ -11,6 +11,8 @@ if TYPE_CHECKING:
 
 CAMERA_FORMS = ("a catalogue id or name (`sightplan cameras`), a sensor-table camera with --focal-mm, "
                 "or a camera JSON file")
+PlanCameraOpt = Annotated[str | None, typer.Option(
+    help="Camera of a poses CSV or flight-app mission (" + CAMERA_FORMS + "); replaces the plan's own")]
 FocalOpt = Annotated[float | None, typer.Option(
     "--focal-mm", help="Lens focal length in mm: needed with a sensor-table --camera, and replaces a catalogue "
                        "camera's lens")]

@@ -2,8 +2,11 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable, Iterator, Mapping
+from contextlib import contextmanager
+
 from rich.console import Console
-from rich.progress import BarColumn, Progress, TaskProgressColumn, TextColumn, TimeElapsedColumn
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TaskProgressColumn, TextColumn, TimeElapsedColumn
 
 
 def _eta(seconds: float | None) -> str:
@@ -11,6 +14,23 @@ def _eta(seconds: float | None) -> str:
         return ""
     seconds = int(round(seconds))
     return f"ETA {seconds // 3600}:{seconds // 60 % 60:02d}:{seconds % 60:02d}"
+
+
+@contextmanager
+def stage_bars(console: Console, names: Mapping[str, str] | None = None
+               ) -> Iterator[Callable[[str, int, int], None]]:
+    """A progress(stage, done, total) callback that shows one bar per stage (titled ``names[stage]`` or the stage),
+    cleared when the block ends."""
+    with Progress(TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
+                  console=console, transient=True) as bar:
+        tasks: dict[str, int] = {}
+
+        def progress(stage: str, done: int, total: int) -> None:
+            if stage not in tasks:
+                tasks[stage] = bar.add_task((names or {}).get(stage, stage), total=max(total, 1))
+            bar.update(tasks[stage], completed=done, total=max(total, 1))
+
+        yield progress
 
 
 def load_with_progress(console: Console, model: str, cache: bool, mesh_elements: str = "objects",

@@ -6,12 +6,11 @@ from pathlib import Path
 from typing import Annotated
 
 import typer
-from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
 from ..engines.base import EngineName
 from .base import ENGINE_HELP, app, console
-from .camera_opts import CAMERA_FORMS, FocalOpt, cli_camera
+from .camera_opts import FocalOpt, PlanCameraOpt, cli_camera
 from .errors import cell, friendly_errors
 from .fourd import (
     ActualOpt,
@@ -23,7 +22,7 @@ from .fourd import (
     check_date_options,
     dated_scene,
 )
-from .loading import georef_kwargs, load_with_progress, print_warnings
+from .loading import georef_kwargs, load_with_progress, print_warnings, stage_bars
 
 STAGE_NAMES = {"render": "rendering the photographs", "reconstruct": "structure from motion",
                "evaluate": "evaluating the plan", "validate": "validating against the reconstruction",
@@ -72,8 +71,7 @@ def loop_command(
     prefer_actual: ActualOpt = False,
     date_basis: BasisOpt = "finish",
     unscheduled: UnscheduledOpt = "present",
-    camera: Annotated[str | None, typer.Option(
-        help="Camera of a poses CSV or flight-app mission (" + CAMERA_FORMS + "); replaces the plan's own")] = None,
+    camera: PlanCameraOpt = None,
     focal_mm: FocalOpt = None,
     engine: Annotated[EngineName, typer.Option(help=ENGINE_HELP)] = "auto",
     eval_scale: Annotated[float, typer.Option(help="Resolution scale s of the evaluation's rays")] = 1.0,
@@ -101,15 +99,7 @@ def loop_command(
     print_warnings(console, the_plan.parameters.get("warnings", []))
     console.print(f"model: {scene.source or model} — {int(scene.targets.sum())} target elements; plan: "
                   f"{len(the_plan)} frames", highlight=False)
-    with Progress(TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
-                  console=console, transient=True) as bar:
-        tasks: dict[str, int] = {}
-
-        def progress(stage: str, done: int, total: int) -> None:
-            if stage not in tasks:
-                tasks[stage] = bar.add_task(STAGE_NAMES.get(stage, stage), total=max(total, 1))
-            bar.update(tasks[stage], completed=done, total=max(total, 1))
-
+    with stage_bars(console, STAGE_NAMES) as progress:
         result = loop(scene, the_plan, out, scale=scale, matcher=matcher, render_engine=render_engine,
                       settings=settings, threads=threads, registration_error_m=registration_error,
                       tolerance_m=tolerance, radius_m=radius, threshold=threshold, paper_table=paper_table,

@@ -7,7 +7,6 @@ from typing import Annotated
 
 import numpy as np
 import typer
-from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
 from ..errors import PlanError
@@ -16,7 +15,7 @@ from .camera_opts import CAMERA_FORMS, FocalOpt, cli_camera
 from .errors import friendly_errors, writable_file
 from .flight import AltitudeOpt, MinHeightOpt, StationOpt, VlosOpt, default_flight_settings, print_feasibility
 from .fourd import ActualOpt, BasisOpt, DateOpt, RulesOpt, ScheduleOpt, UnscheduledOpt, dated_scene
-from .loading import load_with_progress
+from .loading import load_with_progress, stage_bars
 
 COMPARED = ("facade", "orbit", "lawnmower")
 
@@ -84,15 +83,7 @@ def optimize_command(
     flight = default_flight_settings(False, safety_distance, vlos_radius, ground_station, aircraft, altitude_limit,
                                      min_height=min_height)
     settings = OptimizeSettings(scale=scale, engine=engine, spacing_m=spacing, cache_dir=None if cache else False)
-    with Progress(TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
-                  console=console, transient=True) as bar:
-        tasks: dict[str, int] = {}
-
-        def progress(stage: str, i: int, n: int) -> None:
-            if stage not in tasks:
-                tasks[stage] = bar.add_task(stage, total=n)
-            bar.update(tasks[stage], completed=i, total=n)
-
+    with stage_bars(console) as progress:
         result = optimize(scene, cam, goal, budget, flight=flight, settings=settings, start=start, progress=progress)
     write_plan(result.plan, output)
     print_feasibility(console, result.report, f"optimised plan around {Path(str(model)).name} — {cam.name or camera}")

@@ -11,7 +11,7 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 
 from ..engines.base import EngineName
 from .base import ENGINE_HELP, app, console
-from .camera_opts import CAMERA_FORMS, FocalOpt, cli_camera
+from .camera_opts import FocalOpt, PlanCameraOpt, cli_camera
 from .errors import friendly_errors, writable_folder
 from .fourd import (
     ActualOpt,
@@ -40,8 +40,7 @@ def render_command(
                                                           "(poses/, COLMAP text) and the element maps")] = Path("images"),
     scale: Annotated[float, typer.Option(help="Resolution scale s: images of (s·W)×(s·H) pixels")] = 1.0,
     engine: Annotated[EngineName, typer.Option(help=ENGINE_HELP)] = "embree",
-    camera: Annotated[str | None, typer.Option(
-        help="Camera of a poses CSV or flight-app mission (" + CAMERA_FORMS + "); replaces the plan's own")] = None,
+    camera: PlanCameraOpt = None,
     focal_mm: FocalOpt = None,
     transform: Annotated[Path | None, typer.Option(help="JSON 4×4 similarity from the poses' frame to the model's")] = None,
     texture_cell: Annotated[float | None, typer.Option(

@@ -3,12 +3,10 @@ the reconstruction it produced."""
 
 from __future__ import annotations
 
-import json
 import math
 from pathlib import Path
 from typing import Annotated
 
-import numpy as np
 import typer
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 from rich.table import Table
@@ -16,7 +14,7 @@ from rich.table import Table
 from ..engines.base import EngineName
 from ..errors import SightplanError
 from .base import ENGINE_HELP, app, console
-from .camera_opts import CAMERA_FORMS, FocalOpt, cli_camera
+from .camera_opts import FocalOpt, PlanCameraOpt, cli_camera
 from .errors import cell, friendly_errors
 from .fourd import (
     ActualOpt,
@@ -55,14 +53,11 @@ def validation_table(v, title: str) -> Table:
 
 def registration_summary(rec) -> dict:
     """Frames registered, pose errors and the residual of a reconstruction, JSON-ready."""
-    reg = rec.registered
-    pe, re = rec.position_error_m[reg], rec.rotation_error_deg[reg]
-    pe, re = pe[np.isfinite(pe)], re[np.isfinite(re)]
-    stat = lambda a, f: float(f(a)) if len(a) else None  # noqa: E731
+    from ..loop.files import pose_error_summary
+
     return {"frames": len(rec.frame_names), "frames_registered": rec.n_registered,
-            "unregistered": [n for n, ok in zip(rec.frame_names, reg, strict=True) if not ok],
-            "position_error_m_mean": stat(pe, np.mean), "position_error_m_max": stat(pe, np.max),
-            "rotation_error_deg_mean": stat(re, np.mean), "rotation_error_deg_max": stat(re, np.max),
+            "unregistered": [n for n, ok in zip(rec.frame_names, rec.registered, strict=True) if not ok],
+            **pose_error_summary(rec.registered, rec.position_error_m, rec.rotation_error_deg),
             "residual_m": rec.residual_m, "scene_size_m": rec.scene_size_m,
             "residual_share": rec.residual_share if math.isfinite(rec.residual_share) else None,
             "points": len(rec.points)}
@@ -118,8 +113,7 @@ def validate_command(
     prefer_actual: ActualOpt = False,
     date_basis: BasisOpt = "finish",
     unscheduled: UnscheduledOpt = "present",
-    camera: Annotated[str | None, typer.Option(
-        help="Camera of a poses CSV or flight-app mission (" + CAMERA_FORMS + "); replaces the plan's own")] = None,
+    camera: PlanCameraOpt = None,
     focal_mm: FocalOpt = None,
     transform: Annotated[Path | None, typer.Option(help="JSON 4×4 similarity from the poses' frame to the model's")] = None,
     reality_scale: Annotated[float, typer.Option(help="Metres per reality file unit (0.001 for millimetres)")] = 1.0,
@@ -187,13 +181,10 @@ def validate_command(
     print_warnings(console, v.warnings)
     console.print(validation_table(v, f"{Path(str(model)).name} × {Path(plan).name} × {source.name}"))
     out.mkdir(parents=True, exist_ok=True)
-    report = v.to_dict()
-    report["inputs"] = {"model": str(model), "plan": str(plan), "reality": str(source),
-                        "reality_scale": reality_scale if rec is None else 1.0,
-                        "date": None if scene.date is None else str(scene.date)}
-    if rec is not None:
-        report["reconstruction"] = registration_summary(rec)
-    json_path = out / "validation.json"
-    json_path.write_text(json.dumps(report, indent=1, allow_nan=False, ensure_ascii=False, default=str), encoding="utf-8")
+    inputs = {"model": str(model), "plan": str(plan), "reality": str(source),
+              "reality_scale": reality_scale if rec is None else 1.0,
+              "date": None if scene.date is None else str(scene.date)}
+    extra = {} if rec is None else {"reconstruction": registration_summary(rec)}
+    json_path = v.write_json(out / "validation.json", inputs=inputs, **extra)
     csv_path = v.write_csv(out / "validation_elements.csv")
     console.print(f"wrote {json_path}, {csv_path}", highlight=False)

@@ -71,8 +71,24 @@ class Reconstruction:
         return self.residual_m / self.scene_size_m if self.scene_size_m > 0 else math.inf
 
 
-def _nan_to_none(values: NDArray) -> list[float | None]:
-    return [None if not math.isfinite(v) else float(v) for v in np.asarray(values, np.float64)]
+def pose_error_summary(registered: NDArray, position_error_m: NDArray, rotation_error_deg: NDArray) -> dict:
+    """Mean and max position error (m) and rotation error (°) over the registered frames (None when none has one)."""
+    reg = np.asarray(registered, bool)
+    out = {}
+    for key, values in (("position_error_m", position_error_m), ("rotation_error_deg", rotation_error_deg)):
+        v = np.asarray(values, np.float64)[reg]
+        v = v[np.isfinite(v)]
+        out[f"{key}_mean"] = float(v.mean()) if len(v) else None
+        out[f"{key}_max"] = float(v.max()) if len(v) else None
+    return out
+
+
+def _num(x) -> float | None:
+    """``x`` as a float, None where it is None or not finite (JSON has no NaN)."""
+    if x is None:
+        return None
+    x = float(x)
+    return x if math.isfinite(x) else None
 
 
 def write_reconstruction(rec: Reconstruction, directory: str | Path) -> list[Path]:
@@ -86,8 +102,8 @@ def write_reconstruction(rec: Reconstruction, directory: str | Path) -> list[Pat
     reg = d / REGISTRATION_FILE
     reg.write_text(json.dumps({
         "frames": [{"name": name, "registered": bool(ok), "position_error_m": pe, "rotation_error_deg": re}
-                   for name, ok, pe, re in zip(rec.frame_names, rec.registered, _nan_to_none(rec.position_error_m),
-                                               _nan_to_none(rec.rotation_error_deg), strict=True)],
+                   for name, ok, pe, re in zip(rec.frame_names, rec.registered, map(_num, rec.position_error_m),
+                                               map(_num, rec.rotation_error_deg), strict=True)],
         "similarity": {"scale": float(rec.scale), "R": np.asarray(rec.R, float).tolist(),
                        "t": np.asarray(rec.t, float).tolist()},
         "residual_m": float(rec.residual_m), "scene_size_m": float(rec.scene_size_m), "info": rec.info,

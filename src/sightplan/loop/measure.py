@@ -41,7 +41,7 @@ from ..model.scene import Scene
 from ..observations.features import FeatureSet
 from ..plan.types import Plan
 from ..validate import LAMBDA_PER_E, Validation, nearest_faces, sample_surface, validate
-from .files import Reconstruction
+from .files import Reconstruction, _num, pose_error_summary
 
 ProgressCallback = Callable[[int, int], None]
 
@@ -114,17 +114,11 @@ class ReconstructionMeasures:
 
     def summary(self) -> dict:
         """Totals: points on and off the model, frames registered, pose errors, mean completeness."""
-        reg = self.registered
         c = self.completeness[self.is_target]
         c = c[np.isfinite(c)]
-        pe, re = self.position_error_m[reg], self.rotation_error_deg[reg]
-        pe, re = pe[np.isfinite(pe)], re[np.isfinite(re)]
         return {"points": int(len(self.point_element)), "points_on_model": self.n_points_on_model,
-                "frames": len(self.frame_names), "frames_registered": int(reg.sum()),
-                "position_error_m_mean": float(pe.mean()) if len(pe) else None,
-                "position_error_m_max": float(pe.max()) if len(pe) else None,
-                "rotation_error_deg_mean": float(re.mean()) if len(re) else None,
-                "rotation_error_deg_max": float(re.max()) if len(re) else None,
+                "frames": len(self.frame_names), "frames_registered": int(self.registered.sum()),
+                **pose_error_summary(self.registered, self.position_error_m, self.rotation_error_deg),
                 "residual_m": self.residual_m, "residual_share": (self.residual_m / self.scene_size_m
                                                                  if self.scene_size_m > 0 else None),
                 "elements_visible": int((self.visible_samples[self.is_target] > 0).sum()),
@@ -151,11 +145,6 @@ class ReconstructionMeasures:
                 "radius_m": self.radius_m, "resolution_m_px": self.resolution_m_px,
                 "samples_per_m2": self.samples_per_m2, "summary": self.summary(), "parameters": dict(self.parameters),
                 "warnings": list(self.warnings), "elements": self.element_rows(), "frames": self.frame_rows()}
-
-
-def _num(x: float) -> float | None:
-    x = float(x)
-    return x if math.isfinite(x) else None
 
 
 # =========================================================================== pieces
@@ -297,9 +286,12 @@ def measure_reconstruction(
     reach = np.nextafter(radius_m, np.inf)
     by_point = np.argsort(point_element, kind="stable")
     p_starts = np.searchsorted(point_element[by_point], np.arange(z + 1))
+    by_sample = np.flatnonzero(seen)
+    by_sample = by_sample[np.argsort(s_elem[by_sample], kind="stable")]  # the visible samples, element by element
+    s_starts = np.searchsorted(s_elem[by_sample], np.arange(z + 1))
     for i in np.flatnonzero((visible > 0) & (n_points > 0)):
         mine = pts[by_point[p_starts[i]:p_starts[i + 1]]]
-        vis = s_pts[seen & (s_elem == i)]
+        vis = s_pts[by_sample[s_starts[i]:s_starts[i + 1]]]
         d, _ = cKDTree(mine).query(vis, k=1, distance_upper_bound=reach)
         covered[i] = int(np.isfinite(d).sum())
 

@@ -22,7 +22,7 @@ from ..report.colours import colour_bounds, metric_colours, traffic_light
 from ..report.files import write_bytes
 from ..report.html import CSS
 from ..report.overview import OCCLUDER, UNSEEN, shaded_image
-from ..study import MODERATE, STRONG
+from ..study import MODERATE, STRONG, strength
 from ..version import __version__
 from .measure import ReconstructionMeasures
 from .study import LABELS, PAPER_QUALITIES, LoopStudy
@@ -69,9 +69,9 @@ def _f(v, spec: str) -> str:
 
 
 def _cls(r) -> str:
-    if r is None:
-        return ""
-    return "strong" if abs(r) >= STRONG else "moderate" if abs(r) >= MODERATE else ""
+    """The cell's class: the strength of r when it is strong or moderate."""
+    s = strength(r)
+    return s if s in ("strong", "moderate") else ""
 
 
 def comparison_table(study: LoopStudy) -> str:

@@ -132,11 +132,8 @@ def loop(
                                 progress=_stage(progress, "validate"))
     timings["validate_s"] = time.perf_counter() - t0
     paths: dict[str, Path] = {}
-    report = v.to_dict()
-    report["inputs"] = {**(labels or {}), "render_scale": scale, "reconstruction": str(reconstruction or out / "recon")}
-    paths["validation"] = out / "validation.json"
-    paths["validation"].write_text(json.dumps(report, indent=1, allow_nan=False, ensure_ascii=False, default=str),
-                                   encoding="utf-8")
+    paths["validation"] = v.write_json(out / "validation.json", inputs={
+        **(labels or {}), "render_scale": scale, "reconstruction": str(reconstruction or out / "recon")})
     paths["validation_elements"] = v.write_csv(out / "validation_elements.csv")
 
     t0 = time.perf_counter()

@@ -36,6 +36,7 @@ from numpy.typing import NDArray
 from ..errors import SightplanError
 from ..evaluate import Evaluation
 from ..study import Study, pearson, read_study, strength
+from .files import _num
 from .measure import ReconstructionMeasures
 
 PREDICTORS = ("VR", "R", "O", "pixels", "seen_share")
@@ -319,13 +320,6 @@ class LoopStudy:
 def _ours(c: Correlation) -> dict:
     return {"n": c.n, "pearson_r": c.pearson_r, "pearson_p": c.pearson_p, "spearman_r": c.spearman_r,
             "spearman_p": c.spearman_p, "strength": c.strength}
-
-
-def _num(x) -> float | None:
-    if x is None:
-        return None
-    x = float(x)
-    return x if math.isfinite(x) else None
 
 
 def _cell(v) -> str:

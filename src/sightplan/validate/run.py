@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import csv
+import json
 import math
 import os
 import time
@@ -97,6 +98,13 @@ class Validation:
                 "registration_error_m": self.registration_error_m, "lambda_m": self.lam, "reality": self.reality_kind,
                 "parameters": dict(self.parameters), "counts": dict(self.counts), "warnings": list(self.warnings),
                 "timings": dict(self.timings), "elements": self.element_rows()}
+
+    def write_json(self, path: str | Path, **extra) -> Path:
+        """:meth:`to_dict` with the ``extra`` entries after it (``inputs``, say), as JSON."""
+        path = Path(path)
+        path.write_text(json.dumps({**self.to_dict(), **extra}, indent=1, allow_nan=False, ensure_ascii=False,
+                                   default=str), encoding="utf-8")
+        return path
 
     def write_csv(self, path: str | Path) -> Path:
         """The element rows as CSV (empty cell for an undefined A_i)."""

@@ -56,18 +56,13 @@ def _nearest_within(points, idx, tri, r2, best, best_sq):  # pragma: no cover - 
                 best[i] = f
 
 
-def _bisect(tri: NDArray[np.float64], max_edge: float, limit: int | None = None) -> NDArray[np.float64] | None:
-    """Triangles (m, 3, 3) split at the midpoint of their longest edge until no edge exceeds ``max_edge``.
+def _bisect(tri: NDArray[np.float64], ids: NDArray[np.int64], max_edge: float, limit: int | None = None
+            ) -> tuple[NDArray[np.float64], NDArray[np.int64]] | None:
+    """Triangles (m, 3, 3) split at the midpoint of their longest edge until no edge exceeds ``max_edge``, each piece
+    with the id (of ``ids``) of the triangle it came from.
 
     The pieces cover exactly the same surface. None once there would be more than ``limit`` pieces.
     """
-    out = _bisect_with_ids(tri, np.zeros(len(tri), np.int64), max_edge, limit)
-    return None if out is None else out[0]
-
-
-def _bisect_with_ids(tri: NDArray[np.float64], ids: NDArray[np.int64], max_edge: float, limit: int | None = None
-                     ) -> tuple[NDArray[np.float64], NDArray[np.int64]] | None:
-    """:func:`_bisect`, each piece with the id of the triangle it came from."""
     done = []
     done_ids = []
     n_done = 0
@@ -94,6 +89,30 @@ def _bisect_with_ids(tri: NDArray[np.float64], ids: NDArray[np.int64], max_edge:
         return np.zeros((0, 3, 3)), np.zeros(0, np.int64)
     return np.concatenate(done), np.concatenate(done_ids)
 
+def _pieces_near(pts: NDArray[np.float64], vertices: ArrayLike, faces: NDArray, radius: float, edge_per_radius: float
+                 ) -> tuple[NDArray[np.float64], NDArray[np.int64], NDArray[np.float64], NDArray[np.float64]] | None:
+    """The triangles that reach the points' box grown by ``radius``, bisected until no edge exceeds
+    max(edge_per_radius·radius, √(4·area/10⁶)) (doubled while that makes over 4·10⁶ pieces, as slivers can):
+    (m, 3, 3) pieces, (m,) the face each came from, (m, 3) their centroids and (m,) their largest centroid–vertex
+    distances; None when no triangle is near."""
+    tri = np.asarray(vertices, np.float64)[faces]
+    lo, hi = pts.min(axis=0) - radius, pts.max(axis=0) + radius
+    keep = np.flatnonzero((tri.max(axis=1) >= lo).all(axis=1) & (tri.min(axis=1) <= hi).all(axis=1))
+    if len(keep) == 0:
+        return None
+    tri = tri[keep]
+    area = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1).sum()
+    edge = max(edge_per_radius * radius, math.sqrt(4.0 * area / _MAX_PIECES), 1e-6)
+    cut = _bisect(tri, keep.astype(np.int64), edge, _PIECE_LIMIT)
+    while cut is None:
+        edge *= 2.0
+        cut = _bisect(tri, keep.astype(np.int64), edge, _PIECE_LIMIT)
+    pieces = np.ascontiguousarray(cut[0])
+    centroid = pieces.mean(axis=1)
+    reach = np.sqrt(np.max([((pieces[:, j] - centroid) ** 2).sum(axis=1) for j in range(3)], axis=0))
+    return pieces, cut[1], centroid, reach
+
+
 def points_near_mesh(points: ArrayLike, vertices: ArrayLike, faces: ArrayLike, radius: float) -> NDArray[np.bool_]:
     """(n,) whether each point lies within ``radius`` (m) of the triangle mesh — exact point–triangle distances.
 
@@ -109,20 +128,11 @@ def points_near_mesh(points: ArrayLike, vertices: ArrayLike, faces: ArrayLike, r
     faces = np.asarray(faces)
     if len(pts) == 0 or len(faces) == 0:
         return out
-    tri = np.asarray(vertices, np.float64)[faces]
-    lo, hi = pts.min(axis=0) - radius, pts.max(axis=0) + radius
-    tri = tri[(tri.max(axis=1) >= lo).all(axis=1) & (tri.min(axis=1) <= hi).all(axis=1)]
-    if len(tri) == 0:
+    cut = _pieces_near(pts, vertices, faces, radius, 4.0)
+    if cut is None:
         return out
-    area = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1).sum()
-    edge = max(4.0 * radius, math.sqrt(4.0 * area / _MAX_PIECES), 1e-6)
-    pieces = _bisect(tri, edge, _PIECE_LIMIT)
-    while pieces is None:
-        edge *= 2.0
-        pieces = _bisect(tri, edge, _PIECE_LIMIT)
-    pieces = np.ascontiguousarray(pieces)
-    centroid = pieces.mean(axis=1)
-    reach = math.sqrt(max(float(((pieces[:, j] - centroid) ** 2).sum(axis=1).max()) for j in range(3)))
+    pieces, _, centroid, reach_each = cut
+    reach = float(reach_each.max())
     bound = radius + reach + 1e-9 * (1.0 + float(np.abs(centroid).max()))
     tree = cKDTree(centroid)
     m = len(pieces)
@@ -181,21 +191,10 @@ def nearest_faces(points: ArrayLike, vertices: ArrayLike, faces: ArrayLike, radi
     faces = np.asarray(faces)
     if len(pts) == 0 or len(faces) == 0:
         return face, dist
-    tri = np.asarray(vertices, np.float64)[faces]
-    lo, hi = pts.min(axis=0) - radius, pts.max(axis=0) + radius
-    keep = np.flatnonzero((tri.max(axis=1) >= lo).all(axis=1) & (tri.min(axis=1) <= hi).all(axis=1))
-    if len(keep) == 0:
+    cut = _pieces_near(pts, vertices, faces, radius, 1.0)
+    if cut is None:
         return face, dist
-    tri = tri[keep]
-    area = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1).sum()
-    edge = max(radius, math.sqrt(4.0 * area / _MAX_PIECES), 1e-6)
-    cut = _bisect_with_ids(tri, keep.astype(np.int64), edge, _PIECE_LIMIT)
-    while cut is None:
-        edge *= 2.0
-        cut = _bisect_with_ids(tri, keep.astype(np.int64), edge, _PIECE_LIMIT)
-    pieces, origin = np.ascontiguousarray(cut[0]), cut[1]
-    centroid = pieces.mean(axis=1)
-    reach = np.sqrt(np.max([((pieces[:, j] - centroid) ** 2).sum(axis=1) for j in range(3)], axis=0))
+    pieces, origin, centroid, reach = cut
     # pieces grouped by their reach (factors of 2), so that small pieces are searched within a small bound
     group = np.floor(np.log2(np.maximum(reach, 1e-9) / max(float(reach.max()), 1e-9))).astype(np.int64)
     group = np.maximum(group, -6)
