@@ -287,3 +287,19 @@ def test_views_aimed_at_a_target_look_at_its_centre_from_clear_positions(box):
     np.testing.assert_allclose(offsets, [0, 2, 2, 2, 2], atol=1e-9)
     # a position inside the safety distance gives nothing
     assert aimed_views(box, CAM, G, np.array([0]), [np.array([[4.0, -3.0, 4.0]])], 0.5, min_height_m=None) is None
+
+
+def test_a_start_plan_keeps_its_own_camera_when_it_shares_the_candidates_camera_name():
+    """A plan to improve made with other intrinsics under the same camera name: its frames keep their camera in the
+    pool the optimiser casts, the candidates theirs."""
+    from sightplan.geometry.poses import R_from_gimbal
+    from sightplan.optimize.run import _concatenated
+    from sightplan.plan.types import Plan
+
+    other = PinholeCamera(600, 400, 300.0, 300.0, 300.0, 200.0, CAM.name)
+    R = R_from_gimbal(np.zeros(2), np.zeros(2))
+    start = Plan.build(other, R, np.array([[0.0, -20.0, 4.0], [4.0, -20.0, 4.0]]))
+    cands = Plan.build(CAM, R, np.array([[8.0, -20.0, 4.0], [12.0, -20.0, 4.0]]))
+    pool = _concatenated([start, cands, cands], {})
+    assert [pool.camera_of(i) for i in range(6)] == [other, other, CAM, CAM, CAM, CAM]
+    assert len(pool.cameras) == 2 and pool.missions[0].stop == 6

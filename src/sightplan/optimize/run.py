@@ -288,10 +288,23 @@ def _aircraft(flight: FlightSettings) -> Aircraft | None:
 
 
 def _concatenated(plans: list[Plan], parameters: dict) -> Plan:
-    """The frames of ``plans`` one after the other, as one mission of candidates with ``parameters``."""
+    """The frames of ``plans`` one after the other, as one mission of candidates with ``parameters``. A camera id
+    that an earlier plan gives another camera is renamed (``"p4p (2)"``): each frame keeps its own camera."""
     n = sum(len(p) for p in plans)
-    return Plan(cameras={k: v for p in plans for k, v in p.cameras.items()},
-                frame_camera=np.concatenate([p.frame_camera for p in plans]),
+    cameras: dict = {}
+    frame_camera = []
+    for p in plans:
+        rename = {}
+        for k, cam in p.cameras.items():
+            new, m = k, 2
+            while new in cameras and cameras[new] != cam:
+                new, m = f"{k} ({m})", m + 1
+            cameras[new], rename[k] = cam, new
+        fc = p.frame_camera
+        if any(k != v for k, v in rename.items()):
+            fc = np.array([rename[c] for c in fc] + [None], dtype=object)[:-1]
+        frame_camera.append(fc)
+    return Plan(cameras=cameras, frame_camera=np.concatenate(frame_camera),
                 R_world_camera=np.concatenate([p.R_world_camera for p in plans]),
                 C_world=np.concatenate([p.C_world for p in plans]),
                 frame_names=np.concatenate([p.frame_names for p in plans]),
