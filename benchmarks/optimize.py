@@ -7,7 +7,7 @@ camera (P4P) and safety distance (10 m), over a grid of their overlaps, split an
 same scale and scored against the same targets (k = 3 serving views, SSD ≤ the camera's at 10 m × 1.5, θ ≤ 45°).
 The best template is the one that passes the flight checks and meets the most targets (then the fewest minutes); a
 template that fails the checks (line of sight, battery, safety) cannot be flown as planned, so it is listed but not
-chosen unless none passes. The optimiser then runs twice:
+chosen unless none passes. The optimiser then runs three times:
 
 - at equal targets: no budget (it stops when no view adds anything) — frames and minutes against the best template;
 - at the template's targets: the same, with every target the template does not meet skipped — the plan that meets

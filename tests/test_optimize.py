@@ -91,6 +91,9 @@ def test_the_removal_pass_keeps_the_objective(table):
         S = rng.choice(t.n_views, size=30, replace=False)
         kept, dropped = remove_redundant(t, S)
         assert t.value(kept) == pytest.approx(t.value(S)) and len(kept) + len(dropped) == 30
+        assert len(dropped) > 0  # 30 views for five faces that need two each: some are spare
+        # and every view left is needed: without any one of them F falls
+        assert all(t.value(np.delete(kept, j)) < t.value(kept) - 1e-12 for j in range(len(kept)))
 
 
 def test_an_optimised_plan_passes_the_flight_checks_and_exports_everywhere(box, tmp_path):
@@ -119,8 +122,49 @@ def test_a_frame_budget_is_kept_and_a_plan_can_be_improved(box, tmp_path):
     settings = OptimizeSettings(scale=0.5, cache_dir=tmp_path / "cache")
     small = optimize(box, CAM, Targets(k=2), Budget(frames=6), settings=settings)
     assert len(small.plan) <= 6 and small.n_met >= 1
+    assert (_met_again(box, small.plan, Targets(k=2)) == small.met).all()
     better = optimize(box, CAM, Targets(k=2), settings=settings, start=small.plan)
     assert better.n_met == 5 and better.report.ok
+
+
+def _met_again(scene: Scene, plan, targets: Targets) -> np.ndarray:
+    """The elements a plan meets, from a cast of the plan itself (no cache)."""
+    ev = evaluate(scene, plan, EvaluationSettings(scale=0.5), cache_dir=False)
+    et = targets.resolve(scene, default_ssd(CAM, G))
+    return CoverageTable.build(ev.observations, et).met(np.arange(len(plan)))
+
+
+def test_a_budget_of_minutes_is_kept(box, tmp_path):
+    """Under a budget of one minute the flight, timed again by the independent checks, takes at most 60 s, and
+    what the optimiser says it meets is what a cast of its plan meets."""
+    flight = FlightSettings(safety_distance_m=G)
+    result = optimize(box, CAM, Targets(k=2), Budget(minutes=1.0), flight=flight,
+                      settings=OptimizeSettings(scale=0.5, cache_dir=tmp_path / "cache"))
+    report = check_plan(box, result.plan, flight)
+    assert report.ok, report.violations
+    assert 0 < report.total_time_s <= 60 and report.total_time_s == pytest.approx(result.report.total_time_s)
+    assert result.n_met >= 1 and (_met_again(box, result.plan, Targets(k=2)) == result.met).all()
+
+
+def test_a_one_frame_mission_is_not_joined_across_a_leg_too_near_the_model(box):
+    """The flight checks join a one-frame mission to its neighbour from the same station only where the leg between
+    them keeps the safety distance: not through the box, but along its south side 12 m out."""
+    from sightplan.geometry.poses import R_from_gimbal
+    from sightplan.plan.checks.feasibility import merge_single_frames
+    from sightplan.plan.types import Mission, Plan
+
+    station = (4.0, -40.0, 1.5)
+
+    def spans(last, *obstacles):
+        C = np.array([[0.0, -12.0, 4.0], [4.0, -12.0, 4.0], last])
+        plan = Plan.build(CAM, R_from_gimbal(np.zeros(3), np.zeros(3)), C,
+                          missions=(Mission("a", 0, 2, station), Mission("b", 2, 3, station)))
+        return [(m.start, m.stop) for m in merge_single_frames(plan, *obstacles).missions]
+
+    behind = [4.0, 20.0, 4.0]  # north of the box: the leg from the south side cuts through it
+    assert spans(behind) == [(0, 3)]
+    assert spans(behind, box, G) == [(0, 2), (2, 3)]
+    assert spans([30.0, -12.0, 4.0], box, G) == [(0, 3)]
 
 
 def test_targets_from_toml_rules(box, tmp_path):
@@ -246,3 +290,19 @@ def test_views_aimed_at_a_target_look_at_its_centre_from_clear_positions(box):
     np.testing.assert_allclose(offsets, [0, 2, 2, 2, 2], atol=1e-9)
     # a position inside the safety distance gives nothing
     assert aimed_views(box, CAM, G, np.array([0]), [np.array([[4.0, -3.0, 4.0]])], 0.5, min_height_m=None) is None
+
+
+def test_a_start_plan_keeps_its_own_camera_when_it_shares_the_candidates_camera_name():
+    """A plan to improve made with other intrinsics under the same camera name: its frames keep their camera in the
+    pool the optimiser casts, the candidates theirs."""
+    from sightplan.geometry.poses import R_from_gimbal
+    from sightplan.optimize.run import _concatenated
+    from sightplan.plan.types import Plan
+
+    other = PinholeCamera(600, 400, 300.0, 300.0, 300.0, 200.0, CAM.name)
+    R = R_from_gimbal(np.zeros(2), np.zeros(2))
+    start = Plan.build(other, R, np.array([[0.0, -20.0, 4.0], [4.0, -20.0, 4.0]]))
+    cands = Plan.build(CAM, R, np.array([[8.0, -20.0, 4.0], [12.0, -20.0, 4.0]]))
+    pool = _concatenated([start, cands, cands], {})
+    assert [pool.camera_of(i) for i in range(6)] == [other, other, CAM, CAM, CAM, CAM]
+    assert len(pool.cameras) == 2 and pool.missions[0].stop == 6

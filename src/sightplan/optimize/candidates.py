@@ -204,10 +204,13 @@ def aimed_views(scene: Scene, camera: Camera, safety_distance_m: float, elements
     g = float(safety_distance_m)
     areas = scene.face_areas()
     centroids = scene.vertices[scene.faces].mean(axis=1)
+    elements = np.asarray(elements, np.int64)
+    by_element = np.argsort(scene.face_element, kind="stable")  # each element's faces together, in face order
+    bounds = np.searchsorted(scene.face_element[by_element], np.stack([elements, elements + 1]))
     C, look_at = [], []
-    for e, P in zip(np.asarray(elements, np.int64), seen_from, strict=True):
-        sel = scene.face_element == e
-        if not sel.any() or not len(P):
+    for (lo, hi), P in zip(bounds.T, seen_from, strict=True):
+        sel = by_element[lo:hi]
+        if not len(sel) or not len(P):
             continue
         a = areas[sel]
         centre = (centroids[sel] * a[:, None]).sum(axis=0) / max(a.sum(), 1e-300)

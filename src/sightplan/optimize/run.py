@@ -23,7 +23,7 @@ from scipy.sparse import csr_matrix
 from ..camera.models import Camera, PinholeCamera
 from ..errors import PlanError
 from ..evaluate import EvaluationSettings, evaluate
-from ..metrics import MetricParams, compute_metrics
+from ..metrics import FrameMetrics, MetricParams, frame_metrics
 from ..model.scene import Scene
 from ..observations.table import Observations
 from ..plan.checks.battery import Aircraft
@@ -154,25 +154,25 @@ def optimize(scene: Scene, camera: Camera, targets: Targets | None = None, budge
     t0 = time.perf_counter()
     metric = MetricParams(omega=targets.omega_px, k=targets.k, min_track=targets.min_track,
                           min_features=targets.min_features)
-    ev = evaluate(scene, pool, EvaluationSettings(engine=settings.engine, scale=settings.scale,  # type: ignore[arg-type]
-                                                  threads=settings.threads, metric=metric),
-                  cache_dir=settings.cache_dir,
-                  progress=None if progress is None else (lambda i, n: progress("casting candidates", i, n)))
-    table = CoverageTable.build(ev.observations, et)
+    cast_settings = EvaluationSettings(engine=settings.engine, scale=settings.scale,  # type: ignore[arg-type]
+                                       threads=settings.threads, metric=metric)
+
+    def cast(views: Plan, what: str) -> Observations:
+        return evaluate(scene, views, cast_settings, cache_dir=settings.cache_dir,
+                        progress=None if progress is None else (lambda i, n: progress(what, i, n))).observations
+
+    obs = cast(pool, "casting candidates")
+    table = CoverageTable.build(obs, et)
     if settings.aimed_views:  # targets seen but not met: views aimed at them from near those that see them
         aimed = _aimed(scene, camera, pool, table, flight, cands.plan.parameters["spacing_m"])
-        if aimed is not None:
+        if aimed is not None:  # only the aimed views are cast: the pool's frames follow them unchanged
             pool = _concatenated([pool, aimed], pool.parameters)
-            ev = evaluate(scene, pool, EvaluationSettings(engine=settings.engine, scale=settings.scale,  # type: ignore[arg-type]
-                                                          threads=settings.threads, metric=metric),
-                          cache_dir=settings.cache_dir,
-                          progress=None if progress is None else (lambda i, n: progress("casting aimed views", i, n)))
-            table = CoverageTable.build(ev.observations, et)
+            obs = Observations.concatenate([obs, cast(aimed, "casting aimed views")])
+            table = CoverageTable.build(obs, et)
     timings["cast_s"] = time.perf_counter() - t0
-    obs = ev.observations
 
     t0 = time.perf_counter()
-    blind = int(sum(len(table.sees(f)) == 0 for f in range(n_start, table.n_views)))
+    blind = int((np.diff(table.seen_ptr)[n_start:] == 0).sum())  # candidates that see no target
     sel = greedy(table, budget.frames, start=np.arange(n_start) if n_start else None)
     timings["select_s"] = time.perf_counter() - t0
     if progress is not None:
@@ -217,10 +217,9 @@ def optimize(scene: Scene, camera: Camera, targets: Targets | None = None, budge
         progress("routing", 1, 1)
 
     t0 = time.perf_counter()
-    report, flown_views, forbidden, views = _repair_stability(obs, metric, views, report, flown_views, forbidden,
-                                                              flown, budget, pool_size=len(pool))
+    report, flown_views, forbidden, views, frames = _repair_stability(obs, metric, views, report, flown_views,
+                                                                      forbidden, flown, budget, pool_size=len(pool))
     timings["stability_s"] = time.perf_counter() - t0
-    frames = compute_metrics(obs.select_frames(flown_views), metric).frames
     unstable = int((~frames.stable).sum())
     blind_frames = int((frames.pixels_on_targets <= 0).sum())  # the waste: frames that see no target at all
     met = table.met(views)
@@ -236,18 +235,17 @@ def optimize(scene: Scene, camera: Camera, targets: Targets | None = None, budge
 
 def _repair_stability(obs: Observations, metric: MetricParams, views: NDArray, report: FeasibilityReport,
                       flown_views: NDArray, forbidden: int, flown: Callable, budget: Budget, pool_size: int,
-                      rounds: int = REPAIR_ROUNDS) -> tuple[FeasibilityReport, NDArray, int, NDArray]:
+                      rounds: int = REPAIR_ROUNDS) -> tuple[FeasibilityReport, NDArray, int, NDArray, FrameMetrics]:
     """Views added for frames that would not register: for each frame with ν_f < Λ along the flown order, the
     unchosen candidate sharing the most features with it, then the route again; a round is kept only when fewer
-    frames are unstable and the budget still holds."""
+    frames are unstable and the budget still holds. Returns the kept round's flight and its frames' metrics."""
     F = csr_matrix((np.ones(len(obs.feature_frame)), (obs.feature_frame, obs.feature_id)),
                    shape=(pool_size, max(obs.n_features, 1)))
-    best = (report, flown_views, forbidden, views)
-    n_unstable = int((~compute_metrics(obs.select_frames(flown_views), metric).frames.stable).sum())
+    best = (report, flown_views, forbidden, views, frame_metrics(obs.select_frames(flown_views), metric))
     for _ in range(rounds):
-        if n_unstable == 0 or (budget.frames is not None and len(best[3]) >= budget.frames):
+        stable = best[4].stable
+        if stable.all() or (budget.frames is not None and len(best[3]) >= budget.frames):
             break
-        stable = compute_metrics(obs.select_frames(best[1]), metric).frames.stable
         shared = (F @ F[best[1][~stable]].T).toarray()  # (pool, unstable): features in common
         shared[best[3]] = -1
         add = np.unique(shared.argmax(axis=0)[shared.max(axis=0) > 0])
@@ -257,10 +255,10 @@ def _repair_stability(obs: Observations, metric: MetricParams, views: NDArray, r
             break
         candidate = np.concatenate([best[3], add])
         r, fv, fb = flown(candidate)
-        count = int((~compute_metrics(obs.select_frames(fv), metric).frames.stable).sum())
-        if count >= n_unstable or not _fits(r, budget):
+        frames = frame_metrics(obs.select_frames(fv), metric)
+        if (~frames.stable).sum() >= (~stable).sum() or not _fits(r, budget):
             break
-        best, n_unstable = (r, fv, fb, candidate), count
+        best = (r, fv, fb, candidate, frames)
     return best
 
 
@@ -274,9 +272,11 @@ def _aimed(scene: Scene, camera: Camera, pool: Plan, table: CoverageTable, fligh
         return None
     view_of = np.repeat(np.arange(table.n_views), np.diff(table.seen_ptr))
     elements = np.flatnonzero(short)
+    by_element = np.argsort(table.seen_el, kind="stable")  # each element's entries together, views ascending
+    bounds = np.searchsorted(table.seen_el[by_element], np.stack([elements, elements + 1]))
     seen_from = []
-    for e in elements:
-        views = view_of[table.seen_el == e]
+    for a, b in bounds.T:
+        views = view_of[by_element[a:b]]
         pick = views[np.unique(np.linspace(0, len(views) - 1, min(AIM_FROM, len(views))).round().astype(int))]
         seen_from.append(pool.C_world[pick])
     return aimed_views(scene, camera, flight.safety_distance_m, elements, seen_from, spacing_m,
@@ -288,10 +288,23 @@ def _aircraft(flight: FlightSettings) -> Aircraft | None:
 
 
 def _concatenated(plans: list[Plan], parameters: dict) -> Plan:
-    """The frames of ``plans`` one after the other, as one mission of candidates with ``parameters``."""
+    """The frames of ``plans`` one after the other, as one mission of candidates with ``parameters``. A camera id
+    that an earlier plan gives another camera is renamed (``"p4p (2)"``): each frame keeps its own camera."""
     n = sum(len(p) for p in plans)
-    return Plan(cameras={k: v for p in plans for k, v in p.cameras.items()},
-                frame_camera=np.concatenate([p.frame_camera for p in plans]),
+    cameras: dict = {}
+    frame_camera = []
+    for p in plans:
+        rename = {}
+        for k, cam in p.cameras.items():
+            new, m = k, 2
+            while new in cameras and cameras[new] != cam:
+                new, m = f"{k} ({m})", m + 1
+            cameras[new], rename[k] = cam, new
+        fc = p.frame_camera
+        if any(k != v for k, v in rename.items()):
+            fc = np.array([rename[c] for c in fc] + [None], dtype=object)[:-1]
+        frame_camera.append(fc)
+    return Plan(cameras=cameras, frame_camera=np.concatenate(frame_camera),
                 R_world_camera=np.concatenate([p.R_world_camera for p in plans]),
                 C_world=np.concatenate([p.C_world for p in plans]),
                 frame_names=np.concatenate([p.frame_names for p in plans]),

@@ -67,11 +67,8 @@ class CoverageTable:
         """q_i and s_i of the set ``views``, from scratch."""
         z = len(self.k)
         views = np.asarray(views, np.int64)
-        q = np.bincount(np.concatenate([self.serves(f) for f in views]) if len(views) else np.zeros(0, np.int64),
-                        minlength=z)
-        s = np.bincount(np.concatenate([self.sees(f) for f in views]) if len(views) else np.zeros(0, np.int64),
-                        minlength=z)
-        return q, s
+        return (np.bincount(self.serve_el[_rows(self.serve_ptr, views)], minlength=z),
+                np.bincount(self.seen_el[_rows(self.seen_ptr, views)], minlength=z))
 
     def value(self, views: NDArray) -> float:
         """F of the set ``views``, from scratch."""
@@ -90,6 +87,13 @@ class CoverageTable:
         short = q[a] < self.k[a]
         return float((self.weight[a][short] / self.k[a][short]).sum()
                      + SEEN_WEIGHT * self.weight[b][s[b] == 0].sum())
+
+
+def _rows(ptr: NDArray[np.int64], views: NDArray[np.int64]) -> NDArray[np.int64]:
+    """The entries ``ptr[f]:ptr[f + 1]`` of each of ``views``, one after the other."""
+    start, length = ptr[views], ptr[views + 1] - ptr[views]
+    offset = np.repeat(np.cumsum(length) - length, length)
+    return np.repeat(start, length) + np.arange(int(length.sum())) - offset
 
 
 @dataclass(frozen=True)
