@@ -30,10 +30,8 @@ import numpy as np
 
 from sightplan.camera.catalogue import get_camera
 from sightplan.errors import SightplanError
-from sightplan.evaluate import EvaluationSettings, evaluate
-from sightplan.metrics import MetricParams
 from sightplan.model.load import load_model
-from sightplan.optimize import Budget, CoverageTable, OptimizeSettings, Rule, Targets, default_ssd, optimize
+from sightplan.optimize import Budget, OptimizeSettings, Rule, Targets, default_ssd, optimize, score_plan
 from sightplan.plan.checks.feasibility import FlightSettings
 from sightplan.plan.ground import targets_only
 from sightplan.plan.templates.registry import plan_from_template
@@ -48,16 +46,12 @@ G = 10.0
 
 
 def score(scene, plan, report, et, scale, cache) -> dict:
-    ev = evaluate(scene, plan, EvaluationSettings(scale=scale, metric=MetricParams()), cache_dir=cache)
-    em = ev.metrics.elements
-    met = CoverageTable.build(ev.observations, et).met(np.arange(len(plan)))
-    R = em.R[em.visible & et.active]
+    s = score_plan(scene, plan, et, scale=scale, cache_dir=cache)
     return {"frames": len(plan), "minutes": round((report.total_time_s or 0) / 60, 2), "batteries": report.batteries,
-            "ok": report.ok, "met": int(met.sum()), "met_set": np.flatnonzero(met).tolist(),
-            "VC_pct": round(100 * (ev.metrics.plan.VC or 0), 2),
-            "VR_ge_k": int(((em.VR >= 3) & et.active).sum()),
-            "median_R_mm_px": None if not len(R) else round(1000 * float(np.median(R)), 3),
-            "unstable_frames": int((~ev.metrics.frames.stable).sum())}
+            "ok": report.ok, "met": int(s.met.sum()), "met_set": np.flatnonzero(s.met).tolist(),
+            "VC_pct": round(100 * (s.VC or 0), 2), "VR_ge_k": s.VR_ge_k,
+            "median_R_mm_px": None if s.median_R_m_px is None else round(1000 * s.median_R_m_px, 3),
+            "unstable_frames": s.unstable_frames}
 
 
 def templates(scene, cam, flight):

@@ -306,3 +306,18 @@ def test_a_start_plan_keeps_its_own_camera_when_it_shares_the_candidates_camera_
     pool = _concatenated([start, cands, cands], {})
     assert [pool.camera_of(i) for i in range(6)] == [other, other, CAM, CAM, CAM, CAM]
     assert len(pool.cameras) == 2 and pool.missions[0].stop == 6
+
+
+def test_a_plan_is_scored_against_the_targets_from_its_own_evaluation(box, tmp_path):
+    """score_plan on an optimised plan counts again, from a cast of the plan itself, what the optimiser says it
+    met, with every median R_i within the SSD bound; one frame alone meets nothing at k = 2."""
+    from sightplan.optimize import score_plan
+
+    settings = OptimizeSettings(scale=0.5, cache_dir=tmp_path / "cache")
+    result = optimize(box, CAM, Targets(k=2), settings=settings)
+    et = result.targets
+    s = score_plan(box, result.plan, et, scale=0.5, cache_dir=False)
+    assert np.array_equal(s.met, result.met) and s.met.sum() == 5
+    assert s.VR_ge_k == 5 and s.median_R_m_px is not None and s.median_R_m_px <= default_ssd(CAM, G)
+    one = score_plan(box, result.plan.subset(np.array([0])), et, scale=0.5, cache_dir=False)
+    assert one.met.sum() == 0 and one.VR_ge_k == 0

@@ -5,7 +5,6 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Annotated
 
-import numpy as np
 import typer
 from rich.table import Table
 
@@ -100,13 +99,10 @@ def optimize_command(
 def _compare(scene, cam, result, flight, settings) -> None:
     """The optimised plan beside the facade, orbit and lawn-mower templates on the same model: frames, minutes,
     targets met, VC and median R_i."""
-    from ..evaluate import EvaluationSettings, evaluate
-    from ..metrics import MetricParams
-    from ..optimize import CoverageTable
+    from ..optimize import score_plan
     from ..plan.templates.registry import plan_from_template
 
     et = result.targets
-    metric = MetricParams()
     rows = []
     plans = [("optimised", result.plan, result.report)]
     for name in COMPARED:
@@ -117,13 +113,8 @@ def _compare(scene, cam, result, flight, settings) -> None:
             continue
         plans.append((name, plan, report))
     for name, plan, report in plans:
-        ev = evaluate(scene, plan, EvaluationSettings(scale=settings.scale, engine=settings.engine, metric=metric),
-                      cache_dir=settings.cache_dir)
-        met = CoverageTable.build(ev.observations, et).met(np.arange(len(plan)))
-        em = ev.metrics.elements
-        R = em.R[em.visible & et.active]
-        rows.append((name, len(plan), report.total_time_s, int(met.sum()), ev.metrics.plan.VC, float(np.median(R)) if
-                     len(R) else None))
+        s = score_plan(scene, plan, et, scale=settings.scale, engine=settings.engine, cache_dir=settings.cache_dir)
+        rows.append((name, len(plan), report.total_time_s, int(s.met.sum()), s.VC, s.median_R_m_px))
     table = Table(title="against the templates (same camera, safety distance and targets)")
     for col in ("plan", "frames", "minutes", "targets met", "VC %", "median R_i (mm/px)"):
         table.add_column(col, justify="left" if col == "plan" else "right")

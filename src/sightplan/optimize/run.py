@@ -342,3 +342,28 @@ def _targets_record(t: Targets, et: ElementTargets) -> dict:
             "omega_px": t.omega_px, "min_features": t.min_features, "rules": len(t.rules),
             "elements": int(active.sum())}
 
+
+
+@dataclass(frozen=True)
+class PlanScore:
+    """A plan scored against the optimiser's targets from its own evaluation: per element (z,) ``met``; VC; the median
+    R_i (m/px) over the visible targets; targets with VR_i ≥ k_i; frames below the stability floor."""
+
+    met: NDArray[np.bool_]
+    VC: float | None
+    median_R_m_px: float | None
+    VR_ge_k: int
+    unstable_frames: int
+
+
+def score_plan(scene: Scene, plan: Plan, targets: ElementTargets, *, scale: float, engine: str = "auto",
+               cache_dir: object = None) -> PlanScore:
+    """Evaluate ``plan`` (default metric parameters, at ``scale``) and score it against ``targets``: how the
+    optimiser's plans and the templates are compared, on the command line and in the benchmark."""
+    ev = evaluate(scene, plan, EvaluationSettings(engine=engine, scale=scale, metric=MetricParams()),  # type: ignore[arg-type]
+                  cache_dir=cache_dir)
+    em = ev.metrics.elements
+    met = CoverageTable.build(ev.observations, targets).met(np.arange(len(plan)))
+    R = em.R[em.visible & targets.active]
+    return PlanScore(met, ev.metrics.plan.VC, float(np.median(R)) if len(R) else None,
+                     int(((em.VR >= targets.k) & targets.active).sum()), int((~ev.metrics.frames.stable).sum()))
