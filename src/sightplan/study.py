@@ -92,12 +92,23 @@ def pearson(x: Sequence[float], y: Sequence[float]) -> tuple[float | None, float
     (fewer than 3 pairs or a constant sample)."""
     from scipy.stats import pearsonr
 
+    return _coefficient(pearsonr, x, y)
+
+
+def spearman(x: Sequence[float], y: Sequence[float]) -> tuple[float | None, float | None]:
+    """Spearman's ρ and its two-sided p, undefined as :func:`pearson` is."""
+    from scipy.stats import spearmanr
+
+    return _coefficient(spearmanr, x, y)
+
+
+def _coefficient(test, x: Sequence[float], y: Sequence[float]) -> tuple[float | None, float | None]:
     x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
     if len(x) < MIN_ROWS or np.ptp(x) == 0 or np.ptp(y) == 0:
         return None, None
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        res = pearsonr(x, y)
+        res = test(x, y)
     r, p = float(res.statistic), float(res.pvalue)
     return (r, p) if math.isfinite(r) else (None, None)
 

@@ -26,7 +26,6 @@ from __future__ import annotations
 import csv
 import json
 import math
-import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -35,7 +34,7 @@ from numpy.typing import NDArray
 
 from ..errors import SightplanError
 from ..evaluate import Evaluation
-from ..study import Study, pearson, read_study, strength
+from ..study import Study, pearson, read_study, spearman, strength
 from .files import _num
 from .measure import ReconstructionMeasures
 
@@ -78,20 +77,6 @@ class Correlation:
         return {"predictor": self.predictor, "measure": self.measure, "n": self.n, "pearson_r": self.pearson_r,
                 "pearson_p": self.pearson_p, "spearman_r": self.spearman_r, "spearman_p": self.spearman_p,
                 "strength": self.strength}
-
-
-def spearman(x, y) -> tuple[float | None, float | None]:
-    """Spearman's ρ and its two-sided p; (None, None) when undefined (fewer than 3 pairs or a constant sample)."""
-    from scipy.stats import spearmanr
-
-    x, y = np.asarray(x, float), np.asarray(y, float)
-    if len(x) < 3 or np.ptp(x) == 0 or np.ptp(y) == 0:
-        return None, None
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        res = spearmanr(x, y)
-    r, p = float(res.statistic), float(res.pvalue)
-    return (r, p) if math.isfinite(r) else (None, None)
 
 
 def correlation(predictor: str, measure: str, x, y) -> Correlation:
