@@ -120,8 +120,14 @@ def test_an_optimised_plan_passes_the_flight_checks_and_exports_everywhere(box, 
 
 def test_a_frame_budget_is_kept_and_a_plan_can_be_improved(box, tmp_path):
     settings = OptimizeSettings(scale=0.5, cache_dir=tmp_path / "cache")
-    small = optimize(box, CAM, Targets(k=2), Budget(frames=6), settings=settings)
+    stages: list[str] = []
+    small = optimize(box, CAM, Targets(k=2), Budget(frames=6), settings=settings,
+                     progress=lambda stage, i, n: stages.append(stage))
     assert len(small.plan) <= 6 and small.n_met >= 1
+    from sightplan.optimize.run import STAGES  # the stages a progress bar is given bands for
+
+    assert set(stages) <= set(STAGES) and {"casting candidates", "selecting", "routing"} <= set(stages)
+    assert sorted(stages, key=STAGES.index) == stages  # reported in the declared order
     assert (_met_again(box, small.plan, Targets(k=2)) == small.met).all()
     better = optimize(box, CAM, Targets(k=2), settings=settings, start=small.plan)
     assert better.n_met == 5 and better.report.ok

@@ -37,6 +37,9 @@ from .select import CoverageTable, greedy, refine
 from .targets import SSD_SLACK, ElementTargets, Targets
 
 Progress = Callable[[str, int, int], None]
+#: the stages ``optimize`` reports to its ``progress(stage, i, n)``, in order
+STAGES = (CASTING, CASTING_AIMED, SELECTING, ROUTING) = ("casting candidates", "casting aimed views", "selecting",
+                                                         "routing")
 REPAIR_ROUNDS = 6
 AIM_FROM = 6  # views aimed at a target that is seen but not met: from near this many of those that see it
 REFINE_FACTOR = 4  # under a budget of minutes or batteries, up to this many times the views the targets need
@@ -161,13 +164,13 @@ def optimize(scene: Scene, camera: Camera, targets: Targets | None = None, budge
         return evaluate(scene, views, cast_settings, cache_dir=settings.cache_dir,
                         progress=None if progress is None else (lambda i, n: progress(what, i, n))).observations
 
-    obs = cast(pool, "casting candidates")
+    obs = cast(pool, CASTING)
     table = CoverageTable.build(obs, et)
     if settings.aimed_views:  # targets seen but not met: views aimed at them from near those that see them
         aimed = _aimed(scene, camera, pool, table, flight, cands.plan.parameters["spacing_m"])
         if aimed is not None:  # only the aimed views are cast: the pool's frames follow them unchanged
             pool = _concatenated([pool, aimed], pool.parameters)
-            obs = Observations.concatenate([obs, cast(aimed, "casting aimed views")])
+            obs = Observations.concatenate([obs, cast(aimed, CASTING_AIMED)])
             table = CoverageTable.build(obs, et)
     timings["cast_s"] = time.perf_counter() - t0
 
@@ -176,7 +179,7 @@ def optimize(scene: Scene, camera: Camera, targets: Targets | None = None, budge
     sel = greedy(table, budget.frames, start=np.arange(n_start) if n_start else None)
     timings["select_s"] = time.perf_counter() - t0
     if progress is not None:
-        progress("selecting", 1, 1)
+        progress(SELECTING, 1, 1)
 
     t0 = time.perf_counter()
     takeoff = (flight.ground_stations[0] if flight.ground_stations is not None
@@ -214,7 +217,7 @@ def optimize(scene: Scene, camera: Camera, targets: Targets | None = None, budge
         report, flown_views, forbidden = best[1]
     timings["route_s"] = time.perf_counter() - t0
     if progress is not None:
-        progress("routing", 1, 1)
+        progress(ROUTING, 1, 1)
 
     t0 = time.perf_counter()
     report, flown_views, forbidden, views, frames = _repair_stability(obs, metric, views, report, flown_views,
