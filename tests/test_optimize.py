@@ -327,3 +327,58 @@ def test_a_plan_is_scored_against_the_targets_from_its_own_evaluation(box, tmp_p
     assert s.VR_ge_k == 5 and s.median_R_m_px is not None and s.median_R_m_px <= default_ssd(CAM, G)
     one = score_plan(box, result.plan.subset(np.array([0])), et, scale=0.5, cache_dir=False)
     assert one.met.sum() == 0 and one.VR_ge_k == 0
+
+
+def test_views_are_grown_into_runs_that_share_the_floor_of_features(table, box, tmp_path):
+    """Each run holds Y views that all see at least Λ common features, counted again from the frames' own feature
+    lists; runs are disjoint, every chosen view is in one or reported alone, and no view added sees no target."""
+    from sightplan.optimize import stable_runs
+
+    tbl, cands = table
+    ev = evaluate(box, cands.plan, EvaluationSettings(scale=0.5), cache_dir=tmp_path / "cache")
+    obs = ev.observations
+    views = greedy(tbl).views
+    sees_target = np.diff(tbl.seen_ptr) > 0
+    runs = stable_runs(obs, views, 5, 50, allowed=sees_target, table=tbl)
+    assert runs.views[:len(views)].tolist() == views.tolist() and runs.added == len(runs.views) - len(views) > 0
+    members = np.concatenate(runs.groups)
+    assert len(members) == len(set(members.tolist())) == 5 * len(runs.groups)
+    assert set(views.tolist()) <= set(runs.views[members].tolist()) | set(runs.alone.tolist())
+    assert sees_target[runs.views].all()
+    for g in runs.groups:
+        common = set.intersection(*(set(obs.feature_id[obs.feature_frame == f].tolist()) for f in runs.views[g]))
+        assert len(common) >= 50
+    # with no floor there is nothing to grow
+    assert stable_runs(obs, views, 5, 0).views.tolist() == views.tolist()
+
+
+def test_an_optimised_plan_registers_along_its_flown_order(box, tmp_path):
+    """Every frame of the optimised plan is stable (ν_f ≥ Λ along the order flown), from an evaluation of the plan
+    itself; with no stability floor the same targets take fewer frames, some of them unstable."""
+    settings = OptimizeSettings(scale=0.5, cache_dir=tmp_path / "cache")
+    result = optimize(box, CAM, Targets(k=2), settings=settings)
+    ev = evaluate(box, result.plan, EvaluationSettings(scale=0.5), cache_dir=False)
+    assert ev.metrics.frames.stable.all() and result.unstable_frames == 0 and result.stability_views > 0
+    loose = optimize(box, CAM, Targets(k=2, min_features=0), settings=settings)
+    assert loose.n_met == result.n_met == 5 and len(loose.plan) < len(result.plan) and loose.stability_views == 0
+    assert not evaluate(box, loose.plan, EvaluationSettings(scale=0.5), cache_dir=False).metrics.frames.stable.all()
+
+
+def test_the_route_flies_each_group_in_one_stretch_and_legs_to_the_hundredth_of_a_second(box):
+    """Twelve views on a 1 m circle far from the box: legs of 0.6 to 2 m, under 2 s each, so only costs finer than
+    whole seconds find the circle. Grouping every third view forces those four into one stretch."""
+    import importlib
+
+    route = importlib.import_module("sightplan.optimize.route")
+    a = np.linspace(0, 2 * np.pi, 12, endpoint=False)
+    shuffle = np.random.default_rng(3).permutation(12)
+    C = np.stack([60 + np.cos(a), 60 + np.sin(a), np.full(12, 20.0)], axis=1)[shuffle]
+    centre = np.array([60.0, 60.0, 20.0])
+    order, cuts, _ = route.order_views(box, C, centre, G, runs=4)
+    angle = a[shuffle][order]
+    steps = np.round(np.diff(np.unwrap(angle)) / (2 * np.pi / 12)).astype(int)
+    assert len(cuts) == 0 and (np.abs(steps) == 1).all() and len(set(np.sign(steps).tolist())) == 1
+    group = np.flatnonzero(np.isin(shuffle, [0, 3, 6, 9]))
+    order, _, _ = route.order_views(box, C, centre, G, runs=4, groups=[group])
+    where = np.sort(np.flatnonzero(np.isin(order, group)))
+    assert where[-1] - where[0] == 3

@@ -1,11 +1,13 @@
 """Flying the chosen views: their order, by LKH (``elkai``), then missions by the flight checks' own split.
 
 The views and the take-off point are the cities of a closed tour whose edge costs are the aircraft's flight times
-(:func:`~sightplan.plan.checks.battery.legs_time`: horizontal and vertical speeds with acceleration). A leg of the
-tour that passes nearer the model than the safety distance (exact segment–triangle distances) is forbidden (its cost
-set far above any tour) and the tour solved again, until no leg of it breaks the distance. The tour, cut at the
-take-off point, is then split into missions that keep line of sight and fit a battery by
-:func:`~sightplan.plan.checks.feasibility.plan_flights`, exactly as a template's frames are.
+(:func:`~sightplan.plan.checks.battery.legs_time`: horizontal and vertical speeds with acceleration, given to LKH in
+hundredths of a second). A leg that passes nearer the model than the safety distance (exact segment–triangle
+distances) cannot be flown: it costs what landing between its two views costs (back to the take-off point, a relaunch,
+out again), and the tour is solved again until every leg of it is measured. Views grouped to be flown in one stretch
+(runs that structure-from-motion chains) pay a surcharge for each entry into or exit from their group. The tour, cut
+at the take-off point and at each leg too near, is then split into missions that keep line of sight and fit a
+battery by :func:`~sightplan.plan.checks.feasibility.plan_flights`, exactly as a template's frames are.
 """
 
 from __future__ import annotations
@@ -23,7 +25,10 @@ from ..plan.checks.safety import segment_distances
 from ..plan.ground import without_terrain
 from ..plan.types import Mission, Plan
 
-FORBIDDEN_S = 1e7  # a forbidden leg's cost: more than any tour
+RELAUNCH_S = 30.0  # landing and taking off again, on top of flying back to the take-off point and out again
+MAX_SURCHARGE_S = 1e4
+TICKS_PER_S = 100  # LKH takes whole numbers: costs are given to it in hundredths of a second
+GROUP_ENTRY_S = 60.0  # least cost of entering or leaving a group of views flown together (grows when one is split)
 MAX_ROUNDS = 60
 NEIGHBOURS = 6  # legs to each view's nearest views, measured before the first tour
 TUBE_RAYS = 7  # rays per leg in the pre-test: the axis and six lines around it at the safety distance
@@ -63,8 +68,16 @@ def _tour(cost: NDArray, runs: int) -> list[int]:
     n = len(cost)
     if n <= 3:
         return list(range(n))
-    tour = elkai.DistanceMatrix(cost.tolist()).solve_tsp(runs=runs)
+    ticks = np.rint(cost * TICKS_PER_S).astype(np.int64)
+    tour = elkai.DistanceMatrix(ticks.tolist()).solve_tsp(runs=runs)
     return tour[:-1] if tour[-1] == tour[0] else tour
+
+
+def _split_groups(tour: list[int], label: NDArray) -> int:
+    """Groups (``label`` ≥ 0 per city) the closed ``tour`` does not fly in one stretch."""
+    lab = label[tour]
+    stretches = np.bincount(lab[(lab >= 0) & (lab != np.roll(lab, 1))], minlength=int(label.max()) + 1)
+    return int((stretches > 1).sum())
 
 
 class LegMemo:
@@ -81,13 +94,18 @@ class LegMemo:
 
 def order_views(scene: Scene, C: NDArray, takeoff: NDArray, safety_distance_m: float,
                 aircraft: Aircraft | None = None, runs: int = 4, *, ids: NDArray | None = None,
-                memo: LegMemo | None = None) -> tuple[NDArray[np.int64], NDArray[np.int64], int]:
+                memo: LegMemo | None = None,
+                groups: list[NDArray] | None = None) -> tuple[NDArray[np.int64], NDArray[np.int64], int]:
     """The order to fly the (n, 3) view positions ``C`` in from ``takeoff`` and back; the places in that order
     where no safe leg was left (a new mission starts there: the aircraft lands and takes off again); and how many
     legs were forbidden for passing within ``safety_distance_m`` of the model.
 
     ``ids`` (n,) and ``memo``: the views' identities and the legs measured by earlier routings of the same pool
     (updated). The tours in between are solved with one LKH run, the last one again with ``runs``.
+
+    ``groups``: disjoint sets of positions into ``C`` to be flown each in one stretch (views that
+    structure-from-motion chains together). Entering or leaving a group costs a surcharge, larger than what splitting
+    one would save (it grows when a tour still splits one).
     """
     n = len(C)
     if n == 0:
@@ -105,7 +123,8 @@ def order_views(scene: Scene, C: NDArray, takeoff: NDArray, safety_distance_m: f
     base = cost.copy()
     cost *= 1 + UNKNOWN_SURCHARGE  # a leg not yet measured costs more: the tours settle on measured legs sooner
     cost[0, :], cost[:, 0] = base[0, :], base[:, 0]
-    cost[blocked] = FORBIDDEN_S
+    via_takeoff = base[:, :1] + base[:1, :] + RELAUNCH_S  # a leg too near: the aircraft lands between the two
+    cost[blocked] = via_takeoff[blocked]
     forbidden = int(blocked.sum() // 2)
     good: set[tuple[int, int]] = set()
     bad: set[tuple[int, int]] = set()
@@ -118,7 +137,7 @@ def order_views(scene: Scene, C: NDArray, takeoff: NDArray, safety_distance_m: f
         a = np.array([p for p, _ in legs], np.int64)
         b = np.array([q for _, q in legs], np.int64)
         cost[a, b] = cost[b, a] = base[a, b]  # measured: its own time, no longer the unknown's surcharge
-        cost[a[near], b[near]] = cost[b[near], a[near]] = FORBIDDEN_S
+        cost[a[near], b[near]] = cost[b[near], a[near]] = via_takeoff[a[near], b[near]]
 
     def memo_key(leg: tuple[int, int]) -> tuple[int, int]:
         p, q = key[leg[0]], key[leg[1]]
@@ -139,22 +158,37 @@ def order_views(scene: Scene, C: NDArray, takeoff: NDArray, safety_distance_m: f
         memo.near.update((memo_key(leg), bool(x)) for leg, x in zip(new, near))
         mark(new, near)
 
+    label = np.full(n + 1, -1)
+    for k, g in enumerate(groups or ()):
+        label[np.asarray(g, np.int64) + 1] = k
+    inside: list[tuple[int, int]] = []  # the legs within each group
+    for g in groups or ():
+        g = np.sort(np.asarray(g, np.int64)) + 1
+        a, b = np.triu_indices(len(g), 1)
+        inside += list(zip(g[a].tolist(), g[b].tolist()))
+    grouped = label >= 0
+    entry = (grouped[:, None] | grouped[None, :]) & (label[:, None] != label[None, :])
+    surcharge = max(GROUP_ENTRY_S, 4 * max((base[leg] for leg in inside), default=0.0))
+
     # a tour flies mostly between near neighbours: their legs measured at once spare most of the solves again
     view_cost = cost[1:, 1:] + np.diag(np.full(n, np.inf))
     neighbours = np.argsort(view_cost, axis=1)[:, :min(NEIGHBOURS, n - 1)] + 1
     likely = {(min(i, j), max(i, j)) for i, row in enumerate(neighbours.tolist(), start=1) for j in row}
-    likely = sorted(leg for leg in likely if not blocked[leg])
+    likely = sorted(leg for leg in likely | set(inside) if not blocked[leg])
     if likely:
         measure(likely)
     tour = list(range(n + 1))
     final = False
     for _ in range(MAX_ROUNDS):
-        tour = _tour(cost, runs if final else 1)
+        tour = _tour(cost + surcharge * entry, runs if final else 1)
         start = tour.index(0)
         tour = tour[start:] + tour[:start]
         legs = [(min(a, b), max(a, b)) for a, b in zip(tour[1:-1], tour[2:])]
         new = [leg for leg in legs if leg not in good and leg not in bad]
         if not new:
+            if groups and _split_groups(tour, label) and surcharge < MAX_SURCHARGE_S:
+                surcharge *= 4  # a group split: entering one made dearer, and solved again
+                continue
             if final or runs <= 1:
                 break
             final = True  # every leg of a one-run tour is known: solve again in earnest

@@ -3,10 +3,14 @@
 1. Candidates (:mod:`.candidates`) are cast once, through the per-frame cache, at ``scale``: a second run with other
    targets or budgets casts nothing.
 2. The lazy-greedy selection (:mod:`.select`) chooses views under the frame budget, then drops redundant ones.
-3. The views are ordered (:mod:`.route`), split into missions and checked by the flight checks.
-4. Under a budget of minutes or batteries, the longest prefix of the greedy order whose flight fits is kept
-   (bisection: the flight time grows with the prefix).
-5. Frames that would not register (ν_f < Λ along the flown order) are reported.
+3. Each chosen view is grown into a run of Y views sharing ≥ Λ features (:func:`~.select.stable_runs`: chosen views
+   first, then candidates), so that flown in one stretch every frame registers (ν_f ≥ Λ). A chosen view no run can
+   be formed around is set aside and the selection made again, as long as that meets as much.
+4. The views are ordered (:mod:`.route`, each run in one stretch), split into missions and checked by the flight
+   checks.
+5. Under a budget of frames, minutes or batteries, the longest prefix of the greedy order whose grown, flown plan fits
+   is kept (bisection with one-run tours: the plan grows with the prefix), then routed again in earnest.
+6. Frames that would still not register (ν_f < Λ along the flown order) are reported.
 """
 
 from __future__ import annotations
@@ -18,12 +22,11 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.sparse import csr_matrix
 
 from ..camera.models import Camera, PinholeCamera
 from ..errors import PlanError
 from ..evaluate import EvaluationSettings, evaluate
-from ..metrics import FrameMetrics, MetricParams, frame_metrics
+from ..metrics import MetricParams, frame_metrics
 from ..model.scene import Scene
 from ..observations.table import Observations
 from ..plan.checks.battery import Aircraft
@@ -33,14 +36,14 @@ from ..plan.site import with_site
 from ..plan.types import Mission, Plan
 from .candidates import CandidateSet, aimed_views, candidate_views
 from .route import LegMemo, order_views, ordered_plan
-from .select import CoverageTable, greedy, refine
+from .select import CoverageTable, greedy, refine, stable_runs
 from .targets import SSD_SLACK, ElementTargets, Targets
 
 Progress = Callable[[str, int, int], None]
 #: the stages ``optimize`` reports to its ``progress(stage, i, n)``, in order
 STAGES = (CASTING, CASTING_AIMED, SELECTING, ROUTING) = ("casting candidates", "casting aimed views", "selecting",
                                                          "routing")
-REPAIR_ROUNDS = 6
+RESELECT_ROUNDS = 3  # selections again without the views no stable run can be formed around
 AIM_FROM = 6  # views aimed at a target that is seen but not met: from near this many of those that see it
 REFINE_FACTOR = 4  # under a budget of minutes or batteries, up to this many times the views the targets need
 
@@ -97,6 +100,7 @@ class OptimizeResult:
     forbidden_legs: int
     unstable_frames: int
     blind_frames: int
+    stability_views: int = 0
     timings: dict = field(default_factory=dict)
 
     @property
@@ -110,6 +114,7 @@ class OptimizeResult:
                 "targets": self.targets.n_active, "met": self.n_met, "candidates": self.candidates,
                 "candidates_blind": self.candidates_blind, "removed": self.removed,
                 "forbidden_legs": self.forbidden_legs, "unstable_frames": self.unstable_frames,
+                "stability_views": self.stability_views,
                 "blind_frames": self.blind_frames, "ok": r.ok,
                 "violations": list(r.violations), "timings_s": {k: round(v, 3) for k, v in self.timings.items()}}
 
@@ -119,10 +124,29 @@ def default_ssd(camera: Camera, safety_distance_m: float) -> float:
     return safety_distance_m / camera.sampling_focal_px * SSD_SLACK
 
 
-def _fits(report: FeasibilityReport, budget: Budget) -> bool:
-    if budget.minutes is not None and (report.total_time_s or 0.0) > budget.minutes * 60:
+@dataclass(frozen=True)
+class Flown:
+    """A routing of ``given`` views: its flight ``report``, the ``views`` in flown order (with those ``added`` for
+    stability), and the legs forbidden for passing too near the model."""
+
+    report: FeasibilityReport
+    views: NDArray[np.int64]
+    forbidden: int
+    added: int
+    given: NDArray[np.int64]
+
+
+def _limited(budget: Budget) -> bool:
+    return budget.frames is not None or budget.minutes is not None or budget.batteries is not None
+
+
+def _fits(flown: Flown, budget: Budget) -> bool:
+    r = flown.report
+    if budget.frames is not None and len(flown.views) > budget.frames:
         return False
-    return not (budget.batteries is not None and (report.batteries or 0) > budget.batteries)
+    if budget.minutes is not None and (r.total_time_s or 0.0) > budget.minutes * 60:
+        return False
+    return not (budget.batteries is not None and (r.batteries or 0) > budget.batteries)
 
 
 def optimize(scene: Scene, camera: Camera, targets: Targets | None = None, budget: Budget | None = None, *,
@@ -176,7 +200,20 @@ def optimize(scene: Scene, camera: Camera, targets: Targets | None = None, budge
 
     t0 = time.perf_counter()
     blind = int((np.diff(table.seen_ptr)[n_start:] == 0).sum())  # candidates that see no target
-    sel = greedy(table, budget.frames, start=np.arange(n_start) if n_start else None)
+    start_views = np.arange(n_start) if n_start else None
+    sel = greedy(table, budget.frames, start=start_views)
+    can_add = np.diff(table.seen_ptr) > 0  # views added for stability must see a target (no waste)
+    banned = np.zeros(table.n_views, bool)
+    for _ in range(RESELECT_ROUNDS):  # a view no run can be formed around: another that serves the same, if any
+        alone = stable_runs(obs, sel.views, targets.min_track, targets.min_features, allowed=can_add, table=table).alone
+        alone = alone[alone >= n_start]
+        if not len(alone) or banned[alone].all():
+            break
+        banned[alone] = True
+        other = greedy(table, budget.frames, start=start_views, allowed=~banned)
+        if (table.weight * table.met(other.views)).sum() < (table.weight * table.met(sel.views)).sum():
+            break
+        sel = other
     timings["select_s"] = time.perf_counter() - t0
     if progress is not None:
         progress(SELECTING, 1, 1)
@@ -186,43 +223,50 @@ def optimize(scene: Scene, camera: Camera, targets: Targets | None = None, budge
                else corner_stations(scene, pool.subset(sel.views) if len(sel.views) else pool)[0])
 
     memo = LegMemo()  # legs measured once for every routing below
+    stability = {"s": 0.0}
 
-    def flown(views: NDArray) -> tuple[FeasibilityReport, NDArray, int]:
-        order, cuts, forbidden = order_views(scene, pool.C_world[views], takeoff, g, _aircraft(flight), settings.runs,
-                                             ids=views, memo=memo)
-        report = plan_flights(scene, ordered_plan(pool, views[order], cuts), flight)
-        return report, views[order], forbidden
+    def flown(views: NDArray, runs: int) -> Flown:
+        """``views`` grown into runs that register (:func:`~.select.stable_runs`), ordered with each run flown in
+        one stretch, split into missions and checked."""
+        t = time.perf_counter()
+        grown = stable_runs(obs, views, targets.min_track, targets.min_features, allowed=can_add, table=table)
+        stability["s"] += time.perf_counter() - t
+        order, cuts, forbidden = order_views(scene, pool.C_world[grown.views], takeoff, g, _aircraft(flight), runs,
+                                             ids=grown.views, memo=memo, groups=grown.groups)
+        report = plan_flights(scene, ordered_plan(pool, grown.views[order], cuts), flight)
+        return Flown(report, grown.views[order], forbidden, grown.added, views)
 
     views = sel.views
-    if budget.frames is not None or budget.minutes is not None or budget.batteries is not None:
+    if _limited(budget):
         # a budget the targets did not use up buys finer views: added best first, the fitting prefix kept below
         cap = budget.frames if budget.frames is not None else REFINE_FACTOR * max(len(views), 1)
         views = np.concatenate([views, refine(table, views, cap)])
     if not len(views):
         raise PlanError("no candidate view serves any target: lower the targets or the safety distance")
-    report, flown_views, forbidden = flown(views)
-    if (budget.minutes is not None or budget.batteries is not None) and not _fits(report, budget):
-        lo, hi = 1, len(views)  # the longest prefix of the greedy order that fits
-        best = None
-        while lo < hi:
-            mid = (lo + hi) // 2
-            r = flown(views[:mid])
-            if _fits(r[0], budget):
-                lo, best = mid + 1, (mid, r)
-            else:
-                hi = mid
-        if best is None:
-            raise PlanError("not even one view fits the budget of minutes or batteries")
-        views = views[:best[0]]
-        report, flown_views, forbidden = best[1]
-    timings["route_s"] = time.perf_counter() - t0
+    if not _limited(budget):
+        best = flown(views, settings.runs)
+    else:  # the longest prefix of the greedy order that fits, found with one-run tours, then solved in earnest
+        best = flown(views, 1)
+        if not _fits(best, budget):
+            lo, hi, best = 1, len(views), None
+            while lo < hi:
+                mid = (lo + hi) // 2
+                r = flown(views[:mid], 1)
+                if _fits(r, budget):
+                    lo, best = mid + 1, r
+                else:
+                    hi = mid
+            if best is None:
+                raise PlanError("not even one view fits the budget of frames, minutes or batteries")
+        if settings.runs > 1:
+            again = flown(best.given, settings.runs)
+            best = again if _fits(again, budget) else best
+    timings["route_s"] = time.perf_counter() - t0 - stability["s"]
+    timings["stability_s"] = stability["s"]
     if progress is not None:
         progress(ROUTING, 1, 1)
-
-    t0 = time.perf_counter()
-    report, flown_views, forbidden, views, frames = _repair_stability(obs, metric, views, report, flown_views,
-                                                                      forbidden, flown, budget, pool_size=len(pool))
-    timings["stability_s"] = time.perf_counter() - t0
+    report, views, forbidden = best.report, best.views, best.forbidden
+    frames = frame_metrics(obs.select_frames(views), metric)  # along the flown order
     unstable = int((~frames.stable).sum())
     blind_frames = int((frames.pixels_on_targets <= 0).sum())  # the waste: frames that see no target at all
     met = table.met(views)
@@ -233,36 +277,7 @@ def optimize(scene: Scene, camera: Camera, targets: Targets | None = None, budge
     plan = with_site(replace(plan, parameters={**plan.parameters, **params}), scene, replace_takeoff=True)
     report = replace(report, plan=plan)
     return OptimizeResult(plan, report, et, met, len(cands.plan), cands.dropped, blind, len(sel.removed), forbidden,
-                          unstable, blind_frames, timings)
-
-
-def _repair_stability(obs: Observations, metric: MetricParams, views: NDArray, report: FeasibilityReport,
-                      flown_views: NDArray, forbidden: int, flown: Callable, budget: Budget, pool_size: int,
-                      rounds: int = REPAIR_ROUNDS) -> tuple[FeasibilityReport, NDArray, int, NDArray, FrameMetrics]:
-    """Views added for frames that would not register: for each frame with ν_f < Λ along the flown order, the
-    unchosen candidate sharing the most features with it, then the route again; a round is kept only when fewer
-    frames are unstable and the budget still holds. Returns the kept round's flight and its frames' metrics."""
-    F = csr_matrix((np.ones(len(obs.feature_frame)), (obs.feature_frame, obs.feature_id)),
-                   shape=(pool_size, max(obs.n_features, 1)))
-    best = (report, flown_views, forbidden, views, frame_metrics(obs.select_frames(flown_views), metric))
-    for _ in range(rounds):
-        stable = best[4].stable
-        if stable.all() or (budget.frames is not None and len(best[3]) >= budget.frames):
-            break
-        shared = (F @ F[best[1][~stable]].T).toarray()  # (pool, unstable): features in common
-        shared[best[3]] = -1
-        add = np.unique(shared.argmax(axis=0)[shared.max(axis=0) > 0])
-        if budget.frames is not None:
-            add = add[: budget.frames - len(best[3])]
-        if not len(add):
-            break
-        candidate = np.concatenate([best[3], add])
-        r, fv, fb = flown(candidate)
-        frames = frame_metrics(obs.select_frames(fv), metric)
-        if (~frames.stable).sum() >= (~stable).sum() or not _fits(r, budget):
-            break
-        best = (r, fv, fb, candidate, frames)
-    return best
+                          unstable, blind_frames, stability_views=best.added, timings=timings)
 
 
 def _aimed(scene: Scene, camera: Camera, pool: Plan, table: CoverageTable, flight: FlightSettings,

@@ -200,3 +200,97 @@ def refine(table: CoverageTable, views: NDArray, max_views: int) -> NDArray[np.i
                 row[-1] = x
                 row.sort()
     return np.array(added, np.int64)
+
+
+PREFER_CHOSEN = 3.0  # a chosen view's shared features count this many times over a new view's when runs are formed
+
+
+@dataclass(frozen=True)
+class Runs:
+    """Views grouped into runs that structure-from-motion can chain: ``views`` (the given ones, then those added),
+    ``groups`` (positions into ``views``, one array per run of ``min_track`` views that share at least
+    ``min_features`` features), ``alone``: given views for which no such run could be formed, and how many views
+    were ``added``."""
+
+    views: NDArray[np.int64]
+    groups: list[NDArray[np.int64]]
+    alone: NDArray[np.int64]
+    added: int = 0
+
+
+def stable_runs(obs: Observations, views: NDArray, min_track: int, min_features: int,
+                allowed: NDArray | None = None, prefer: float = PREFER_CHOSEN,
+                table: CoverageTable | None = None) -> Runs:
+    """Groups of ``min_track`` views sharing ≥ ``min_features`` features, so that each view of ``views`` (in
+    order: the most useful first) lies in one. A feature on a run of Y consecutive frames is stable in each of them
+    (ν_f, :func:`~sightplan.metrics.stable_feature_counts`); a group flown consecutively therefore makes each of its
+    frames stable. A group grows from a view not yet grouped by the frame that keeps the most of the features the
+    group has in common — a view already chosen counted ``prefer`` times, one not chosen (among ``allowed``, default
+    all) up to twice as its gain in the objective of ``table`` (if given) is near the best such gain — and a view not
+    chosen is added to the plan; a group that cannot keep ``min_features`` leaves its first view alone. Groups are
+    disjoint."""
+    views = np.asarray(views, np.int64)
+    n = obs.n_frames
+    if min_track <= 1 or min_features <= 0 or not len(views):
+        return Runs(views, [], np.zeros(0, np.int64))
+    order = np.lexsort((obs.feature_frame, obs.feature_id))  # per feature, the frames that see it
+    fid, ffr = obs.feature_id[order].astype(np.int64), obs.feature_frame[order].astype(np.int64)
+    f_ptr = np.zeros(max(obs.n_features, 1) + 1, np.int64)
+    np.cumsum(np.bincount(fid, minlength=max(obs.n_features, 1)), out=f_ptr[1:])
+    v_ptr = np.zeros(n + 1, np.int64)
+    np.cumsum(np.bincount(obs.feature_frame, minlength=n), out=v_ptr[1:])
+    by_frame = np.argsort(obs.feature_frame, kind="stable")
+    v_feat = obs.feature_id[by_frame].astype(np.int64)
+    chosen = np.zeros(n, bool)
+    chosen[views] = True
+    usable = np.ones(n, bool) if allowed is None else np.asarray(allowed, bool).copy()
+    grouped = np.zeros(n, bool)
+    weight = np.where(chosen, prefer, 1.0)
+    if table is not None:
+        q, s = table.counts(views)
+    groups: list[list[int]] = []
+    alone: list[int] = []
+    def grow(f: int, plain: bool) -> tuple[list[int], NDArray]:
+        """A group from ``f``: ``plain`` keeps the most shared features at each step, with no preference."""
+        common = v_feat[v_ptr[f]:v_ptr[f + 1]]
+        members = [f]
+        while len(members) < min_track and len(common) >= min_features:
+            shared = np.bincount(ffr[_rows(f_ptr, common)], minlength=n).astype(float)
+            shared[grouped | ~(usable | chosen)] = 0
+            shared[members] = 0
+            shared[shared < min_features] = 0  # a frame sharing fewer cannot keep the group's floor
+            score = shared * (1.0 if plain else weight)
+            new = np.flatnonzero((shared > 0) & ~chosen)
+            if table is not None and len(new) and not plain:
+                gain = np.array([table.gain(int(v), q, s) for v in new])
+                if gain.max() > 0:
+                    score[new] *= 1 + gain / gain.max()
+            g = int(np.argmax(score))
+            if shared[g] <= 0:
+                break
+            members.append(g)
+            common = np.intersect1d(common, v_feat[v_ptr[g]:v_ptr[g + 1]])
+        return members, common
+
+    for f in views.tolist():
+        if grouped[f]:
+            continue
+        for plain in (False, True):  # the preferred views first; failing that, the views that keep most in common
+            members, common = grow(f, plain)
+            if len(members) == min_track and len(common) >= min_features:
+                break
+        else:
+            alone.append(f)
+            continue
+        groups.append(members)
+        grouped[members] = True
+        if table is not None:
+            new = [g for g in members if not chosen[g]]
+            for g in new:
+                q[table.serves(g)] += 1
+                s[table.sees(g)] += 1
+    extra = np.array(sorted({g for m in groups for g in m} - set(views.tolist())), np.int64)
+    out = np.concatenate([views, extra])
+    where = {int(v): k for k, v in enumerate(out.tolist())}
+    return Runs(out, [np.array([where[g] for g in m], np.int64) for m in groups], np.array(alone, np.int64),
+                len(extra))
