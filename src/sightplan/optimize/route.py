@@ -25,7 +25,7 @@ from ..plan.checks.safety import segment_distances
 from ..plan.ground import without_terrain
 from ..plan.types import Mission, Plan
 
-RELAUNCH_S = 30.0  # landing and taking off again, on top of flying back to the take-off point and out again
+RELAUNCH_S = 60.0  # landing and taking off again, on top of flying back to the take-off point and out again
 MAX_SURCHARGE_S = 1e4
 TICKS_PER_S = 100  # LKH takes whole numbers: costs are given to it in hundredths of a second
 GROUP_ENTRY_S = 60.0  # least cost of entering or leaving a group of views flown together (grows when one is split)
