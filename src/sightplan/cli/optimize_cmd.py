@@ -89,9 +89,9 @@ def optimize_command(
     s = result.summary()
     console.print(f"targets met: {s['met']} of {s['targets']} elements · {s['frames']} frames from {s['candidates']} "
                   f"candidates ({s['removed']} redundant removed) · {s['missions']} missions · "
-                  f"{s['minutes']} min · {s['batteries']} batteries · {s['stability_views']} frames added so that "
-                  f"runs register · {s['unstable_frames']} frames below the stability floor · {s['blind_frames']} "
-                  "frames that see no target", highlight=False)
+                  f"{s['minutes']} min · {s['batteries']} batteries", highlight=False)
+    console.print(f"{s['stability_views']} frames added so that runs register · {s['unstable_frames']} frames below "
+                  f"the stability floor · {s['blind_frames']} frames that see no target", highlight=False)
     if compare:
         _compare(scene, cam, result, flight, settings)
     console.print(f"wrote {output} — evaluate it with `sightplan evaluate {model} {output}`")
