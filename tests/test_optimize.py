@@ -279,23 +279,30 @@ def test_the_route_keeps_every_leg_clear_and_measures_no_leg_twice(box, monkeypa
 
 
 def test_views_aimed_at_a_target_look_at_its_centre_from_clear_positions(box):
-    """From a view 20 m south of the south wall: that position and four 2 m to its sides, above and below, each
-    looking at the wall's centre (4, 0, 4), all the safety distance clear of the box."""
+    """From a view 20 m south of the south wall: that position and four 2 m to its sides, above and below, and two
+    head-on on the wall's normal at the safety distance and a quarter beyond, each looking at the wall's centre
+    (4, 0, 4), all the safety distance clear of the box."""
     from sightplan.optimize import aimed_views
     from sightplan.plan.checks.safety import point_distances
 
     seen_from = np.array([[4.0, -20.0, 4.0]])
     plan = aimed_views(box, CAM, G, np.array([0]), [seen_from], 2.0, min_height_m=None)
-    assert plan is not None and len(plan) == 5
+    assert plan is not None and len(plan) == 7
     centre = np.array([4.0, 0.0, 4.0])
     to_centre = centre - plan.C_world
     to_centre /= np.linalg.norm(to_centre, axis=1, keepdims=True)
     np.testing.assert_allclose(np.einsum("ni,ni->n", plan.R_world_camera[:, :, 2], to_centre), 1.0, atol=1e-9)
     assert (point_distances(box, plan.C_world) >= G).all()
     offsets = np.sort(np.linalg.norm(plan.C_world - seen_from, axis=1))
-    np.testing.assert_allclose(offsets, [0, 2, 2, 2, 2], atol=1e-9)
-    # a position inside the safety distance gives nothing
-    assert aimed_views(box, CAM, G, np.array([0]), [np.array([[4.0, -3.0, 4.0]])], 0.5, min_height_m=None) is None
+    np.testing.assert_allclose(offsets, [0, 2, 2, 2, 2, 20 - 1.25 * (G + 1e-3), 20 - (G + 1e-3)], atol=1e-9)
+    on_axis = plan.C_world[np.abs(plan.C_world[:, 0] - 4) + np.abs(plan.C_world[:, 2] - 4) < 1e-9]
+    head_on = on_axis[on_axis[:, 1] > -15]
+    np.testing.assert_allclose(np.sort(-head_on[:, 1]), [G + 1e-3, 1.25 * (G + 1e-3)], atol=1e-9)
+    # from a position inside the safety distance only the head-on views are left; with none, nothing
+    near = aimed_views(box, CAM, G, np.array([0]), [np.array([[4.0, -3.0, 4.0]])], 0.5, min_height_m=None)
+    np.testing.assert_allclose(near.C_world, head_on, atol=1e-9)
+    assert aimed_views(box, CAM, G, np.array([0]), [np.array([[4.0, -3.0, 4.0]])], 0.5, min_height_m=None,
+                       altitude_limit_m=1.0) is None
 
 
 def test_a_start_plan_keeps_its_own_camera_when_it_shares_the_candidates_camera_name():

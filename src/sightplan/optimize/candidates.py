@@ -199,10 +199,12 @@ def aimed_views(scene: Scene, camera: Camera, safety_distance_m: float, elements
                 altitude_limit_m: float | None = None) -> Plan | None:
     """More views for targets the candidates see but cannot meet: from each position in ``seen_from[j]`` (the
     centres of the views that see ``elements[j]``), and from four positions ``spacing_m`` to its sides and above
-    and below it, a view aimed at the element's centre (its faces' area-weighted centroid). The same filters as
-    :func:`candidate_views`. None when none is left."""
+    and below it, a view aimed at the element's centre (its faces' area-weighted centroid); and two head-on views
+    from in front of the element, along the area-weighted normal of its faces turned towards those positions, at the
+    safety distance and a quarter beyond. The same filters as :func:`candidate_views`. None when none is left."""
     g = float(safety_distance_m)
     areas = scene.face_areas()
+    normals = scene.face_normals()
     centroids = scene.vertices[scene.faces].mean(axis=1)
     elements = np.asarray(elements, np.int64)
     by_element = np.argsort(scene.face_element, kind="stable")  # each element's faces together, in face order
@@ -223,6 +225,12 @@ def aimed_views(scene: Scene, camera: Camera, safety_distance_m: float, elements
         for shift in (np.zeros_like(side), side, -side, up, -up):
             C.append(P + spacing_m * shift)
             look_at.append(np.broadcast_to(centre, P.shape))
+        facing = normals[sel] @ (P.mean(axis=0) - centre) > 0  # the element's faces turned towards those that see it
+        n = (normals[sel][facing] * a[facing, None]).sum(axis=0)
+        if np.linalg.norm(n) > 1e-9:
+            n /= np.linalg.norm(n)
+            C.append(centre + np.outer((g + STANDOFF_M) * np.array([1.0, 1.25]), n))
+            look_at.append(np.broadcast_to(centre, (2, 3)))
     if not C:
         return None
     _, C, look_at, _ = _kept_views(scene, np.concatenate(C), np.concatenate(look_at), g, spacing_m, min_height_m,

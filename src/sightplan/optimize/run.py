@@ -191,7 +191,7 @@ def optimize(scene: Scene, camera: Camera, targets: Targets | None = None, budge
     obs = cast(pool, CASTING)
     table = CoverageTable.build(obs, et)
     if settings.aimed_views:  # targets seen but not met: views aimed at them from near those that see them
-        aimed = _aimed(scene, camera, pool, table, flight, cands.plan.parameters["spacing_m"])
+        aimed = _aimed(scene, camera, pool, obs, table, et, flight, cands.plan.parameters["spacing_m"])
         if aimed is not None:  # only the aimed views are cast: the pool's frames follow them unchanged
             pool = _concatenated([pool, aimed], pool.parameters)
             obs = Observations.concatenate([obs, cast(aimed, CASTING_AIMED)])
@@ -280,23 +280,23 @@ def optimize(scene: Scene, camera: Camera, targets: Targets | None = None, budge
                           unstable, blind_frames, stability_views=best.added, timings=timings)
 
 
-def _aimed(scene: Scene, camera: Camera, pool: Plan, table: CoverageTable, flight: FlightSettings,
-           spacing_m: float) -> Plan | None:
-    """Views aimed at the targets that the pool sees (≥ Ω px) but cannot meet, from near up to ``AIM_FROM`` of the
-    views that see each."""
+def _aimed(scene: Scene, camera: Camera, pool: Plan, obs: Observations, table: CoverageTable, et: ElementTargets,
+           flight: FlightSettings, spacing_m: float) -> Plan | None:
+    """Views aimed at the targets that the pool sees (≥ Ω px) but cannot meet, from near the ``AIM_FROM`` views that
+    come nearest to serving each: the least of SSD and angle, each over its bound."""
     q, s = table.counts(np.arange(table.n_views))
     short = (q < table.k) & (table.weight > 0) & (s > 0)
     if not short.any():
         return None
-    view_of = np.repeat(np.arange(table.n_views), np.diff(table.seen_ptr))
-    elements = np.flatnonzero(short)
-    by_element = np.argsort(table.seen_el, kind="stable")  # each element's entries together, views ascending
-    bounds = np.searchsorted(table.seen_el[by_element], np.stack([elements, elements + 1]))
-    seen_from = []
-    for a, b in bounds.T:
-        views = view_of[by_element[a:b]]
-        pick = views[np.unique(np.linspace(0, len(views) - 1, min(AIM_FROM, len(views))).round().astype(int))]
-        seen_from.append(pool.C_world[pick])
+    e = obs.element.astype(np.int64)
+    rows = np.flatnonzero(short[e] & (obs.pixels >= et.omega_px))
+    e = e[rows]
+    shortfall = np.maximum(obs.ssd[rows] / et.max_ssd_m_px[e], obs.angle_mean[rows] / et.max_angle_deg[e])
+    order = np.lexsort((shortfall, e))  # per element, the nearest to serving first
+    e, frame = e[order], obs.frame[rows][order].astype(np.int64)
+    elements, first = np.unique(e, return_index=True)
+    ends = np.append(first[1:], len(e))
+    seen_from = [pool.C_world[frame[a:min(b, a + AIM_FROM)]] for a, b in zip(first, ends)]
     return aimed_views(scene, camera, flight.safety_distance_m, elements, seen_from, spacing_m,
                        min_height_m=flight.min_height_m, altitude_limit_m=flight.altitude_limit_m)
 
