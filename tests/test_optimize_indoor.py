@@ -52,7 +52,7 @@ def _box(lo, hi) -> trimesh.Trimesh:
     return m
 
 
-def room_scene(ceiling: float = ROOM[2], middle: str = "column") -> Scene:
+def room_scene(ceiling: float = ROOM[2], middle: str = "column", named: bool = True) -> Scene:
     """The room: floor and ceiling slabs (the ceiling belongs to the storey above, as in an IFC), four walls of its
     own each, and in the middle a column or a partition without a door."""
     X, Y, _ = ROOM
@@ -75,7 +75,7 @@ def room_scene(ceiling: float = ROOM[2], middle: str = "column") -> Scene:
         E.append(np.full(len(m.faces), k))
         offset += len(m.vertices)
     table = ElementTable.build([p[0] for p in parts], name=[p[0] for p in parts], ifc_class=[p[1] for p in parts],
-                               storey=[p[2] for p in parts])
+                               storey=[p[2] for p in parts] if named else None)
     return Scene.from_arrays(np.concatenate(V), np.concatenate(F), np.concatenate(E), table)
 
 
@@ -108,8 +108,15 @@ def room() -> Scene:
 
 
 def test_storeys_stand_on_their_slabs(room):
-    """Level 1 stands on its floor slab's top (z = 0); the ceiling slab is the roof storey's floor (z = 3.2)."""
+    """Level 1 stands on its floor slab's top (z = 0); the ceiling slab is the roof storey's floor (z = 3.2).
+    Without storey names (a mesh) the levels are where upward faces cover 4 m² or more: the floor's top (53.76 m²),
+    the walls' tops at 3.0 m (5.76 m²) and the ceiling slab's top at 3.2 m (53.76 m²); the last two, 0.2 m apart,
+    are one level, the larger's. The candidates are the same 24."""
     assert storey_levels(room) == [Storey("Level 1", 0.0), Storey("Roof", ROOM[2] + WALL)]
+    mesh = room_scene(named=False)
+    assert storey_levels(mesh) == [Storey("level +0.00 m", 0.0), Storey("level +3.20 m", 3.2)]
+    c = indoor_candidates(mesh, PANO, spacing_m=SPACING, height_m=HEIGHT, clearance_m=CLEAR)
+    assert len(c.plan) == 24 and [m.name for m in c.plan.missions] == ["level +0.00 m"]
 
 
 def test_candidates_stand_in_free_space_at_camera_height(room):
@@ -178,7 +185,8 @@ def test_progress_and_summary_speak_as_the_optimisers_do(result):
     s = result.summary()
     assert {"frames", "missions", "batteries", "minutes", "targets", "met", "candidates", "removed",
             "unstable_frames", "blind_frames", "ok", "violations"} <= set(s)
-    assert s["frames"] == len(result.plan) and s["storeys"] == ["Level 1", "Roof"] and s["walks"] == 1
+    assert s["frames"] == len(result.plan) and s["storeys"] == ["Level 1"] and s["walks"] == 1
+    assert [st["name"] for st in result.plan.parameters["storeys"]] == ["Level 1", "Roof"]  # the roof's all outside
     assert s["candidates_dropped"]["outside the building"] == 35
     json.dumps(s)  # plain numbers, for the web app's job record
 
@@ -271,13 +279,13 @@ def test_the_command_line_plans_the_duplex_indoors(tmp_path):
 
     out = tmp_path / "indoor.json"
     runner = CliRunner()
-    r = runner.invoke(app, ["optimize", "sample", "--camera", "theta-z1", "--scale", "0.05", "--no-cache", "-o",
-                            str(out)], env={"COLUMNS": "200"})
+    r = runner.invoke(app, ["optimize", "sample", "--camera", "theta-z1", "--scale", "0.05", "--spacing", "1.5",
+                            "--no-cache", "-o", str(out)], env={"COLUMNS": "200"})
     assert r.exit_code == 0, r.output
     assert "0 frames that see no target" in r.output and "no violations" in r.output
     assert "against the templates" not in r.output  # the templates compared are flown outside
     plan = read_plan(out)
-    assert plan.parameters["template"] == TEMPLATE_NAME
+    assert plan.parameters["template"] == TEMPLATE_NAME and plan.parameters["spacing_m"] == 1.5
     assert {m.name.split(",")[0] for m in plan.missions} == {"Level 1", "Level 2"}
     floors = {s["name"]: s["floor_z"] for s in plan.parameters["storeys"]}
     assert floors["Level 1"] == 0.0 and floors["Level 2"] == 3.1  # the slabs' tops

@@ -55,7 +55,7 @@ def optimize_command(
     spacing: Annotated[float | None, typer.Option(
         help="Spacing of the candidate views' anchors on the surfaces (m); default: a sixth of a frame's "
              "footprint at the safety distance. A 360° camera: of the grid of positions on each storey, default "
-             "1.5")] = None,
+             "1.0")] = None,
     engine: Annotated[str, typer.Option(help=ENGINE_HELP)] = "auto",
     compare: Annotated[bool, typer.Option(help="Also plan and score the facade, orbit and lawn-mower templates at the "
                                                "same safety distance, for comparison")] = True,
