@@ -110,8 +110,8 @@ def room() -> Scene:
 def test_storeys_stand_on_their_slabs(room):
     """Level 1 stands on its floor slab's top (z = 0); the ceiling slab is the roof storey's floor (z = 3.2).
     Without storey names (a mesh) the levels are where upward faces cover 4 m² or more: the floor's top (53.76 m²),
-    the walls' tops at 3.0 m (5.76 m²) and the ceiling slab's top at 3.2 m (53.76 m²); the last two, 0.2 m apart,
-    are one level, the larger's. The candidates are the same 24."""
+    the tops of the walls and the column at 3.0 m (5.92 m²) and the ceiling slab's top at 3.2 m (53.76 m²); the
+    last two, 0.2 m apart, are one level, the larger's. The candidates are the same 24."""
     assert storey_levels(room) == [Storey("Level 1", 0.0), Storey("Roof", ROOM[2] + WALL)]
     mesh = room_scene(named=False)
     assert storey_levels(mesh) == [Storey("level +0.00 m", 0.0), Storey("level +3.20 m", 3.2)]
