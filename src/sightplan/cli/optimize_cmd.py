@@ -44,7 +44,7 @@ def optimize_command(
     camera: Annotated[str, typer.Option(help="Camera: " + CAMERA_FORMS)] = "p4p",
     focal_mm: FocalOpt = None,
     safety_distance: Annotated[float | None, typer.Option(
-        "--safety-distance", help="Least distance to the model (m); default 10")] = None,
+        "--safety-distance", help="Least distance to the model (m); default 10, 0.3 indoors (a 360° camera)")] = None,
     vlos_radius: VlosOpt = 500.0,
     ground_station: StationOpt = None,
     aircraft: Annotated[str | None, typer.Option(help="Aircraft preset (p4p, m3e, m300) or a JSON file of its fields; "
@@ -54,7 +54,8 @@ def optimize_command(
     scale: Annotated[float, typer.Option(help="Resolution scale the candidates are cast at")] = 0.25,
     spacing: Annotated[float | None, typer.Option(
         help="Spacing of the candidate views' anchors on the surfaces (m); default: a sixth of a frame's "
-             "footprint at the safety distance")] = None,
+             "footprint at the safety distance. A 360° camera: of the grid of positions on each storey, default "
+             "1.0")] = None,
     engine: Annotated[str, typer.Option(help=ENGINE_HELP)] = "auto",
     compare: Annotated[bool, typer.Option(help="Also plan and score the facade, orbit and lawn-mower templates at the "
                                                "same safety distance, for comparison")] = True,
@@ -79,7 +80,9 @@ def optimize_command(
     start = read_plan(from_plan) if from_plan is not None else None
     scene, _ = load_with_progress(console, model, cache)
     scene = dated_scene(console, scene, model, schedule, rules, prefer_actual, date, date_basis, unscheduled)
-    flight = default_flight_settings(False, safety_distance, vlos_radius, ground_station, aircraft, altitude_limit,
+    walked = cam.kind == "equirectangular"  # a 360° camera: an indoor plan, walked storey by storey
+    flight = default_flight_settings(walked, safety_distance, None if walked else vlos_radius,
+                                     None if walked else ground_station, aircraft, None if walked else altitude_limit,
                                      min_height=min_height)
     settings = OptimizeSettings(scale=scale, engine=engine, spacing_m=spacing, cache_dir=None if cache else False)
     with stage_bars(console) as progress:
@@ -92,7 +95,7 @@ def optimize_command(
                   f"{s['minutes']} min · {s['batteries']} batteries", highlight=False)
     console.print(f"{s['stability_views']} frames added so that runs register · {s['unstable_frames']} frames below "
                   f"the stability floor · {s['blind_frames']} frames that see no target", highlight=False)
-    if compare:
+    if compare and not walked:  # the templates compared are flown outside
         _compare(scene, cam, result, flight, settings)
     console.print(f"wrote {output} — evaluate it with `sightplan evaluate {model} {output}`")
 

@@ -243,6 +243,7 @@ def check_command(
 
     Exits with status 1 when a check fails, so scripts can stop on it."""
     from ..plan.checks.feasibility import check_plan, plan_flights
+    from ..plan.checks.gate import walked as walked_plan
     from ..plan.format import write_plan
     from ..plan.load import load_plan
 
@@ -253,7 +254,7 @@ def check_command(
     scene = with_reality(console, scene, reality)
     plan = load_plan(plan_file, camera=cli_camera(camera, focal_mm), **georef_kwargs(scene))
     warn_if_far(console, scene, plan)
-    walked = plan.parameters.get("template") == "indoor_route"  # a rover or a walker: no sight line, no altitude limit
+    walked = walked_plan(plan)  # a rover or a walker: no sight line, no altitude limit
     settings = default_flight_settings(walked, safety_distance, vlos_radius, ground_station, aircraft, altitude_limit,
                                        drone_safety_m=5.0, min_height=min_height)
     report = (plan_flights if split else check_plan)(scene, plan, settings)

@@ -156,8 +156,11 @@ def optimize(scene: Scene, camera: Camera, targets: Targets | None = None, budge
     docstring). ``flight``: the safety distance, line of sight, aircraft, limits the plan must keep (default: a
     drone's, 10 m from the model). ``start``: a plan to improve — its frames are candidates chosen first, and any
     that prove redundant are removed."""
-    if not isinstance(camera, PinholeCamera):
-        raise PlanError("optimised plans need a perspective (pinhole) camera")
+    if not isinstance(camera, PinholeCamera):  # a 360° camera: a walked indoor plan (.indoor refuses any other)
+        from .indoor import optimize_indoor
+
+        return optimize_indoor(scene, camera, targets, budget, flight=flight, settings=settings, start=start,
+                               progress=progress)
     targets = targets or Targets()
     budget = budget or Budget()
     flight = flight or FlightSettings(safety_distance_m=10.0)

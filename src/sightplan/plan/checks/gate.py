@@ -48,9 +48,13 @@ def settings_from_record(record: dict) -> FlightSettings:
                           min_height_m=record.get("min_height_m"))
 
 
+#: the ``template`` parameter of the plans walked or driven on the ground: an indoor route, an optimised indoor plan
+WALKED_TEMPLATES = frozenset({"indoor_route", "optimised_indoor"})
+
+
 def walked(plan: Plan) -> bool:
     """A route walked or driven on the ground: no line of sight, no altitude limit, no minimum height."""
-    return plan.parameters.get("template") == "indoor_route"
+    return plan.parameters.get("template") in WALKED_TEMPLATES
 
 
 def default_settings(plan: Plan) -> FlightSettings:

@@ -218,13 +218,14 @@ def _num(x: float | None, digits: int = 3) -> float | None:
 def plan_flight(plan) -> dict[str, Any]:
     """The flight settings the plan was made with (a template's), else a drone's defaults with the plan's safety
     distance (or 5 m) and a walker's for an indoor route."""
+    from ...plan.checks.gate import walked as walked_plan
     from ...plan.templates.registry import default_flight
 
     recorded = plan.parameters.get(FLIGHT_KEY)
     keys = ("safety_distance_m", "vlos_radius_m", "altitude_limit_m", "aircraft")
     if isinstance(recorded, dict) and set(keys) <= set(recorded):
         return recorded
-    walked = plan.parameters.get("template") == "indoor_route"
+    walked = walked_plan(plan)
     flight = {k: v for k, v in default_flight(walked).items() if k in keys}  # no minimum height for a plan read in
     if not walked:
         flight["safety_distance_m"] = float(plan.parameters.get("safety_distance_m") or 5.0)
