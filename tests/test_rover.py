@@ -133,3 +133,22 @@ def test_presets_split_a_long_walk():
     assert [t.time_s for t in times] == pytest.approx([8630, 3372])
     assert [t.distance_m for t in times] == pytest.approx([3595, 1405])
     check_parts(plan, split, times, tracked)
+
+
+def test_short_walks_share_a_battery_and_a_part_cut_at_its_limit_takes_the_next():
+    """Missions of 20 m, 20 m and 5 m on 50 m a battery: all three share one (45 m); a fourth walk of 20 m takes a
+    second. A walk cut where its battery ran out fills that battery."""
+    from sightplan.plan.checks.feasibility import battery_count
+
+    rover = Rover("test", speed_m_s=1.0, capture_s=0.0, limit_distance_m=50.0, reserve=0.0)
+
+    def count(xs, missions):
+        _, times = split_by_rover(route(xs, missions=missions), rover)
+        return battery_count(times, rover)
+
+    three = [0, 10, 20, 100, 110, 120, 200, 205]
+    assert count(three, (Mission("a", 0, 3), Mission("b", 3, 6), Mission("c", 6, 8))) == 1
+    assert count(three + [300, 310, 320], (Mission("a", 0, 3), Mission("b", 3, 6), Mission("c", 6, 8),
+                                           Mission("d", 8, 11))) == 2
+    # 30 m steps: each part holds one step (two would be 60 m), and 20 m left is too little for the next
+    assert count([0, 30, 60, 90], (Mission("long", 0, 4),)) == 3

@@ -329,19 +329,21 @@ def check_plan(scene: Scene, plan: Plan, settings: FlightSettings) -> Feasibilit
 
 
 def battery_count(missions, aircraft) -> int | None:
-    """Charges for the missions flown in order: a battery takes consecutive flights while their times add up to its
-    usable time (a rover's parts are one battery each)."""
+    """Charges for the missions flown (or walked) in order: a battery takes consecutive missions while their times
+    (and a rover's distances) add up to its usable time (and distance). A rover's part cut where its battery ran out
+    fills one, so the next part takes a new one."""
     if aircraft is None:
         return None
-    if isinstance(aircraft, Rover):
-        return sum(m.stop > m.start for m in missions)
-    count, left = 0, 0.0
+    limit_d = aircraft.usable_m if isinstance(aircraft, Rover) else np.inf
+    count, left, left_d = 0, 0.0, 0.0
     for m in missions:
-        if m.time_s is None:
+        if m.time_s is None or m.stop <= m.start:
             continue
-        if count == 0 or m.time_s > left:
-            count, left = count + 1, aircraft.usable_s
+        d = (m.distance_m or 0.0) if isinstance(aircraft, Rover) else 0.0
+        if count == 0 or m.time_s > left or d > left_d:
+            count, left, left_d = count + 1, aircraft.usable_s, limit_d
         left -= m.time_s
+        left_d -= d
     return count
 
 
