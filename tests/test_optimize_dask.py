@@ -128,7 +128,7 @@ def test_cached_frames_are_read_here_and_only_the_others_cast_on_the_cluster(box
         ev = evaluate_distributed(box, plan, settings, cluster=client, batch_frames=2, cache_dir=cache,
                                   progress=lambda i, n: seen.append((i, n)))
     assert ev.cache_hits == 5 and ev.timings["frames_cast"] == 5 and ev.timings["batches"] == 3
-    assert _cast_tasks(stream) == 3 and seen == [(5, 10), *seen[1:]] and seen[-1] == (10, 10)
+    assert _cast_tasks(stream) == 3 and seen[0] == (5, 10) and seen[-1] == (10, 10)
     for name in Observations._ARRAYS:
         assert np.array_equal(getattr(here.observations, name), getattr(ev.observations, name)), name
     assert ev.observations.meta == here.observations.meta and ev.metrics.plan == here.metrics.plan
