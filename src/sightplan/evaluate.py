@@ -82,6 +82,13 @@ def observation_meta(engine: str, settings: EvaluationSettings, scene_key: str, 
             "features": features_key, "feature_params": feature_params}
 
 
+def frame_context(scene: Scene, settings: EvaluationSettings, features_key: str, engine: str) -> str:
+    """The per-frame cache's key of everything but the frame that determines a frame's observation: the version and
+    observation rules, the scene, the features, the engine that casts it (its resolved name), scale and D_max."""
+    return FrameCache.context_key(__version__, OBSERVATION_RULES, scene.key, len(scene.tie_pairs()), features_key,
+                                  engine, settings.scale, settings.d_max)
+
+
 def observe_plan(
     scene: Scene,
     plan: Plan,
@@ -99,8 +106,7 @@ def observe_plan(
     engine = make_engine(settings.engine, scene, features, d_max=settings.d_max, threads=settings.threads)
     timings["engine_build_s"] = time.perf_counter() - t0
     features_key = features.key
-    context = FrameCache.context_key(__version__, OBSERVATION_RULES, scene.key, len(scene.tie_pairs()), features_key,
-                                     engine.name, settings.scale, settings.d_max)
+    context = frame_context(scene, settings, features_key, engine.name)
     keys = plan.frame_keys() if cache is not None else [None] * len(plan)
     frames: list[FrameObservation] = []
     t0 = time.perf_counter()

@@ -66,6 +66,10 @@ def optimize_command(
     date_basis: BasisOpt = "finish",
     unscheduled: UnscheduledOpt = "present",
     cache: Annotated[bool, typer.Option(help="Reuse the model cache and the per-frame cache")] = True,
+    cluster: Annotated[str | None, typer.Option(
+        help="Cast the candidates on a dask cluster: a scheduler address (tcp://host:8786) or local:N for N local "
+             "worker processes; frames in the per-frame cache are not cast again")] = None,
+    batch_frames: Annotated[int, typer.Option(min=1, help="With --cluster: frames per task")] = 64,
 ) -> None:
     """Find the plan that meets the targets with the fewest frames, minutes and batteries: candidate views cast once,
     a submodular selection, a route, and the flight checks."""
@@ -84,7 +88,8 @@ def optimize_command(
     flight = default_flight_settings(walked, safety_distance, None if walked else vlos_radius,
                                      None if walked else ground_station, aircraft, None if walked else altitude_limit,
                                      min_height=min_height)
-    settings = OptimizeSettings(scale=scale, engine=engine, spacing_m=spacing, cache_dir=None if cache else False)
+    settings = OptimizeSettings(scale=scale, engine=engine, spacing_m=spacing, cache_dir=None if cache else False,
+                                cluster=cluster, batch_frames=batch_frames)
     with stage_bars(console) as progress:
         result = optimize(scene, cam, goal, budget, flight=flight, settings=settings, start=start, progress=progress)
     write_plan(result.plan, output)

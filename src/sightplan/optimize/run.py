@@ -18,12 +18,15 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable
+from contextlib import ExitStack
 from dataclasses import dataclass, field, replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
 
 from ..camera.models import Camera, PinholeCamera
+from ..distributed import connect, evaluate_distributed
 from ..errors import PlanError
 from ..evaluate import EvaluationSettings, evaluate
 from ..metrics import MetricParams, frame_metrics
@@ -38,6 +41,9 @@ from .candidates import CandidateSet, aimed_views, candidate_views
 from .route import LegMemo, order_views, ordered_plan
 from .select import CoverageTable, greedy, refine, stable_runs
 from .targets import SSD_SLACK, ElementTargets, Targets
+
+if TYPE_CHECKING:
+    from distributed import Client
 
 Progress = Callable[[str, int, int], None]
 #: the stages ``optimize`` reports to its ``progress(stage, i, n)``, in order
@@ -57,10 +63,21 @@ class Budget:
     batteries: int | None = None
 
     def __post_init__(self) -> None:
-        for name, low in (("frames", 1), ("minutes", 0), ("batteries", 1)):
-            v = getattr(self, name)
-            if v is not None and not (isinstance(v, (int, float)) and math.isfinite(v) and v >= low and v > 0):
-                raise PlanError(f"the budget's {name} must be a positive number, got {v!r}")
+        """Frames and batteries: whole numbers ≥ 1 (a float of whole value, 3.0, is taken as 3); minutes: a real
+        number > 0. True or False, 2.5 frames, NaN, infinity or text are refused."""
+        for name in ("frames", "minutes", "batteries"):
+            v = given = getattr(self, name)
+            if v is None:
+                continue
+            whole = name != "minutes"
+            integer = isinstance(v, (int, np.integer)) and not isinstance(v, bool)
+            real = integer or isinstance(v, (float, np.floating))
+            if whole and real and not integer and math.isfinite(v) and float(v).is_integer():
+                v, integer = int(v), True  # 3.0 frames: 3
+            if not ((integer if whole else real and v < math.inf) and v > 0):
+                raise PlanError(f"the budget's {name} must be {'a whole number ≥ 1' if whole else 'a number > 0'}, "
+                                f"got {given!r}")
+            object.__setattr__(self, name, int(v) if integer else float(v))
 
 
 @dataclass(frozen=True)
@@ -69,7 +86,10 @@ class OptimizeSettings:
     and ``distances_m`` (defaults in :mod:`.candidates`), ``oblique_deg``, ``cache_dir`` of the per-frame cache
     (None: the default one, False: none), LKH ``runs``; ``template_views``: the facade, orbit and lawn-mower views
     (70 % overlap) are candidates too; ``aimed_views``: targets some candidate sees but none meets get views aimed at
-    them (:func:`~.candidates.aimed_views`), cast in a second round."""
+    them (:func:`~.candidates.aimed_views`), cast in a second round; ``cluster``: cast on a dask cluster instead (a
+    scheduler address ``tcp://host:8786``, ``local:N`` for N local worker processes, or a ``distributed.Client``),
+    ``batch_frames`` frames per task, connected once for both rounds; the frames in the per-frame cache are read
+    here, only the others go to the cluster, and what it casts is stored in the cache."""
 
     scale: float = 0.25
     engine: str = "auto"
@@ -81,6 +101,8 @@ class OptimizeSettings:
     runs: int = 4
     template_views: bool = True
     aimed_views: bool = True
+    cluster: str | Client | None = None
+    batch_frames: int = 64
 
 
 @dataclass(frozen=True)
@@ -188,17 +210,22 @@ def optimize(scene: Scene, camera: Camera, targets: Targets | None = None, budge
                                        threads=settings.threads, metric=metric)
 
     def cast(views: Plan, what: str) -> Observations:
-        return evaluate(scene, views, cast_settings, cache_dir=settings.cache_dir,
-                        progress=None if progress is None else (lambda i, n: progress(what, i, n))).observations
+        report = None if progress is None else (lambda i, n: progress(what, i, n))
+        if client is None:
+            return evaluate(scene, views, cast_settings, cache_dir=settings.cache_dir, progress=report).observations
+        return evaluate_distributed(scene, views, cast_settings, cluster=client, batch_frames=settings.batch_frames,
+                                    cache_dir=settings.cache_dir, progress=report).observations
 
-    obs = cast(pool, CASTING)
-    table = CoverageTable.build(obs, et)
-    if settings.aimed_views:  # targets seen but not met: views aimed at them from near those that see them
-        aimed = _aimed(scene, camera, pool, obs, table, et, flight, cands.plan.parameters["spacing_m"])
-        if aimed is not None:  # only the aimed views are cast: the pool's frames follow them unchanged
-            pool = _concatenated([pool, aimed], pool.parameters)
-            obs = Observations.concatenate([obs, cast(aimed, CASTING_AIMED)])
-            table = CoverageTable.build(obs, et)
+    with ExitStack() as stack:  # a cluster named by its address or local:N: connected once, closed after the casts
+        client = connect(settings.cluster, stack) if isinstance(settings.cluster, str) else settings.cluster
+        obs = cast(pool, CASTING)
+        table = CoverageTable.build(obs, et)
+        if settings.aimed_views:  # targets seen but not met: views aimed at them from near those that see them
+            aimed = _aimed(scene, camera, pool, obs, table, et, flight, cands.plan.parameters["spacing_m"])
+            if aimed is not None:  # only the aimed views are cast: the pool's frames follow them unchanged
+                pool = _concatenated([pool, aimed], pool.parameters)
+                obs = Observations.concatenate([obs, cast(aimed, CASTING_AIMED)])
+                table = CoverageTable.build(obs, et)
     timings["cast_s"] = time.perf_counter() - t0
 
     t0 = time.perf_counter()

@@ -12,6 +12,7 @@ import queue
 import threading
 import time
 from collections.abc import Callable
+from dataclasses import replace
 
 from sqlalchemy import select
 
@@ -20,6 +21,7 @@ from .db import Database
 from .models import Evaluation, Job, Model, Plan, PlanVersion, Reality, Schedule, utcnow
 from .scenes import evaluation_scene
 from .services import (
+    FLIGHT_KEY,
     add_plan_version,
     evaluation_settings,
     flight_settings,
@@ -355,6 +357,7 @@ class Worker:
                           settings=OptimizeSettings(scale=p["scale"], cache_dir=self.storage.frame_cache),
                           progress=progress)
         summary = result.summary()
+        made = replace(result.plan, parameters={**result.plan.parameters, FLIGHT_KEY: p["flight"]})  # as a template's
         path = None
         try:
             with self.db.session() as s:
@@ -363,7 +366,7 @@ class Worker:
                     return
                 row = Plan(project_id=project_id, model_id=model_id,
                            name=p.get("name") or f"optimised (k = {p['k']})", source=f"optimize ({p['camera']})")
-                path = add_plan_version(self.storage, s, row, result.plan,
+                path = add_plan_version(self.storage, s, row, made,
                                         f"optimised: {summary['met']} of {summary['targets']} targets met")
                 job.plan_id = row.id
                 job.progress_done = job.progress_total = 1.0

@@ -1,6 +1,7 @@
 // The "Optimised plan" form (#optimize-form): POST /plans/optimize with the targets and budget typed here and the
-// camera, safety distance and flight settings of the template form; the job runs on the server (progress in the
-// jobs tray) and the plan it makes is listed and opened when it is done.
+// camera, safety distance and flight settings (aircraft, VLOS radius, altitude limit, ground stations) of the
+// template form; the job runs on the server (progress in the jobs tray) and the plan it makes is listed and opened
+// when it is done.
 //
 // Interface: bindOptimize({ planCreated }) wires the form once; planCreated(plan) (async) is given the new plan.
 import * as api from './api.js';
@@ -8,6 +9,7 @@ import { $, act, showMessage } from './dom.js';
 import { projectUrl } from './context.js';
 import { onJob, trackJob } from './jobs.js';
 import { state } from './store.js';
+import { flightBody } from './templates.js';
 
 /** @typedef {import('./api-types.js').OptimizeIn} OptimizeIn */
 
@@ -18,10 +20,8 @@ function optimizeBody() {
   const body = {
     model_id: state.model.id, camera: $('#plan-camera').value, safety_distance_m: num('#plan-safety') ?? 10,
     k: num('#optimize-k') ?? 3, max_angle_deg: num('#optimize-angle') ?? 45, budget_minutes: num('#optimize-minutes'),
-    budget_frames: num('#optimize-frames'), scale: num('#optimize-scale') ?? 0.25,
-    vlos_radius_m: num('#plan-vlos'), altitude_limit_m: num('#plan-alt-limit'),
+    budget_frames: num('#optimize-frames'), scale: num('#optimize-scale') ?? 0.25, ...flightBody(),
   };
-  if ($('#plan-aircraft').value) body.aircraft = $('#plan-aircraft').value;
   for (const [k, v] of Object.entries(body)) if (v === null || Number.isNaN(v)) delete body[k];
   return body;
 }

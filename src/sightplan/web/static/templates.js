@@ -38,13 +38,20 @@ function templateBody() {
     else body[f.name] = parsePoints(node.value, f.kind === 'points2' ? 2 : 3, f.label.toLowerCase());
     if (Array.isArray(body[f.name]) && !body[f.name].length) delete body[f.name];
   }
-  // the flight settings every template takes; left empty, the server's defaults (a walker's for a walked route)
+  Object.assign(body, flightBody());
+  for (const [k, v] of Object.entries(body)) if (v === null || Number.isNaN(v)) delete body[k];
+  return body;
+}
+
+/** The flight settings of the form's fieldset, which every plan request takes (a template's, an optimisation's):
+ * the aircraft, VLOS radius, altitude limit and ground stations; a field left empty is null or absent (the server's
+ * defaults, a walker's for a walked route). */
+export function flightBody() {
+  const num = (node) => (node.value === '' ? null : Number(node.value));
+  const body = { vlos_radius_m: num($('#plan-vlos')), altitude_limit_m: num($('#plan-alt-limit')) };
   if ($('#plan-aircraft').value) body.aircraft = $('#plan-aircraft').value;
-  body.vlos_radius_m = num($('#plan-vlos'));
-  body.altitude_limit_m = num($('#plan-alt-limit'));
   const stations = parsePoints($('#plan-stations').value, 3, 'ground station');
   if (stations.length) body.ground_station = stations;
-  for (const [k, v] of Object.entries(body)) if (v === null || Number.isNaN(v)) delete body[k];
   return body;
 }
 
