@@ -312,8 +312,9 @@ def optimize(scene: Scene, camera: Camera, targets: Targets | None = None, budge
 
 def _aimed(scene: Scene, camera: Camera, pool: Plan, obs: Observations, table: CoverageTable, et: ElementTargets,
            flight: FlightSettings, spacing_m: float) -> Plan | None:
-    """Views aimed at the targets that the pool sees (≥ Ω px) but cannot meet, from near the ``AIM_FROM`` views that
-    come nearest to serving each: the least of SSD and angle, each over its bound."""
+    """Views aimed at the targets that the pool sees (≥ Ω px) but cannot meet, from near ``AIM_FROM`` of the views
+    that see each: half those that come nearest to serving it (the larger of SSD and angle, each over its bound,
+    least), half spread over the rest."""
     q, s = table.counts(np.arange(table.n_views))
     short = (q < table.k) & (table.weight > 0) & (s > 0)
     if not short.any():
@@ -326,7 +327,12 @@ def _aimed(scene: Scene, camera: Camera, pool: Plan, obs: Observations, table: C
     e, frame = e[order], obs.frame[rows][order].astype(np.int64)
     elements, first = np.unique(e, return_index=True)
     ends = np.append(first[1:], len(e))
-    seen_from = [pool.C_world[frame[a:min(b, a + AIM_FROM)]] for a, b in zip(first, ends)]
+    near = AIM_FROM // 2
+    seen_from = []
+    for a, b in zip(first, ends):
+        rest = frame[a + near:b]
+        spread = rest[np.unique(np.linspace(0, len(rest) - 1, min(AIM_FROM - near, len(rest))).round().astype(int))]
+        seen_from.append(pool.C_world[np.concatenate([frame[a:min(b, a + near)], spread])])
     return aimed_views(scene, camera, flight.safety_distance_m, elements, seen_from, spacing_m,
                        min_height_m=flight.min_height_m, altitude_limit_m=flight.altitude_limit_m)
 
