@@ -57,12 +57,13 @@ from ..plan.site import with_site
 from ..plan.types import Mission, Plan
 from .candidates import MAX_CANDIDATES
 from .route import blocked_legs
-from .select import CoverageTable, greedy
+from .select import CoverageTable, Runs, stable_runs, stable_selection
 from .targets import SSD_SLACK, ElementTargets, Targets
 
 SPACING_M = 1.0  # on the Duplex: 1.5 m meets 82 targets with 45 frames, 1.0 m 105 with 51, 0.75 m 114 with 57
 HEIGHT_M = 1.6  # a 360° camera on a pole, held at eye height
 CLEARANCE_M = 0.3  # the walked checks' distance to the model
+GROUP_ENTRY_CM = 300  # least cost of entering or leaving a group of positions walked together (3 m of walking)
 SSD_DISTANCE_M = 3.0  # the default SSD bound: the camera's head-on SSD at this distance × 1.5
 FLOOR_SLACK_M = 0.3
 HORIZONTAL_RAYS = 8
@@ -258,9 +259,12 @@ class Walk:
     forbidden: int
 
 
-def walk_order(scene: Scene, P: NDArray, clearance_m: float, runs: int = 4) -> Walk:
+def walk_order(scene: Scene, P: NDArray, clearance_m: float, runs: int = 4,
+               groups: list[NDArray] | None = None) -> Walk:
     """An open walk through the (n, 3) positions ``P`` (see the module docstring): straight legs, those within
-    ``clearance_m`` of ``scene`` forbidden, LKH over their lengths in centimetres."""
+    ``clearance_m`` of ``scene`` forbidden, LKH over their lengths in centimetres. ``groups``: disjoint sets of
+    positions walked each in one stretch (runs that structure-from-motion chains): entering or leaving one costs a
+    surcharge, which grows while a walk still splits one."""
     P = np.asarray(P, np.float64).reshape(-1, 3)
     n = len(P)
     if n <= 1:
@@ -275,7 +279,20 @@ def walk_order(scene: Scene, P: NDArray, clearance_m: float, runs: int = 4) -> W
     length = np.rint(np.linalg.norm(P[:, None] - P[None], axis=2) * 100).astype(np.int64)  # cm
     forbidden_cost = int(length.max()) * n + 1  # more than any walk of allowed legs
     cost = np.where(near, forbidden_cost, length)
-    order = np.array(open_path(cost, runs), np.int64)
+    label = np.full(n, -1)
+    for k, g in enumerate(groups or ()):
+        label[np.asarray(g, np.int64)] = k
+    grouped = label >= 0
+    entry = (grouped[:, None] | grouped[None, :]) & (label[:, None] != label[None, :])
+    inner = ~entry & grouped[:, None] & ~near
+    surcharge = max(GROUP_ENTRY_CM, 4 * int(length[inner].max(initial=0)))
+    while True:
+        order = np.array(open_path(cost + surcharge * entry, runs), np.int64)
+        lab = label[order]
+        starts = lab[(lab >= 0) & (lab != np.concatenate([[-1], lab[:-1]]))]
+        if not len(starts) or np.bincount(starts).max() <= 1 or surcharge > 2 * forbidden_cost:
+            break
+        surcharge *= 4  # a group walked in two stretches: entering one made dearer
     cuts = np.flatnonzero(near[order[:-1], order[1:]]) + 1
     return Walk(order, cuts.astype(np.int64), int(near[i, j].sum()))
 
@@ -348,6 +365,7 @@ class IndoorResult:
     unstable_frames: int
     blind_frames: int
     storeys: tuple[Storey, ...] = ()
+    stability_views: int = 0
     timings: dict = field(default_factory=dict)
 
     @property
@@ -363,7 +381,8 @@ class IndoorResult:
                 "minutes": None if r.total_time_s is None else round(r.total_time_s / 60, 2),
                 "targets": self.targets.n_active, "met": self.n_met, "candidates": self.candidates,
                 "candidates_blind": self.candidates_blind, "removed": self.removed,
-                "forbidden_legs": self.forbidden_legs, "unstable_frames": self.unstable_frames, "stability_views": 0,
+                "forbidden_legs": self.forbidden_legs, "unstable_frames": self.unstable_frames,
+                "stability_views": self.stability_views,
                 "blind_frames": self.blind_frames, "ok": r.ok, "violations": list(r.violations),
                 "storeys": [s.name for s in self.storeys], "walks": int(self.plan.parameters.get("walks", 0)),
                 "candidates_dropped": dict(self.candidates_dropped),
@@ -410,7 +429,9 @@ def optimize_indoor(scene: Scene, camera: Camera, targets: Targets | None = None
 
     t0 = time.perf_counter()
     blind = int((np.diff(table.seen_ptr) == 0).sum())  # candidates that see no target
-    sel = greedy(table, frames)
+    can_add = np.diff(table.seen_ptr) > 0  # positions added for stability must see a target (no waste)
+    sel = stable_selection(table, obs, targets.min_track, targets.min_features, frames, allowed=can_add,
+                           label=cands.storey)
     if not len(sel.views):
         raise PlanError("no candidate position sees any target: lower the targets")
     timings["select_s"] = time.perf_counter() - t0
@@ -420,27 +441,43 @@ def optimize_indoor(scene: Scene, camera: Camera, targets: Targets | None = None
     t0 = time.perf_counter()
     obstacles = without_terrain(scene)
 
-    def fits(report: FeasibilityReport) -> bool:
+    def fits(walk: tuple[FeasibilityReport, NDArray, int, int]) -> bool:
+        report = walk[0]
+        if frames is not None and len(walk[1]) > frames:
+            return False
         if minutes is not None and (report.total_time_s or 0.0) > minutes * 60:
             return False
         return not (batteries is not None and (report.batteries or 0) > batteries)
 
-    def walked(views: NDArray) -> tuple[FeasibilityReport, NDArray, int, int]:
-        return _walk_plan(obstacles, scene, pool, cands, np.sort(views), flight, s.runs)
+    def walked(views: NDArray, grow: bool = True) -> tuple[FeasibilityReport, NDArray, int, int]:
+        """``views`` grown into runs that register (:func:`~.select.stable_runs`, each within its storey; not when
+        ``grow`` is False), walked."""
+        grown = (stable_runs(obs, views, targets.min_track, targets.min_features, allowed=can_add, table=table,
+                             label=cands.storey) if grow else Runs(np.asarray(views, np.int64), [], np.zeros(0, np.int64)))
+        group_of = np.full(table.n_views, -1)
+        for k, g in enumerate(grown.groups):
+            group_of[grown.views[g]] = k
+        return _walk_plan(obstacles, scene, pool, cands, np.sort(grown.views), flight, s.runs, group_of)
 
     views = sel.views
-    report, walked_views, forbidden, walks = walked(views)
-    if (minutes is not None or batteries is not None) and not fits(report):
-        lo, hi, best = 1, len(views), None  # the longest prefix of the greedy order whose walk fits
-        while lo < hi:
-            mid = (lo + hi) // 2
-            r = walked(views[:mid])
-            if fits(r[0]):
-                lo, best = mid + 1, (mid, r)
-            else:
-                hi = mid
+    walk = walked(views)
+    report, walked_views, forbidden, walks = walk
+    if not fits(walk):
+        # the longest prefix of the greedy order whose grown walk fits; a budget too small for even one run that
+        # registers: the positions alone, their frames reported unstable
+        for grow in (True, False):
+            lo, hi, best = 1, len(views) + 1, None
+            while lo < hi:
+                mid = (lo + hi) // 2
+                r = walked(views[:mid], grow)
+                if fits(r):
+                    lo, best = mid + 1, (mid, r)
+                else:
+                    hi = mid
+            if best is not None:
+                break
         if best is None:
-            raise PlanError("not even one position fits the budget of minutes or batteries")
+            raise PlanError("not even one position fits the budget of frames, minutes or batteries")
         views = views[:best[0]]
         report, walked_views, forbidden, walks = best[1]
     timings["route_s"] = time.perf_counter() - t0
@@ -448,7 +485,7 @@ def optimize_indoor(scene: Scene, camera: Camera, targets: Targets | None = None
         progress(ROUTING, 1, 1)
 
     along = frame_metrics(obs.select_frames(walked_views), metric)
-    met = table.met(views)
+    met = table.met(walked_views)
     active = et.active
     params = {"template": TEMPLATE_NAME, "safety_distance_m": clearance, "spacing_m": s.spacing_m or SPACING_M,
               "height_m": s.height_m, "clearance_m": clearance, "walks": walks,
@@ -464,13 +501,16 @@ def optimize_indoor(scene: Scene, camera: Camera, targets: Targets | None = None
     report = replace(report, plan=plan)
     storeys = tuple(cands.storeys[k] for k in np.unique(cands.storey[walked_views]))
     return IndoorResult(plan, report, et, met, len(pool), cands.dropped, blind, len(sel.removed), forbidden,
-                        int((~along.stable).sum()), int((along.pixels_on_targets <= 0).sum()), storeys, timings)
+                        int((~along.stable).sum()), int((along.pixels_on_targets <= 0).sum()), storeys,
+                        stability_views=len(walked_views) - len(views), timings=timings)
 
 
 def _walk_plan(obstacles: Scene, scene: Scene, pool: Plan, cands: IndoorCandidates, views: NDArray,
-               flight: FlightSettings, runs: int) -> tuple[FeasibilityReport, NDArray[np.int64], int, int]:
-    """The pool's ``views`` walked storey by storey (a mission each, more where no clear leg goes on), split and
-    checked by the walker's checks; the walked order (pool indices), the legs forbidden and the walks."""
+               flight: FlightSettings, runs: int,
+               group_of: NDArray | None = None) -> tuple[FeasibilityReport, NDArray[np.int64], int, int]:
+    """The pool's ``views`` walked storey by storey (a mission each, more where no clear leg goes on), each group of
+    ``group_of`` (per pool view, −1: none) in one stretch, split and checked by the walker's checks; the walked order
+    (pool indices), the legs forbidden and the walks."""
     order: list[NDArray] = []
     missions: list[Mission] = []
     forbidden = 0
@@ -478,7 +518,9 @@ def _walk_plan(obstacles: Scene, scene: Scene, pool: Plan, cands: IndoorCandidat
         mine = views[cands.storey[views] == k]
         if not len(mine):
             continue
-        w = walk_order(obstacles, pool.C_world[mine], flight.safety_distance_m, runs)
+        gm = group_of[mine] if group_of is not None else np.full(len(mine), -1)
+        groups = [np.flatnonzero(gm == g) for g in np.unique(gm[gm >= 0])]
+        w = walk_order(obstacles, pool.C_world[mine], flight.safety_distance_m, runs, groups)
         forbidden += w.forbidden
         bounds = [0, *w.cuts.tolist(), len(mine)]
         base = sum(len(o) for o in order)

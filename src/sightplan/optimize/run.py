@@ -39,7 +39,7 @@ from ..plan.site import with_site
 from ..plan.types import Mission, Plan
 from .candidates import CandidateSet, aimed_views, candidate_views
 from .route import LegMemo, order_views, ordered_plan
-from .select import CoverageTable, greedy, refine, stable_runs
+from .select import CoverageTable, Runs, refine, stable_runs, stable_selection
 from .targets import SSD_SLACK, ElementTargets, Targets
 
 if TYPE_CHECKING:
@@ -49,7 +49,6 @@ Progress = Callable[[str, int, int], None]
 #: the stages ``optimize`` reports to its ``progress(stage, i, n)``, in order
 STAGES = (CASTING, CASTING_AIMED, SELECTING, ROUTING) = ("casting candidates", "casting aimed views", "selecting",
                                                          "routing")
-RESELECT_ROUNDS = 3  # selections again without the views no stable run can be formed around
 AIM_FROM = 6  # views aimed at a target that is seen but not met: from near this many of those that see it
 REFINE_FACTOR = 4  # under a budget of minutes or batteries, up to this many times the views the targets need
 
@@ -149,13 +148,14 @@ def default_ssd(camera: Camera, safety_distance_m: float) -> float:
 @dataclass(frozen=True)
 class Flown:
     """A routing of ``given`` views: its flight ``report``, the ``views`` in flown order (with those ``added`` for
-    stability), and the legs forbidden for passing too near the model."""
+    stability, when ``grown``), and the legs forbidden for passing too near the model."""
 
     report: FeasibilityReport
     views: NDArray[np.int64]
     forbidden: int
     added: int
     given: NDArray[np.int64]
+    grown: bool = True
 
 
 def _limited(budget: Budget) -> bool:
@@ -231,19 +231,9 @@ def optimize(scene: Scene, camera: Camera, targets: Targets | None = None, budge
     t0 = time.perf_counter()
     blind = int((np.diff(table.seen_ptr)[n_start:] == 0).sum())  # candidates that see no target
     start_views = np.arange(n_start) if n_start else None
-    sel = greedy(table, budget.frames, start=start_views)
     can_add = np.diff(table.seen_ptr) > 0  # views added for stability must see a target (no waste)
-    banned = np.zeros(table.n_views, bool)
-    for _ in range(RESELECT_ROUNDS):  # a view no run can be formed around: another that serves the same, if any
-        alone = stable_runs(obs, sel.views, targets.min_track, targets.min_features, allowed=can_add, table=table).alone
-        alone = alone[alone >= n_start]
-        if not len(alone) or banned[alone].all():
-            break
-        banned[alone] = True
-        other = greedy(table, budget.frames, start=start_views, allowed=~banned)
-        if (table.weight * table.met(other.views)).sum() < (table.weight * table.met(sel.views)).sum():
-            break
-        sel = other
+    sel = stable_selection(table, obs, targets.min_track, targets.min_features, budget.frames, start=start_views,
+                           allowed=can_add)
     timings["select_s"] = time.perf_counter() - t0
     if progress is not None:
         progress(SELECTING, 1, 1)
@@ -255,16 +245,29 @@ def optimize(scene: Scene, camera: Camera, targets: Targets | None = None, budge
     memo = LegMemo()  # legs measured once for every routing below
     stability = {"s": 0.0}
 
-    def flown(views: NDArray, runs: int) -> Flown:
-        """``views`` grown into runs that register (:func:`~.select.stable_runs`), ordered with each run flown in
-        one stretch, split into missions and checked."""
+    def flown(views: NDArray, runs: int, grow: bool = True) -> Flown:
+        """``views`` grown into runs that register (:func:`~.select.stable_runs`; not when ``grow`` is False),
+        ordered with each run flown in one stretch, split into missions and checked."""
         t = time.perf_counter()
-        grown = stable_runs(obs, views, targets.min_track, targets.min_features, allowed=can_add, table=table)
+        grown = (stable_runs(obs, views, targets.min_track, targets.min_features, allowed=can_add, table=table)
+                 if grow else Runs(np.asarray(views, np.int64), [], np.zeros(0, np.int64)))
         stability["s"] += time.perf_counter() - t
         order, cuts, forbidden = order_views(scene, pool.C_world[grown.views], takeoff, g, _aircraft(flight), runs,
                                              ids=grown.views, memo=memo, groups=grown.groups)
         report = plan_flights(scene, ordered_plan(pool, grown.views[order], cuts), flight)
-        return Flown(report, grown.views[order], forbidden, grown.added, views)
+        return Flown(report, grown.views[order], forbidden, grown.added, views, grow)
+
+    def longest(views: NDArray, grow: bool) -> Flown | None:
+        """The longest prefix of the greedy order whose flight fits (one-run tours)."""
+        lo, hi, best = 1, len(views) + 1, None
+        while lo < hi:
+            mid = (lo + hi) // 2
+            r = flown(views[:mid], 1, grow)
+            if _fits(r, budget):
+                lo, best = mid + 1, r
+            else:
+                hi = mid
+        return best
 
     views = sel.views
     if _limited(budget):
@@ -278,18 +281,12 @@ def optimize(scene: Scene, camera: Camera, targets: Targets | None = None, budge
     else:  # the longest prefix of the greedy order that fits, found with one-run tours, then solved in earnest
         best = flown(views, 1)
         if not _fits(best, budget):
-            lo, hi, best = 1, len(views), None
-            while lo < hi:
-                mid = (lo + hi) // 2
-                r = flown(views[:mid], 1)
-                if _fits(r, budget):
-                    lo, best = mid + 1, r
-                else:
-                    hi = mid
+            # a budget too small for even one run that registers: the views alone, their frames reported unstable
+            best = longest(views, True) or longest(views, False)
             if best is None:
                 raise PlanError("not even one view fits the budget of frames, minutes or batteries")
         if settings.runs > 1:
-            again = flown(best.given, settings.runs)
+            again = flown(best.given, settings.runs, best.grown)
             best = again if _fits(again, budget) else best
     timings["route_s"] = time.perf_counter() - t0 - stability["s"]
     timings["stability_s"] = stability["s"]

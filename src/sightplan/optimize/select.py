@@ -220,7 +220,7 @@ class Runs:
 
 def stable_runs(obs: Observations, views: NDArray, min_track: int, min_features: int,
                 allowed: NDArray | None = None, prefer: float = PREFER_CHOSEN,
-                table: CoverageTable | None = None) -> Runs:
+                table: CoverageTable | None = None, label: NDArray | None = None) -> Runs:
     """Groups of ``min_track`` views sharing ≥ ``min_features`` features, so that each view of ``views`` (in
     order: the most useful first) lies in one. A feature on a run of Y consecutive frames is stable in each of them
     (ν_f, :func:`~sightplan.metrics.stable_feature_counts`); a group flown consecutively therefore makes each of its
@@ -228,7 +228,7 @@ def stable_runs(obs: Observations, views: NDArray, min_track: int, min_features:
     group has in common — a view already chosen counted ``prefer`` times, one not chosen (among ``allowed``, default
     all) up to twice as its gain in the objective of ``table`` (if given) is near the best such gain — and a view not
     chosen is added to the plan; a group that cannot keep ``min_features`` leaves its first view alone. Groups are
-    disjoint."""
+    disjoint; with ``label`` (one per view, e.g. its storey) a group keeps to its first view's label."""
     views = np.asarray(views, np.int64)
     n = obs.n_frames
     if min_track <= 1 or min_features <= 0 or not len(views):
@@ -258,6 +258,8 @@ def stable_runs(obs: Observations, views: NDArray, min_track: int, min_features:
             shared = np.bincount(ffr[_rows(f_ptr, common)], minlength=n).astype(float)
             shared[grouped | ~(usable | chosen)] = 0
             shared[members] = 0
+            if label is not None:
+                shared[label != label[f]] = 0
             shared[shared < min_features] = 0  # a frame sharing fewer cannot keep the group's floor
             score = shared * (1.0 if plain else weight)
             new = np.flatnonzero((shared > 0) & ~chosen)
@@ -294,3 +296,31 @@ def stable_runs(obs: Observations, views: NDArray, min_track: int, min_features:
     where = {int(v): k for k, v in enumerate(out.tolist())}
     return Runs(out, [np.array([where[g] for g in m], np.int64) for m in groups], np.array(alone, np.int64),
                 len(extra))
+
+
+RESELECT_ROUNDS = 3
+
+
+def stable_selection(table: CoverageTable, obs: Observations, min_track: int, min_features: int,
+                     max_views: int | None = None, start: NDArray | None = None, allowed: NDArray | None = None,
+                     label: NDArray | None = None, rounds: int = RESELECT_ROUNDS) -> Selection:
+    """:func:`greedy`, then again without the chosen views that no run can be formed around
+    (:func:`stable_runs`'s ``alone``, with ``allowed`` the views runs may add and ``label`` their groups' bound;
+    ``start`` views are kept), up to ``rounds`` times, as long as the weighted targets met do not fall: a target one
+    of them serves is then served by views that can register."""
+    sel = greedy(table, max_views, start=start)
+    if min_track <= 1 or min_features <= 0:
+        return sel
+    banned = np.zeros(table.n_views, bool)
+    met = (table.weight * table.met(sel.views)).sum()
+    for _ in range(rounds):
+        alone = stable_runs(obs, sel.views, min_track, min_features, allowed=allowed, table=table, label=label).alone
+        alone = alone[~np.isin(alone, start)] if start is not None else alone
+        if not len(alone) or banned[alone].all():
+            break
+        banned[alone] = True
+        other = greedy(table, max_views, start=start, allowed=~banned)
+        if (table.weight * table.met(other.views)).sum() < met:
+            break
+        sel = other
+    return sel
