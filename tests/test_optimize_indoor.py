@@ -160,6 +160,10 @@ def test_the_walk_orders_a_grid_and_never_passes_the_column(room):
     assert len(w.cuts) == 0 and w.forbidden == 1 and abs(w.order.tolist().index(0) - w.order.tolist().index(1)) > 1
     assert min(leg_clearance(a, b) for a, b in zip(P[w.order][:-1], P[w.order][1:])) >= CLEAR
     assert open_path(np.array([[0, 5], [5, 0]])) == [0, 1]
+    # a group of every other point of the row (x = 1, 3, 5) is walked in one stretch, which the plain row is not
+    w = walk_order(room, row, CLEAR, groups=[np.array([1, 2, 0])])
+    where = np.sort(np.flatnonzero(np.isin(w.order, [0, 1, 2])))
+    assert where.tolist() in ([0, 1, 2], [2, 3, 4]) and len(w.cuts) == 0
 
 
 @pytest.fixture(scope="module")
