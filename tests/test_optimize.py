@@ -8,11 +8,12 @@ import numpy as np
 import pytest
 import trimesh
 
+from optimize_support import CAM, box_building  # noqa: E402
 from sightplan.camera.models import PinholeCamera
 from sightplan.errors import PlanError
 from sightplan.evaluate import EvaluationSettings, evaluate
 from sightplan.geo import Georeference
-from sightplan.model.scene import ElementTable, Scene
+from sightplan.model.scene import Scene
 from sightplan.optimize import (
     Budget,
     CoverageTable,
@@ -27,21 +28,7 @@ from sightplan.optimize import (
 )
 from sightplan.plan.checks.feasibility import FlightSettings, check_plan
 
-# 600 × 400 px, 73.7° wide: at 10 m a frame covers 15 × 10 m
-CAM = PinholeCamera(600, 400, 400.0, 400.0, 300.0, 200.0, "test 600x400")
 G = 10.0
-FACES = ("south", "east", "north", "west", "roof")
-
-
-def box_building(size: float = 8.0) -> Scene:
-    """An 8 m cube standing on the ground: four walls and a roof, each its own element; the floor an occluder."""
-    mesh = trimesh.creation.box((size, size, size))
-    mesh.apply_translation((size / 2, size / 2, size / 2))
-    n = mesh.face_normals
-    element = np.select([n[:, 1] < -0.9, n[:, 0] > 0.9, n[:, 1] > 0.9, n[:, 0] < -0.9, n[:, 2] > 0.9], range(5), 5)
-    table = ElementTable.build([f"face-{k}" for k in range(6)], name=[*FACES, "floor"],
-                               ifc_class=["IfcWall"] * 4 + ["IfcRoof", "IfcSlab"], is_target=[True] * 5 + [False])
-    return Scene.from_arrays(mesh.vertices, mesh.faces, element, table)
 
 
 @pytest.fixture(scope="module")

@@ -10,31 +10,18 @@ import numpy as np
 import pytest
 import trimesh
 
-from sightplan.camera.models import PinholeCamera
+from optimize_support import CAM, box_building  # noqa: E402
 from sightplan.distributed import evaluate_distributed
 from sightplan.errors import PlanError, SightplanError
 from sightplan.evaluate import EvaluationSettings, evaluate
-from sightplan.model.scene import ElementTable, Scene
+from sightplan.model.scene import Scene
 from sightplan.observations.table import Observations
 from sightplan.optimize import Budget, OptimizeSettings, Targets, optimize
 from sightplan.plan.checks.feasibility import FlightSettings
 from sightplan.plan.ring import ring_plan
 
-# 600 × 400 px, 73.7° wide: at 10 m a frame covers 15 × 10 m (as in test_optimize)
-CAM = PinholeCamera(600, 400, 400.0, 400.0, 300.0, 200.0, "test 600x400")
 FLIGHT = FlightSettings(safety_distance_m=10.0)
 SCALE = 0.25
-
-
-def box_building(size: float = 8.0) -> Scene:
-    """An 8 m cube on the ground: four walls and a roof, each its own target element; the floor an occluder."""
-    mesh = trimesh.creation.box((size, size, size))
-    mesh.apply_translation((size / 2, size / 2, size / 2))
-    n = mesh.face_normals
-    element = np.select([n[:, 1] < -0.9, n[:, 0] > 0.9, n[:, 1] > 0.9, n[:, 0] < -0.9, n[:, 2] > 0.9], range(5), 5)
-    table = ElementTable.build([f"face-{k}" for k in range(6)], name=["south", "east", "north", "west", "roof", "floor"],
-                               ifc_class=["IfcWall"] * 4 + ["IfcRoof", "IfcSlab"], is_target=[True] * 5 + [False])
-    return Scene.from_arrays(mesh.vertices, mesh.faces, element, table)
 
 
 @pytest.fixture(scope="module")

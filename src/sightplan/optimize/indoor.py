@@ -35,7 +35,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 from typing import Protocol
 
 import numpy as np
@@ -46,7 +46,7 @@ from ..engines import make_engine
 from ..errors import PlanError
 from ..evaluate import EvaluationSettings, evaluate
 from ..geometry.poses import R_from_gimbal
-from ..metrics import MetricParams, frame_metrics
+from ..metrics import frame_metrics
 from ..model.scene import Scene
 from ..plan.checks.battery import ROVERS, Rover
 from ..plan.checks.feasibility import FeasibilityReport, FlightSettings, plan_flights
@@ -56,9 +56,10 @@ from ..plan.ground import without_terrain
 from ..plan.site import with_site
 from ..plan.types import Mission, Plan
 from .candidates import MAX_CANDIDATES
+from .result import OptimizeResult
 from .route import blocked_legs
 from .select import CoverageTable, Runs, stable_runs, stable_selection
-from .targets import SSD_SLACK, ElementTargets, Targets
+from .targets import SSD_SLACK, Targets
 
 SPACING_M = 1.0  # on the Duplex: 1.5 m meets 82 targets with 45 frames, 1.0 m 105 with 51, 0.75 m 114 with 57
 HEIGHT_M = 1.6  # a 360° camera on a pole, held at eye height
@@ -347,46 +348,17 @@ class IndoorSettings:
 
 
 @dataclass(frozen=True)
-class IndoorResult:
-    """The walked plan (split and checked), its checks' report, and what the optimisation found, as
-    :class:`~.run.OptimizeResult` says: per element (z,) ``met``; the targets; candidate counts and why grid positions
-    were dropped; views removed as redundant; legs forbidden; frames below the stability floor along the walk;
-    frames that see no target (``blind_frames``: the waste, 0 by construction); the storeys walked; timings (s)."""
+class IndoorResult(OptimizeResult):
+    """An :class:`~.result.OptimizeResult` of a walk: ``candidates_dropped`` says why grid positions were dropped,
+    and ``storeys`` are the storeys walked."""
 
-    plan: Plan
-    report: FeasibilityReport
-    targets: ElementTargets
-    met: NDArray[np.bool_]
-    candidates: int
-    candidates_dropped: dict
-    candidates_blind: int
-    removed: int
-    forbidden_legs: int
-    unstable_frames: int
-    blind_frames: int
     storeys: tuple[Storey, ...] = ()
-    stability_views: int = 0
-    timings: dict = field(default_factory=dict)
-
-    @property
-    def n_met(self) -> int:
-        return int(self.met.sum())
 
     def summary(self) -> dict:
-        """The keys of :meth:`~.run.OptimizeResult.summary` (minutes and batteries of walking), the storeys walked
+        """The keys of :meth:`~.result.OptimizeResult.summary` (minutes and batteries of walking), the storeys walked
         and the walks (missions before any battery split)."""
-        r = self.report
-        return {"frames": len(self.plan), "missions": len(self.plan.missions),
-                "batteries": None if r.batteries is None else int(r.batteries),
-                "minutes": None if r.total_time_s is None else round(r.total_time_s / 60, 2),
-                "targets": self.targets.n_active, "met": self.n_met, "candidates": self.candidates,
-                "candidates_blind": self.candidates_blind, "removed": self.removed,
-                "forbidden_legs": self.forbidden_legs, "unstable_frames": self.unstable_frames,
-                "stability_views": self.stability_views,
-                "blind_frames": self.blind_frames, "ok": r.ok, "violations": list(r.violations),
-                "storeys": [s.name for s in self.storeys], "walks": int(self.plan.parameters.get("walks", 0)),
-                "candidates_dropped": dict(self.candidates_dropped),
-                "timings_s": {k: round(v, 3) for k, v in self.timings.items()}}
+        return {**super().summary(), "storeys": [s.name for s in self.storeys],
+                "walks": int(self.plan.parameters.get("walks", 0)), "candidates_dropped": dict(self.candidates_dropped)}
 
 
 def optimize_indoor(scene: Scene, camera: Camera, targets: Targets | None = None, budget: Limits | None = None, *,
@@ -418,8 +390,7 @@ def optimize_indoor(scene: Scene, camera: Camera, targets: Targets | None = None
     timings["candidates_s"] = time.perf_counter() - t0
 
     t0 = time.perf_counter()
-    metric = MetricParams(omega=targets.omega_px, k=targets.k, min_track=targets.min_track,
-                          min_features=targets.min_features)
+    metric = targets.metric()
     cast_settings = EvaluationSettings(engine=s.engine, scale=s.scale,  # type: ignore[arg-type]
                                        threads=s.threads, metric=metric)
     obs = evaluate(scene, pool, cast_settings, cache_dir=s.cache_dir,  # type: ignore[arg-type]
@@ -501,8 +472,8 @@ def optimize_indoor(scene: Scene, camera: Camera, targets: Targets | None = None
     report = replace(report, plan=plan)
     storeys = tuple(cands.storeys[k] for k in np.unique(cands.storey[walked_views]))
     return IndoorResult(plan, report, et, met, len(pool), cands.dropped, blind, len(sel.removed), forbidden,
-                        int((~along.stable).sum()), int((along.pixels_on_targets <= 0).sum()), storeys,
-                        stability_views=len(walked_views) - len(views), timings=timings)
+                        int((~along.stable).sum()), int((along.pixels_on_targets <= 0).sum()),
+                        stability_views=len(walked_views) - len(views), timings=timings, storeys=storeys)
 
 
 def _walk_plan(obstacles: Scene, scene: Scene, pool: Plan, cands: IndoorCandidates, views: NDArray,

@@ -19,7 +19,7 @@ import math
 import time
 from collections.abc import Callable
 from contextlib import ExitStack
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -38,6 +38,7 @@ from ..plan.checks.gate import record_checks
 from ..plan.site import with_site
 from ..plan.types import Mission, Plan
 from .candidates import CandidateSet, aimed_views, candidate_views
+from .result import OptimizeResult
 from .route import LegMemo, order_views, ordered_plan
 from .select import CoverageTable, Runs, refine, stable_runs, stable_selection
 from .targets import SSD_SLACK, ElementTargets, Targets
@@ -104,42 +105,6 @@ class OptimizeSettings:
     batch_frames: int = 64
 
 
-@dataclass(frozen=True)
-class OptimizeResult:
-    """The optimised plan (split and checked), its flight report, and what the optimisation found: per element
-    (z,) ``met``; the targets; candidate counts; the views chosen and removed; unstable frames; frames that see no
-    target (``blind_frames``: the waste, 0 by construction); timings (s)."""
-
-    plan: Plan
-    report: FeasibilityReport
-    targets: ElementTargets
-    met: NDArray[np.bool_]
-    candidates: int
-    candidates_dropped: dict
-    candidates_blind: int
-    removed: int
-    forbidden_legs: int
-    unstable_frames: int
-    blind_frames: int
-    stability_views: int = 0
-    timings: dict = field(default_factory=dict)
-
-    @property
-    def n_met(self) -> int:
-        return int(self.met.sum())
-
-    def summary(self) -> dict:
-        r = self.report
-        return {"frames": len(self.plan), "missions": len(self.plan.missions), "batteries": r.batteries,
-                "minutes": None if r.total_time_s is None else round(r.total_time_s / 60, 2),
-                "targets": self.targets.n_active, "met": self.n_met, "candidates": self.candidates,
-                "candidates_blind": self.candidates_blind, "removed": self.removed,
-                "forbidden_legs": self.forbidden_legs, "unstable_frames": self.unstable_frames,
-                "stability_views": self.stability_views,
-                "blind_frames": self.blind_frames, "ok": r.ok,
-                "violations": list(r.violations), "timings_s": {k: round(v, 3) for k, v in self.timings.items()}}
-
-
 def default_ssd(camera: Camera, safety_distance_m: float) -> float:
     """The default SSD bound: the camera's head-on SSD at the safety distance × 1.5 (m/px)."""
     return safety_distance_m / camera.sampling_focal_px * SSD_SLACK
@@ -204,8 +169,7 @@ def optimize(scene: Scene, camera: Camera, targets: Targets | None = None, budge
     timings["candidates_s"] = time.perf_counter() - t0
 
     t0 = time.perf_counter()
-    metric = MetricParams(omega=targets.omega_px, k=targets.k, min_track=targets.min_track,
-                          min_features=targets.min_features)
+    metric = targets.metric()
     cast_settings = EvaluationSettings(engine=settings.engine, scale=settings.scale,  # type: ignore[arg-type]
                                        threads=settings.threads, metric=metric)
 

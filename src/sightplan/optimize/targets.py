@@ -32,6 +32,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import PlanError
+from ..metrics import MetricParams
 from ..model.scene import Scene
 
 #: the default surface sampling distance bound is the camera's at the safety distance times this
@@ -107,6 +108,10 @@ class Targets:
                               **{k: r[k] for k in _VALUES if k in r}))
         base = {k: v for k, v in data.items() if k in known}
         return cls(**{**base, **{k: v for k, v in overrides.items() if v is not None}}, rules=tuple(rules))
+
+    def metric(self) -> MetricParams:
+        """The metric parameters these targets are counted with: Ω, k, Y and Λ."""
+        return MetricParams(omega=self.omega_px, k=self.k, min_track=self.min_track, min_features=self.min_features)
 
     def resolve(self, scene: Scene, default_ssd_m_px: float) -> ElementTargets:
         """Per-element arrays for ``scene`` (absent elements and occluders are no targets)."""
