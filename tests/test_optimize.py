@@ -338,6 +338,7 @@ def test_views_are_grown_into_runs_that_share_the_floor_of_features(table, box, 
     members = np.concatenate(runs.groups)
     assert len(members) == len(set(members.tolist())) == 5 * len(runs.groups)
     assert set(views.tolist()) <= set(runs.views[members].tolist()) | set(runs.alone.tolist())
+    assert not set(runs.alone.tolist()) & set(runs.views[members].tolist())
     assert sees_target[runs.views].all()
     for g in runs.groups:
         common = set.intersection(*(set(obs.feature_id[obs.feature_frame == f].tolist()) for f in runs.views[g]))

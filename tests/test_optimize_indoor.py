@@ -277,6 +277,10 @@ def test_bad_input_is_one_clear_error(room):
 
     with pytest.raises(PlanError, match="afresh"):
         optimize(room, PANO, start=Plan.build(PANO, np.eye(3)[None], [[1.0, 1.0, 1.6]]))
+    from sightplan.optimize import OptimizeSettings
+
+    with pytest.raises(PlanError, match="cluster"):
+        optimize(room, PANO, flight=walker_settings(CLEAR), settings=OptimizeSettings(cluster="local:1"))
 
 
 def test_the_command_line_plans_the_duplex_indoors(tmp_path):
@@ -304,3 +308,19 @@ def test_the_command_line_plans_the_duplex_indoors(tmp_path):
     assert r.exit_code == 0, r.output
     d = json.loads((tmp_path / "c.json").read_text())
     assert all(m["line_of_sight_ok"] is None and m["altitude_ok"] is None for m in d["missions"])
+
+
+def test_a_walk_kilometres_long_keeps_its_costs_within_what_lkh_takes(room):
+    """Sixty positions along 5 km either side of the room: in centimetres a forbidden leg (the walk through the room)
+    would cost 3·10⁷, past what LKH takes (its 32-bit costs times 100); in coarser units the walk is found, each
+    side in order, with the one cut across the room."""
+    from sightplan.optimize.route import LKH_MAX_COST
+
+    xs = np.random.default_rng(0).permutation(np.concatenate([np.linspace(-2500, -20, 30), np.linspace(30, 2500, 30)]))
+    P = np.stack([xs, np.full(60, 3.0), np.full(60, HEIGHT)], axis=1)
+    assert 5020 * 100 * 60 > LKH_MAX_COST
+    w = walk_order(room, P, CLEAR)
+    assert len(w.cuts) == 1
+    x = xs[w.order]
+    for side in (x[:w.cuts[0]], x[w.cuts[0]:]):
+        assert (np.sign(side) == np.sign(side[0])).all() and len(set(np.sign(np.diff(side)).tolist())) == 1

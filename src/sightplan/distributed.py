@@ -122,9 +122,9 @@ def evaluate_distributed(
     cluster: a scheduler address (``tcp://host:8786``), ``local:N`` for a LocalCluster of N worker
     processes started and closed here, or a :class:`distributed.Client` used as is.
     cache_dir: a directory for the per-frame cache, None for the default one, False (the default) for
-    none. With a cache, ``auto`` is resolved to this machine's best engine before anything is cast (the
+    none. With a cache, ``auto`` is resolved to a worker's best engine before anything is cast (the
     cache is keyed by the engine), the cached frames are read here, only the others go to the cluster
-    (which is not contacted when every frame is cached), and what it casts is stored.
+    (which is contacted only to resolve ``auto`` when every frame is cached), and what it casts is stored.
     progress: called with (frames done, frames) after the cache is read and as batches complete.
     """
     settings = settings or EvaluationSettings()
@@ -140,27 +140,36 @@ def evaluate_distributed(
     scene_key = scene.key
     features = scene_features(scene, settings, features)
     timings["features_s"] = time.perf_counter() - t_start
-    n = len(plan)
-    frames: list[FrameObservation | None] = [None] * n
-    engines: set[str] = set()
-    keys: list[str] = []
-    context = ""
-    if cache is not None:
-        name = best_engine() if settings.engine == "auto" else str(settings.engine)
-        settings = replace(settings, engine=name)  # type: ignore[arg-type]
-        engines.add(name)
-        context = frame_context(scene, settings, features.key, name)
-        keys = plan.frame_keys()
-        frames = [cache.get(context, key) for key in keys]
-    todo = np.flatnonzero([fo is None for fo in frames])
-    if progress is not None and len(todo) < n:
-        progress(n - len(todo), n)
-    batches = [todo[a:a + batch_frames] for a in range(0, len(todo), batch_frames)]
-    timings["cast_s"] = timings["worker_cast_s"] = 0.0
-    timings["workers"] = 0
-    if batches:
-        with ExitStack() as stack:
-            client = cluster if not isinstance(cluster, str) else connect(cluster, stack)
+    with ExitStack() as stack:
+        reached: list[Client] = []
+
+        def reach() -> Client:
+            """The cluster's client, connected on first need (not at all when every frame is cached)."""
+            if not reached:
+                reached.append(cluster if not isinstance(cluster, str) else connect(cluster, stack))
+            return reached[0]
+
+        n = len(plan)
+        frames: list[FrameObservation | None] = [None] * n
+        engines: set[str] = set()
+        keys: list[str] = []
+        context = ""
+        if cache is not None:
+            # the workers' own best engine: a GPU here does not make CPU workers cast with OpenGL
+            name = reach().submit(best_engine, pure=False).result() if settings.engine == "auto" else str(settings.engine)
+            settings = replace(settings, engine=name)  # type: ignore[arg-type]
+            engines.add(name)
+            context = frame_context(scene, settings, features.key, name)
+            keys = plan.frame_keys()
+            frames = [cache.get(context, key) for key in keys]
+        todo = np.flatnonzero([fo is None for fo in frames])
+        if progress is not None and len(todo) < n:
+            progress(n - len(todo), n)
+        batches = [todo[a:a + batch_frames] for a in range(0, len(todo), batch_frames)]
+        timings["cast_s"] = timings["worker_cast_s"] = 0.0
+        timings["workers"] = 0
+        if batches:
+            client = reach()
             from distributed import as_completed
 
             t0 = time.perf_counter()

@@ -57,7 +57,7 @@ from ..plan.site import with_site
 from ..plan.types import Mission, Plan
 from .candidates import MAX_CANDIDATES
 from .result import OptimizeResult
-from .route import blocked_legs
+from .route import LKH_MAX_COST, blocked_legs
 from .select import CoverageTable, Runs, stable_runs, stable_selection
 from .targets import SSD_SLACK, Targets
 
@@ -263,9 +263,10 @@ class Walk:
 def walk_order(scene: Scene, P: NDArray, clearance_m: float, runs: int = 4,
                groups: list[NDArray] | None = None) -> Walk:
     """An open walk through the (n, 3) positions ``P`` (see the module docstring): straight legs, those within
-    ``clearance_m`` of ``scene`` forbidden, LKH over their lengths in centimetres. ``groups``: disjoint sets of
-    positions walked each in one stretch (runs that structure-from-motion chains): entering or leaving one costs a
-    surcharge, which grows while a walk still splits one."""
+    ``clearance_m`` of ``scene`` forbidden, LKH over their lengths in centimetres (coarser on a walk so long that
+    its costs would pass what LKH takes). ``groups``: disjoint sets of positions walked each in one stretch (runs
+    that structure-from-motion chains): entering or leaving one costs a surcharge, which grows fourfold while a walk
+    still splits one, up to a forbidden leg's cost."""
     P = np.asarray(P, np.float64).reshape(-1, 3)
     n = len(P)
     if n <= 1:
@@ -277,7 +278,11 @@ def walk_order(scene: Scene, P: NDArray, clearance_m: float, runs: int = 4,
         d = segment_distances(scene, P[i[todo]], P[j[todo]])
         bad = d < clearance_m
         near[i[todo][bad], j[todo][bad]] = near[j[todo][bad], i[todo][bad]] = True
-    length = np.rint(np.linalg.norm(P[:, None] - P[None], axis=2) * 100).astype(np.int64)  # cm
+    metres = np.linalg.norm(P[:, None] - P[None], axis=2)
+    # centimetres, or coarser where a forbidden leg's cost (more than any walk) and a surcharge as large would pass
+    # the largest cost LKH takes
+    unit_cm = max(1.0, float(np.ceil(metres.max() * 100 * n / (LKH_MAX_COST // 2 - 1))))
+    length = np.rint(metres * 100 / unit_cm).astype(np.int64)
     forbidden_cost = int(length.max()) * n + 1  # more than any walk of allowed legs
     cost = np.where(near, forbidden_cost, length)
     label = np.full(n, -1)
@@ -286,14 +291,14 @@ def walk_order(scene: Scene, P: NDArray, clearance_m: float, runs: int = 4,
     grouped = label >= 0
     entry = (grouped[:, None] | grouped[None, :]) & (label[:, None] != label[None, :])
     inner = ~entry & grouped[:, None] & ~near
-    surcharge = max(GROUP_ENTRY_CM, 4 * int(length[inner].max(initial=0)))
+    surcharge = min(max(int(GROUP_ENTRY_CM / unit_cm), 4 * int(length[inner].max(initial=0))), forbidden_cost)
     while True:
         order = np.array(open_path(cost + surcharge * entry, runs), np.int64)
         lab = label[order]
         starts = lab[(lab >= 0) & (lab != np.concatenate([[-1], lab[:-1]]))]
-        if not len(starts) or np.bincount(starts).max() <= 1 or surcharge > 2 * forbidden_cost:
-            break
-        surcharge *= 4  # a group walked in two stretches: entering one made dearer
+        if not len(starts) or np.bincount(starts).max() <= 1 or surcharge >= forbidden_cost:
+            break  # a group left split (the surcharge at its cap) shows in the frames below the stability floor
+        surcharge = min(4 * surcharge, forbidden_cost)  # a group walked in two stretches: entering one made dearer
     cuts = np.flatnonzero(near[order[:-1], order[1:]]) + 1
     return Walk(order, cuts.astype(np.int64), int(near[i, j].sum()))
 
@@ -323,6 +328,7 @@ class CastSettings(Protocol):
     cache_dir: object
     runs: int
     spacing_m: float | None
+    cluster: object
 
 
 @dataclass(frozen=True)
@@ -342,7 +348,10 @@ class IndoorSettings:
 
     @classmethod
     def like(cls, settings: CastSettings) -> IndoorSettings:
-        """The optimiser's settings as indoor ones: its cast, its runs, its spacing (when given) for the grid."""
+        """The optimiser's settings as indoor ones: its cast, its runs, its spacing (when given) for the grid. An
+        indoor plan is cast on this machine: a cluster is refused."""
+        if settings.cluster is not None:
+            raise PlanError("indoor 360° plans are cast on this machine: drop the cluster (--cluster)")
         return cls(spacing_m=settings.spacing_m or SPACING_M, scale=settings.scale, engine=settings.engine,
                    threads=settings.threads, cache_dir=settings.cache_dir, runs=settings.runs)
 

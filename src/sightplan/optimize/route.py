@@ -27,6 +27,7 @@ from ..plan.types import Mission, Plan
 
 RELAUNCH_S = 60.0  # landing and taking off again, on top of flying back to the take-off point and out again
 MAX_SURCHARGE_S = 1e4
+LKH_MAX_COST = (2**31 - 1) // 100 // 4  # LKH multiplies each cost by its precision (100) in 32-bit integers
 TICKS_PER_S = 100  # LKH takes whole numbers: costs are given to it in hundredths of a second
 GROUP_ENTRY_S = 60.0  # least cost of entering or leaving a group of views flown together (grows when one is split)
 MAX_ROUNDS = 60
@@ -68,7 +69,7 @@ def _tour(cost: NDArray, runs: int) -> list[int]:
     n = len(cost)
     if n <= 3:
         return list(range(n))
-    ticks = np.rint(cost * TICKS_PER_S).astype(np.int64)
+    ticks = np.minimum(np.rint(cost * TICKS_PER_S), LKH_MAX_COST).astype(np.int64)
     tour = elkai.DistanceMatrix(ticks.tolist()).solve_tsp(runs=runs)
     return tour[:-1] if tour[-1] == tour[0] else tour
 

@@ -291,6 +291,7 @@ def stable_runs(obs: Observations, views: NDArray, min_track: int, min_features:
             for g in new:
                 q[table.serves(g)] += 1
                 s[table.sees(g)] += 1
+    alone = [f for f in alone if not grouped[f]]  # a view no group could grow from may have joined a later one
     extra = np.array(sorted({g for m in groups for g in m} - set(views.tolist())), np.int64)
     out = np.concatenate([views, extra])
     where = {int(v): k for k, v in enumerate(out.tolist())}
