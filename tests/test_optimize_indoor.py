@@ -199,6 +199,8 @@ def test_a_frame_budget_is_kept(room, cache):
     r = optimize_indoor(room, PANO, Targets(k=2), Budget(frames=2),
                         settings=IndoorSettings(scale=1.0, spacing_m=SPACING, cache_dir=cache))
     assert len(r.plan) == 2 and 1 <= r.n_met < 7 and r.plan.parameters["budget"]["frames"] == 2
+    # two frames cannot hold a run of five that registers: the views are kept alone, reported below the floor
+    assert r.stability_views == 0 and r.unstable_frames == 2
     # a walker stands 3 s per frame at 0.8 m/s: in 0.15 min (9 s) two frames 1.3 m or more apart take 7.6 s or more,
     # three take 13.6 s or more; the longest prefix of the greedy order that fits is kept
     r = optimize_indoor(room, PANO, Targets(k=2), Budget(minutes=0.15),
