@@ -71,6 +71,17 @@ def test_the_greedy_gain_is_the_objective_recomputed_from_scratch(table):
         assert t.gain(f, q, s) == pytest.approx(t.value(np.r_[S, f]) - t.value(S), abs=1e-12)
 
 
+def test_the_gains_of_many_views_at_once_are_the_objective_recomputed_from_scratch(table):
+    t, _ = table
+    rng = np.random.default_rng(8)
+    for _ in range(50):
+        S = rng.choice(t.n_views, size=rng.integers(0, 12), replace=False)
+        q, s = t.counts(S)
+        others = np.setdiff1d(np.arange(t.n_views), S)
+        expected = [t.value(np.r_[S, f]) - t.value(S) for f in others]
+        np.testing.assert_allclose(t.gains(others, q, s), expected, atol=1e-12)
+
+
 def test_the_removal_pass_keeps_the_objective(table):
     t, _ = table
     rng = np.random.default_rng(3)

@@ -55,10 +55,11 @@ from ..plan.checks.safety import point_distances, segment_distances
 from ..plan.ground import without_terrain
 from ..plan.site import with_site
 from ..plan.types import Mission, Plan
+from .budget import Budget, longest_prefix
 from .candidates import MAX_CANDIDATES
 from .result import OptimizeResult
-from .route import LKH_MAX_COST, blocked_legs
-from .select import CoverageTable, Runs, stable_runs, stable_selection
+from .route import LKH_MAX_COST, blocked_legs, lkh_tour
+from .select import CoverageTable, FeatureIndex, stable_runs, stable_selection
 from .targets import SSD_SLACK, Targets
 
 SPACING_M = 1.0  # on the Duplex: 1.5 m meets 82 targets with 45 frames, 1.0 m 105 with 51, 0.75 m 114 with 57
@@ -221,9 +222,7 @@ def indoor_candidates(scene: Scene, camera: Camera, spacing_m: float = SPACING_M
         reasons = ", ".join(f"{n} {why}" for why, n in dropped.items() if n)
         raise PlanError(f"no position {height_m:g} m above a floor stands inside the model and {clearance_m:g} m clear "
                         f"of it ({reasons}): the model has no free storey space to walk")
-    order = np.argsort(which, kind="stable")
-    C, which = C[order], which[order]
-    bounds = np.searchsorted(which, np.arange(len(storeys) + 1))
+    bounds = np.searchsorted(which, np.arange(len(storeys) + 1))  # made storey by storey: already in storey order
     missions = tuple(Mission(s.name, int(bounds[k]), int(bounds[k + 1])) for k, s in enumerate(storeys)
                      if bounds[k + 1] > bounds[k])
     R = R_from_gimbal(np.zeros(len(C)), np.zeros(len(C)), 0.0)
@@ -237,15 +236,12 @@ def indoor_candidates(scene: Scene, camera: Camera, spacing_m: float = SPACING_M
 def open_path(cost: NDArray, runs: int = 4) -> list[int]:
     """The order of the cities of the (n, n) symmetric ``cost`` matrix (whole units) that visits each once at the
     least total cost, open at both ends (LKH on the matrix with one city added at no cost from any other)."""
-    import elkai
-
     n = len(cost)
     if n <= 2:
         return list(range(n))
     m = np.zeros((n + 1, n + 1), np.int64)
     m[:n, :n] = cost
-    tour = elkai.DistanceMatrix(m.tolist()).solve_tsp(runs=runs)
-    tour = tour[:-1] if tour[-1] == tour[0] else tour
+    tour = lkh_tour(m, runs)
     k = tour.index(n)
     return tour[k + 1:] + tour[:k]
 
@@ -310,15 +306,6 @@ def walker_settings(clearance_m: float = CLEARANCE_M) -> FlightSettings:
                           aircraft=ROVERS["walker-360"], min_height_m=None)
 
 
-class Limits(Protocol):
-    """What an indoor plan reads of a budget (a :class:`~.run.Budget`): at most ``frames`` frames, ``minutes`` of
-    walking, ``batteries`` charges (None: no limit)."""
-
-    frames: int | None
-    minutes: float | None
-    batteries: int | None
-
-
 class CastSettings(Protocol):
     """What an indoor plan reads of the optimiser's settings (an :class:`~.run.OptimizeSettings`)."""
 
@@ -370,10 +357,10 @@ class IndoorResult(OptimizeResult):
                 "walks": int(self.plan.parameters.get("walks", 0)), "candidates_dropped": dict(self.candidates_dropped)}
 
 
-def optimize_indoor(scene: Scene, camera: Camera, targets: Targets | None = None, budget: Limits | None = None, *,
+def optimize_indoor(scene: Scene, camera: Camera, targets: Targets | None = None, budget: Budget | None = None, *,
                     flight: FlightSettings | None = None, settings: IndoorSettings | CastSettings | None = None,
                     start: Plan | None = None, progress: Progress | None = None) -> IndoorResult:
-    """The walked 360° plan that meets the most ``targets`` within ``budget`` (a :class:`~.run.Budget`) with the
+    """The walked 360° plan that meets the most ``targets`` within ``budget`` with the
     fewest frames (see the module docstring). ``flight``: the walk's checks (default :func:`walker_settings`; a
     :class:`Rover` walks it; its safety distance is the clearance unless ``settings`` gives one). ``settings``:
     :class:`IndoorSettings`, or the optimiser's (:class:`~.run.OptimizeSettings`: its cast, runs and spacing).
@@ -381,7 +368,7 @@ def optimize_indoor(scene: Scene, camera: Camera, targets: Targets | None = None
     if start is not None:
         raise PlanError("improving a plan (--from) is for perspective plans; an indoor plan is made afresh")
     targets = targets or Targets()
-    frames, minutes, batteries = (getattr(budget, k, None) for k in ("frames", "minutes", "batteries"))
+    budget = budget or Budget()
     s = settings if isinstance(settings, IndoorSettings) else (
         IndoorSettings() if settings is None else IndoorSettings.like(settings))
     clearance = s.clearance_m or (flight.safety_distance_m if flight is not None else CLEARANCE_M)
@@ -410,7 +397,8 @@ def optimize_indoor(scene: Scene, camera: Camera, targets: Targets | None = None
     t0 = time.perf_counter()
     blind = int((np.diff(table.seen_ptr) == 0).sum())  # candidates that see no target
     can_add = np.diff(table.seen_ptr) > 0  # positions added for stability must see a target (no waste)
-    sel = stable_selection(table, obs, targets.min_track, targets.min_features, frames, allowed=can_add,
+    features = FeatureIndex.build(obs)  # read by every growth of runs below
+    sel = stable_selection(table, features, targets.min_track, targets.min_features, budget.frames, allowed=can_add,
                            label=cands.storey)
     if not len(sel.views):
         raise PlanError("no candidate position sees any target: lower the targets")
@@ -422,18 +410,13 @@ def optimize_indoor(scene: Scene, camera: Camera, targets: Targets | None = None
     obstacles = without_terrain(scene)
 
     def fits(walk: tuple[FeasibilityReport, NDArray, int, int]) -> bool:
-        report = walk[0]
-        if frames is not None and len(walk[1]) > frames:
-            return False
-        if minutes is not None and (report.total_time_s or 0.0) > minutes * 60:
-            return False
-        return not (batteries is not None and (report.batteries or 0) > batteries)
+        return budget.admits(len(walk[1]), walk[0])
 
     def walked(views: NDArray, grow: bool = True) -> tuple[FeasibilityReport, NDArray, int, int]:
         """``views`` grown into runs that register (:func:`~.select.stable_runs`, each within its storey; not when
         ``grow`` is False), walked."""
-        grown = (stable_runs(obs, views, targets.min_track, targets.min_features, allowed=can_add, table=table,
-                             label=cands.storey) if grow else Runs(np.asarray(views, np.int64), [], np.zeros(0, np.int64)))
+        grown = stable_runs(features, views, targets.min_track, targets.min_features if grow else 0,
+                            allowed=can_add, table=table, label=cands.storey)
         group_of = np.full(table.n_views, -1)
         for k, g in enumerate(grown.groups):
             group_of[grown.views[g]] = k
@@ -443,38 +426,21 @@ def optimize_indoor(scene: Scene, camera: Camera, targets: Targets | None = None
     walk = walked(views)
     report, walked_views, forbidden, walks = walk
     if not fits(walk):
-        # the longest prefix of the greedy order whose grown walk fits; a budget too small for even one run that
-        # registers: the positions alone, their frames reported unstable
-        for grow in (True, False):
-            lo, hi, best = 1, len(views) + 1, None
-            while lo < hi:
-                mid = (lo + hi) // 2
-                r = walked(views[:mid], grow)
-                if fits(r):
-                    lo, best = mid + 1, (mid, r)
-                else:
-                    hi = mid
-            if best is not None:
-                break
-        if best is None:
+        found = longest_prefix(views, walked, fits)
+        if found is None:
             raise PlanError("not even one position fits the budget of frames, minutes or batteries")
-        views = views[:best[0]]
-        report, walked_views, forbidden, walks = best[1]
+        views = views[:found[0]]
+        report, walked_views, forbidden, walks = found[1]
     timings["route_s"] = time.perf_counter() - t0
     if progress is not None:
         progress(ROUTING, 1, 1)
 
     along = frame_metrics(obs.select_frames(walked_views), metric)
     met = table.met(walked_views)
-    active = et.active
     params = {"template": TEMPLATE_NAME, "safety_distance_m": clearance, "spacing_m": s.spacing_m or SPACING_M,
               "height_m": s.height_m, "clearance_m": clearance, "walks": walks,
               "storeys": [{"name": st.name, "floor_z": st.floor_z} for st in cands.storeys],
-              "targets": {"k": targets.k, "max_ssd_m_px": float(np.median(et.max_ssd_m_px[active])),
-                          "max_angle_deg": targets.max_angle_deg, "omega_px": targets.omega_px,
-                          "min_features": targets.min_features, "rules": len(targets.rules),
-                          "elements": int(active.sum())},
-              "budget": {"frames": frames, "minutes": minutes, "batteries": batteries},
+              "targets": targets.record(et), "budget": budget.record(),
               "candidates": len(pool), "met": int(met.sum()), "scale": s.scale}
     plan = record_checks(report.plan, report, flight)
     plan = with_site(replace(plan, parameters={**plan.parameters, **params}), scene, replace_takeoff=True)

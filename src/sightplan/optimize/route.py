@@ -63,15 +63,21 @@ def blocked_legs(scene: Scene, P: NDArray, radius_m: float) -> NDArray[np.bool_]
     return out
 
 
-def _tour(cost: NDArray, runs: int) -> list[int]:
+def lkh_tour(cost: NDArray, runs: int) -> list[int]:
+    """The closed tour of least total cost over the (n, n) symmetric matrix ``cost`` of whole numbers (each at most
+    ``LKH_MAX_COST``), by LKH (``elkai``) with ``runs`` runs: each city once, from city 0's place in LKH's answer."""
     import elkai
 
     n = len(cost)
     if n <= 3:
         return list(range(n))
-    ticks = np.minimum(np.rint(cost * TICKS_PER_S), LKH_MAX_COST).astype(np.int64)
-    tour = elkai.DistanceMatrix(ticks.tolist()).solve_tsp(runs=runs)
+    tour = elkai.DistanceMatrix(np.asarray(cost, np.int64).tolist()).solve_tsp(runs=runs)
     return tour[:-1] if tour[-1] == tour[0] else tour
+
+
+def _tour(cost: NDArray, runs: int) -> list[int]:
+    """:func:`lkh_tour` over ``cost`` in seconds, given to LKH in hundredths."""
+    return lkh_tour(np.minimum(np.rint(cost * TICKS_PER_S), LKH_MAX_COST), runs)
 
 
 def _split_groups(tour: list[int], label: NDArray) -> int:

@@ -15,7 +15,6 @@
 
 from __future__ import annotations
 
-import math
 import time
 from collections.abc import Callable
 from contextlib import ExitStack
@@ -37,10 +36,11 @@ from ..plan.checks.feasibility import FeasibilityReport, FlightSettings, corner_
 from ..plan.checks.gate import record_checks
 from ..plan.site import with_site
 from ..plan.types import Mission, Plan
+from .budget import Budget, longest_prefix
 from .candidates import CandidateSet, aimed_views, candidate_views
 from .result import OptimizeResult
 from .route import LegMemo, order_views, ordered_plan
-from .select import CoverageTable, Runs, refine, stable_runs, stable_selection
+from .select import CoverageTable, FeatureIndex, refine, stable_runs, stable_selection
 from .targets import SSD_SLACK, ElementTargets, Targets
 
 if TYPE_CHECKING:
@@ -52,32 +52,6 @@ STAGES = (CASTING, CASTING_AIMED, SELECTING, ROUTING) = ("casting candidates", "
                                                          "routing")
 AIM_FROM = 6  # views aimed at a target that is seen but not met: from near this many of those that see it
 REFINE_FACTOR = 4  # under a budget of minutes or batteries, up to this many times the views the targets need
-
-
-@dataclass(frozen=True)
-class Budget:
-    """At most ``frames`` views, ``minutes`` of flight, or ``batteries`` charges (None: no limit)."""
-
-    frames: int | None = None
-    minutes: float | None = None
-    batteries: int | None = None
-
-    def __post_init__(self) -> None:
-        """Frames and batteries: whole numbers ≥ 1 (a float of whole value, 3.0, is taken as 3); minutes: a real
-        number > 0. True or False, 2.5 frames, NaN, infinity or text are refused."""
-        for name in ("frames", "minutes", "batteries"):
-            v = given = getattr(self, name)
-            if v is None:
-                continue
-            whole = name != "minutes"
-            integer = isinstance(v, (int, np.integer)) and not isinstance(v, bool)
-            real = integer or isinstance(v, (float, np.floating))
-            if whole and real and not integer and math.isfinite(v) and float(v).is_integer():
-                v, integer = int(v), True  # 3.0 frames: 3
-            if not ((integer if whole else real and v < math.inf) and v > 0):
-                raise PlanError(f"the budget's {name} must be {'a whole number ≥ 1' if whole else 'a number > 0'}, "
-                                f"got {given!r}")
-            object.__setattr__(self, name, int(v) if integer else float(v))
 
 
 @dataclass(frozen=True)
@@ -121,19 +95,6 @@ class Flown:
     added: int
     given: NDArray[np.int64]
     grown: bool = True
-
-
-def _limited(budget: Budget) -> bool:
-    return budget.frames is not None or budget.minutes is not None or budget.batteries is not None
-
-
-def _fits(flown: Flown, budget: Budget) -> bool:
-    r = flown.report
-    if budget.frames is not None and len(flown.views) > budget.frames:
-        return False
-    if budget.minutes is not None and (r.total_time_s or 0.0) > budget.minutes * 60:
-        return False
-    return not (budget.batteries is not None and (r.batteries or 0) > budget.batteries)
 
 
 def optimize(scene: Scene, camera: Camera, targets: Targets | None = None, budget: Budget | None = None, *,
@@ -196,7 +157,8 @@ def optimize(scene: Scene, camera: Camera, targets: Targets | None = None, budge
     blind = int((np.diff(table.seen_ptr)[n_start:] == 0).sum())  # candidates that see no target
     start_views = np.arange(n_start) if n_start else None
     can_add = np.diff(table.seen_ptr) > 0  # views added for stability must see a target (no waste)
-    sel = stable_selection(table, obs, targets.min_track, targets.min_features, budget.frames, start=start_views,
+    features = FeatureIndex.build(obs)  # read by every growth of runs below
+    sel = stable_selection(table, features, targets.min_track, targets.min_features, budget.frames, start=start_views,
                            allowed=can_add)
     timings["select_s"] = time.perf_counter() - t0
     if progress is not None:
@@ -213,45 +175,37 @@ def optimize(scene: Scene, camera: Camera, targets: Targets | None = None, budge
         """``views`` grown into runs that register (:func:`~.select.stable_runs`; not when ``grow`` is False),
         ordered with each run flown in one stretch, split into missions and checked."""
         t = time.perf_counter()
-        grown = (stable_runs(obs, views, targets.min_track, targets.min_features, allowed=can_add, table=table)
-                 if grow else Runs(np.asarray(views, np.int64), [], np.zeros(0, np.int64)))
+        grown = stable_runs(features, views, targets.min_track, targets.min_features if grow else 0,
+                            allowed=can_add, table=table)
         stability["s"] += time.perf_counter() - t
         order, cuts, forbidden = order_views(scene, pool.C_world[grown.views], takeoff, g, _aircraft(flight), runs,
                                              ids=grown.views, memo=memo, groups=grown.groups)
         report = plan_flights(scene, ordered_plan(pool, grown.views[order], cuts), flight)
         return Flown(report, grown.views[order], forbidden, grown.added, views, grow)
 
-    def longest(views: NDArray, grow: bool) -> Flown | None:
-        """The longest prefix of the greedy order whose flight fits (one-run tours)."""
-        lo, hi, best = 1, len(views) + 1, None
-        while lo < hi:
-            mid = (lo + hi) // 2
-            r = flown(views[:mid], 1, grow)
-            if _fits(r, budget):
-                lo, best = mid + 1, r
-            else:
-                hi = mid
-        return best
-
     views = sel.views
-    if _limited(budget):
+    if budget.limited:
         # a budget the targets did not use up buys finer views: added best first, the fitting prefix kept below
         cap = budget.frames if budget.frames is not None else REFINE_FACTOR * max(len(views), 1)
         views = np.concatenate([views, refine(table, views, cap)])
     if not len(views):
         raise PlanError("no candidate view serves any target: lower the targets or the safety distance")
-    if not _limited(budget):
+    if not budget.limited:
         best = flown(views, settings.runs)
     else:  # the longest prefix of the greedy order that fits, found with one-run tours, then solved in earnest
         best = flown(views, 1)
-        if not _fits(best, budget):
-            # a budget too small for even one run that registers: the views alone, their frames reported unstable
-            best = longest(views, True) or longest(views, False)
-            if best is None:
+
+        def fits(f: Flown) -> bool:
+            return budget.admits(len(f.views), f.report)
+
+        if not fits(best):
+            found = longest_prefix(views, lambda v, grow: flown(v, 1, grow), fits)
+            if found is None:
                 raise PlanError("not even one view fits the budget of frames, minutes or batteries")
+            best = found[1]
         if settings.runs > 1:
             again = flown(best.given, settings.runs, best.grown)
-            best = again if _fits(again, budget) else best
+            best = again if fits(again) else best
     timings["route_s"] = time.perf_counter() - t0 - stability["s"]
     timings["stability_s"] = stability["s"]
     if progress is not None:
@@ -261,8 +215,8 @@ def optimize(scene: Scene, camera: Camera, targets: Targets | None = None, budge
     unstable = int((~frames.stable).sum())
     blind_frames = int((frames.pixels_on_targets <= 0).sum())  # the waste: frames that see no target at all
     met = table.met(views)
-    params = {"template": "optimised", "safety_distance_m": g, "targets": _targets_record(targets, et),
-              "budget": {"frames": budget.frames, "minutes": budget.minutes, "batteries": budget.batteries},
+    params = {"template": "optimised", "safety_distance_m": g, "targets": targets.record(et),
+              "budget": budget.record(),
               "candidates": len(pool), "met": int(met.sum()), "scale": settings.scale}
     plan = record_checks(report.plan, report, flight)
     plan = with_site(replace(plan, parameters={**plan.parameters, **params}), scene, replace_takeoff=True)
@@ -349,13 +303,6 @@ def _with_template_views(pool: Plan, scene: Scene, camera: Camera, flight: Fligh
         except PlanError:  # a template that cannot be made here (a model too small for a grid, too high to fly over)
             continue
     return _concatenated([pool, *extra], pool.parameters)
-
-
-def _targets_record(t: Targets, et: ElementTargets) -> dict:
-    active = et.active
-    return {"k": t.k, "max_ssd_m_px": float(np.median(et.max_ssd_m_px[active])), "max_angle_deg": t.max_angle_deg,
-            "omega_px": t.omega_px, "min_features": t.min_features, "rules": len(t.rules),
-            "elements": int(active.sum())}
 
 
 

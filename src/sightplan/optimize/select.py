@@ -89,6 +89,19 @@ class CoverageTable:
                      + SEEN_WEIGHT * self.weight[b][s[b] == 0].sum())
 
 
+    def gains(self, views: NDArray, q: NDArray, s: NDArray) -> NDArray[np.float64]:
+        """:meth:`gain` of each of ``views`` at once."""
+        views = np.asarray(views, np.int64)
+        out = np.zeros(len(views))
+        for ptr, el, weight, short in ((self.serve_ptr, self.serve_el, self.weight / self.k, q < self.k),
+                                       (self.seen_ptr, self.seen_el, SEEN_WEIGHT * self.weight, s == 0)):
+            e = el[_rows(ptr, views)]
+            owner = np.repeat(np.arange(len(views)), ptr[views + 1] - ptr[views])
+            hit = short[e]
+            out += np.bincount(owner[hit], weights=weight[e[hit]], minlength=len(views))
+        return out
+
+
 def _rows(ptr: NDArray[np.int64], views: NDArray[np.int64]) -> NDArray[np.int64]:
     """The entries ``ptr[f]:ptr[f + 1]`` of each of ``views``, one after the other."""
     start, length = ptr[views], ptr[views + 1] - ptr[views]
@@ -218,7 +231,32 @@ class Runs:
     added: int = 0
 
 
-def stable_runs(obs: Observations, views: NDArray, min_track: int, min_features: int,
+@dataclass(frozen=True)
+class FeatureIndex:
+    """The features of an Observations table both ways: the frames that see each feature (``f_ptr`` into
+    ``f_frame``) and the features each frame sees (``v_ptr`` into ``v_feature``). Built once, read by every
+    :func:`stable_runs` of an optimisation."""
+
+    n_frames: int
+    f_ptr: NDArray[np.int64]
+    f_frame: NDArray[np.int64]
+    v_ptr: NDArray[np.int64]
+    v_feature: NDArray[np.int64]
+
+    @classmethod
+    def build(cls, obs: Observations) -> FeatureIndex:
+        n, nf = obs.n_frames, max(obs.n_features, 1)
+        order = np.lexsort((obs.feature_frame, obs.feature_id))  # per feature, the frames that see it
+        f_ptr = np.zeros(nf + 1, np.int64)
+        np.cumsum(np.bincount(obs.feature_id, minlength=nf), out=f_ptr[1:])
+        v_ptr = np.zeros(n + 1, np.int64)
+        np.cumsum(np.bincount(obs.feature_frame, minlength=n), out=v_ptr[1:])
+        by_frame = np.argsort(obs.feature_frame, kind="stable")
+        return cls(n, f_ptr, obs.feature_frame[order].astype(np.int64), v_ptr,
+                   obs.feature_id[by_frame].astype(np.int64))
+
+
+def stable_runs(obs: Observations | FeatureIndex, views: NDArray, min_track: int, min_features: int,
                 allowed: NDArray | None = None, prefer: float = PREFER_CHOSEN,
                 table: CoverageTable | None = None, label: NDArray | None = None) -> Runs:
     """Groups of ``min_track`` views sharing ≥ ``min_features`` features, so that each view of ``views`` (in
@@ -230,17 +268,10 @@ def stable_runs(obs: Observations, views: NDArray, min_track: int, min_features:
     chosen is added to the plan; a group that cannot keep ``min_features`` leaves its first view alone. Groups are
     disjoint; with ``label`` (one per view, e.g. its storey) a group keeps to its first view's label."""
     views = np.asarray(views, np.int64)
-    n = obs.n_frames
     if min_track <= 1 or min_features <= 0 or not len(views):
         return Runs(views, [], np.zeros(0, np.int64))
-    order = np.lexsort((obs.feature_frame, obs.feature_id))  # per feature, the frames that see it
-    fid, ffr = obs.feature_id[order].astype(np.int64), obs.feature_frame[order].astype(np.int64)
-    f_ptr = np.zeros(max(obs.n_features, 1) + 1, np.int64)
-    np.cumsum(np.bincount(fid, minlength=max(obs.n_features, 1)), out=f_ptr[1:])
-    v_ptr = np.zeros(n + 1, np.int64)
-    np.cumsum(np.bincount(obs.feature_frame, minlength=n), out=v_ptr[1:])
-    by_frame = np.argsort(obs.feature_frame, kind="stable")
-    v_feat = obs.feature_id[by_frame].astype(np.int64)
+    index = obs if isinstance(obs, FeatureIndex) else FeatureIndex.build(obs)
+    n, f_ptr, ffr, v_ptr, v_feat = index.n_frames, index.f_ptr, index.f_frame, index.v_ptr, index.v_feature
     chosen = np.zeros(n, bool)
     chosen[views] = True
     usable = np.ones(n, bool) if allowed is None else np.asarray(allowed, bool).copy()
@@ -264,7 +295,7 @@ def stable_runs(obs: Observations, views: NDArray, min_track: int, min_features:
             score = shared * (1.0 if plain else weight)
             new = np.flatnonzero((shared > 0) & ~chosen)
             if table is not None and len(new) and not plain:
-                gain = np.array([table.gain(int(v), q, s) for v in new])
+                gain = table.gains(new, q, s)
                 if gain.max() > 0:
                     score[new] *= 1 + gain / gain.max()
             g = int(np.argmax(score))
@@ -302,7 +333,7 @@ def stable_runs(obs: Observations, views: NDArray, min_track: int, min_features:
 RESELECT_ROUNDS = 3
 
 
-def stable_selection(table: CoverageTable, obs: Observations, min_track: int, min_features: int,
+def stable_selection(table: CoverageTable, obs: Observations | FeatureIndex, min_track: int, min_features: int,
                      max_views: int | None = None, start: NDArray | None = None, allowed: NDArray | None = None,
                      label: NDArray | None = None, rounds: int = RESELECT_ROUNDS) -> Selection:
     """:func:`greedy`, then again without the chosen views that no run can be formed around
@@ -314,8 +345,9 @@ def stable_selection(table: CoverageTable, obs: Observations, min_track: int, mi
         return sel
     banned = np.zeros(table.n_views, bool)
     met = (table.weight * table.met(sel.views)).sum()
+    index = obs if isinstance(obs, FeatureIndex) else FeatureIndex.build(obs)
     for _ in range(rounds):
-        alone = stable_runs(obs, sel.views, min_track, min_features, allowed=allowed, table=table, label=label).alone
+        alone = stable_runs(index, sel.views, min_track, min_features, allowed=allowed, table=table, label=label).alone
         alone = alone[~np.isin(alone, start)] if start is not None else alone
         if not len(alone) or banned[alone].all():
             break

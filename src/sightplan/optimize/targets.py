@@ -113,6 +113,13 @@ class Targets:
         """The metric parameters these targets are counted with: Ω, k, Y and Λ."""
         return MetricParams(omega=self.omega_px, k=self.k, min_track=self.min_track, min_features=self.min_features)
 
+    def record(self, et: ElementTargets) -> dict:
+        """These targets as a plan's parameters record them, with the median SSD bound and the elements of ``et``."""
+        active = et.active
+        return {"k": self.k, "max_ssd_m_px": float(np.median(et.max_ssd_m_px[active])),
+                "max_angle_deg": self.max_angle_deg, "omega_px": self.omega_px, "min_features": self.min_features,
+                "rules": len(self.rules), "elements": int(active.sum())}
+
     def resolve(self, scene: Scene, default_ssd_m_px: float) -> ElementTargets:
         """Per-element arrays for ``scene`` (absent elements and occluders are no targets)."""
         z = scene.n_elements
