@@ -291,8 +291,11 @@ def test_plan_facade_then_evaluate(tmp_path):
     d = json.loads(out.read_text())
     lo, hi = load_model("sample")[0].bounds()
     sx, sy, sz = hi - lo
-    s_h, s_v = 2 * 8 * 0.75 * 0.2, 2 * 8 * 0.5 * 0.2  # eq. 11 with the Phantom 4 Pro: 2.4 m and 1.6 m
-    per_col = math.ceil((sz - 2) / s_v) + 1 + 1  # layers from 2 m above the base (the minimum height), plus the top row
+    # frames at 8 m + the GNSS position error's reach √(1.5² + 0.5²) + 1 cm, so that they pass the checks at it
+    g = 8 + math.hypot(1.5, 0.5) + 0.01
+    s_h, s_v = 2 * g * 0.75 * 0.2, 2 * g * 0.5 * 0.2  # eq. 11 with the Phantom 4 Pro: 2.88 m and 1.92 m
+    # layers from 2 m + 0.5 m (the vertical error) + 1 cm above the ground (the door sills at z = 0), plus the top row
+    per_col = math.ceil((hi[2] - 2.51) / s_v) + 1 + 1
     cols = [math.ceil(sx / s_h) + 1, math.ceil(sy / s_h) + 1] * 2
     assert [m["frames"][1] - m["frames"][0] for m in d["missions"]] == [c * per_col for c in cols]
     res = run_cli("evaluate", "sample", str(out), "--scale", "0.05", "--no-picture", "--out", str(tmp_path / "r"),
@@ -353,6 +356,7 @@ def test_check_refuses_impossible_settings(tmp_path):
 def test_plan_options_match_the_library(tmp_path):
     from sightplan.camera.catalogue import get_camera
     from sightplan.model.load import load_model
+    from sightplan.plan.checks.safety import PLACEMENT_MARGIN_M, POSITION_ERROR, placement_distance
     from sightplan.plan.templates import facade_grid, lawnmower
 
     scene = load_model("sample")[0]
@@ -360,7 +364,10 @@ def test_plan_options_match_the_library(tmp_path):
     out = tmp_path / "outline.json"
     res = run_cli("plan", "facade", "sample", "--footprint", "outline", "--no-split", "-o", str(out), cwd=tmp_path)
     assert res.returncode == 0, res.stderr
-    assert len(json.loads(out.read_text())["frames"]) == len(facade_grid(scene, cam, 10.0, 0.8, footprint="outline"))
+    # the CLI places the grid so that it passes its checks at a GNSS drone's position error (±1.5 m, ±0.5 m)
+    g, low = placement_distance(10.0, POSITION_ERROR["gnss"]), 2.0 + 0.5 + PLACEMENT_MARGIN_M
+    assert len(json.loads(out.read_text())["frames"]) == len(facade_grid(scene, cam, g, 0.8, footprint="outline",
+                                                                         min_height_m=low))
     res = run_cli("plan", "lawnmower", "sample", "--gsd", "0.005", "--oblique-pitch", "-60", "--no-split", "-o", str(out),
                   cwd=tmp_path)
     assert res.returncode == 0, res.stderr

@@ -142,8 +142,9 @@ def test_lawnmower_by_ground_sampling_distance_and_bad_altitudes():
     assert plan.parameters["altitude_m"] == pytest.approx(8 + 36.48)
     with pytest.raises(PlanError, match="does not clear"):
         lawnmower(box_scene(), P4P, altitude_m=5)
-    with pytest.raises(PlanError, match="either an altitude"):
+    with pytest.raises(PlanError, match="or a safety distance"):
         lawnmower(box_scene(), P4P)
+    assert lawnmower(box_scene(), P4P, safety_distance_m=12.0).parameters["clearance_m"] == pytest.approx(12.0)
 
 
 def test_indoor_route_samples_the_polyline():

@@ -104,9 +104,9 @@ def test_facade_corner_columns_turn_inward():
 
 def test_duplex_demo_grid_drops_nothing_and_starts_above_the_ground(duplex):
     plan = facade_grid(duplex, P4P, 8.0, 0.8)
-    base = duplex.bounds()[0][2]  # −1.55 m: the Duplex has no terrain, its base is the ground
+    base = duplex.bounds()[0][2]  # −1.55 m: the Duplex's footings, below its ground
     assert base == pytest.approx(-1.55, abs=0.01)
-    assert plan.C_world[:, 2].min() == pytest.approx(base + 2.0)
+    assert plan.C_world[:, 2].min() == pytest.approx(0.0 + 2.0)  # 2 m above its entrance doors' sills (z = 0)
     assert plan.parameters["dropped_frames"] == 0
 
 
@@ -123,7 +123,7 @@ def test_terrain_is_ground_not_building(terrain):
     # layers from 3 to 7 m, s_v = 2·8·0.5·0.2 = 1.6 m: ceil(4/1.6) + 1 = 4; plus the top row: 5 per column.
     # s_h = 2·8·0.75·0.2 = 2.4 m: ceil(12/2.4) + 1 = 6 and ceil(8/2.4) + 1 = 5 columns
     assert [m.stop - m.start for m in plan.missions] == [6 * 5, 5 * 5, 6 * 5, 5 * 5]
-    report = plan_flights(terrain, plan, FlightSettings(safety_distance_m=g))
+    report = plan_flights(terrain, plan, FlightSettings(safety_distance_m=g, position_error_m="none"))
     assert report.ok, report.violations
     sited = with_site(report.plan, terrain, replace_takeoff=True)
     assert sited.parameters["takeoff_m"][2] == pytest.approx(TERRAIN_TOP)  # on the terrain, not under it
@@ -135,7 +135,7 @@ def test_check_flags_waypoints_and_legs_below_the_minimum_height(terrain):
     # one mission on the house's south side, 8 m out: 3 m, 0.5 m (under the terrain's top) and 5 m above z = 0
     C = np.array([[2.0, -8.0, 3.0], [6.0, -8.0, 0.5], [10.0, -8.0, 5.0]])
     plan = Plan.build(P4P, R_from_gimbal(np.zeros(3), np.zeros(3)), C)
-    report = check_plan(terrain, plan, FlightSettings(safety_distance_m=5.0, aircraft=None))
+    report = check_plan(terrain, plan, FlightSettings(safety_distance_m=5.0, aircraft=None, position_error_m="none"))
     assert "waypoint 1 is less than 2 m above the ground (lowest -0.50 m)" in report.violations
     np.testing.assert_allclose(report.height_above_ground_m, [2.0, -0.5, 4.0])
     assert report.missions[0].height_ok is False
@@ -144,7 +144,8 @@ def test_check_flags_waypoints_and_legs_below_the_minimum_height(terrain):
                               ElementTable.build(["terrain", "ridge"], ifc_class=["IfcSite", "IfcGeographicElement"],
                                                  is_target=[False, False]))
     leg = Plan.build(P4P, R_from_gimbal(np.zeros(2), np.zeros(2)), [[-10.0, 0.0, 4.0], [10.0, 0.0, 4.0]])
-    found = check_plan(ridge, leg, FlightSettings(safety_distance_m=0.5, aircraft=None, vlos_radius_m=None)).violations
+    found = check_plan(ridge, leg, FlightSettings(safety_distance_m=0.5, aircraft=None, vlos_radius_m=None,
+                                                    position_error_m="none")).violations
     assert found == ("leg 0→1 comes down to +1.00 m above the ground (minimum 2 m)",)
 
 

@@ -20,6 +20,15 @@ MinHeightOpt = Annotated[float | None, typer.Option(
                          "in m. Default 2; none for a walked route")]
 
 
+PositionErrorOpt = Annotated[str | None, typer.Option(
+    "--position-error", help="How far the aircraft may stray from its planned point, 'H,V' metres, or 'gnss' (±1.5 m, "
+                             "±0.5 m) or 'rtk' (±0.1 m). The safety, minimum-height and altitude checks hold at its "
+                             "worst. Default: the aircraft's (gnss; rtk for the -rtk presets), none for a walked route")]
+GroundZOpt = Annotated[float | None, typer.Option(
+    "--ground-z", help="Height of the site's ground in the model frame (m), instead of the terrain or the building's "
+                       "outside ground level that sightplan finds")]
+
+
 def parse_point(text: str, what: str):
     """'x,y,z' → (3,) array, or a PlanError naming ``what``."""
     import numpy as np
@@ -65,7 +74,7 @@ def aircraft_from_option(name: str):
 
 
 def flight_settings(safety_distance: float, vlos_radius: float, ground_station: list[str] | None, aircraft: str,
-                    altitude_limit: float, min_height: float | None = None):
+                    altitude_limit: float, min_height: float | None = None, position_error: str | None = None):
     import numpy as np
 
     from ..plan.checks.feasibility import FlightSettings
@@ -73,12 +82,13 @@ def flight_settings(safety_distance: float, vlos_radius: float, ground_station: 
     stations = np.array([parse_point(s, "ground station") for s in ground_station]) if ground_station else None
     return FlightSettings(safety_distance_m=safety_distance, vlos_radius_m=vlos_radius or None, ground_stations=stations,
                           altitude_limit_m=altitude_limit or None, aircraft=aircraft_from_option(aircraft),
-                          min_height_m=min_height)
+                          min_height_m=min_height, position_error_m=position_error)
 
 
 def default_flight_settings(walked: bool, safety_distance: float | None, vlos_radius: float | None,
                             ground_station: list[str] | None, aircraft: str | None, altitude_limit: float | None,
-                            drone_safety_m: float | None = None, min_height: float | None = None):
+                            drone_safety_m: float | None = None, min_height: float | None = None,
+                            position_error: str | None = None):
     """:func:`flight_settings` with the defaults of a drone flight, or of a walked or driven route
     (:func:`~sightplan.plan.templates.registry.default_flight`), for the options not given (None);
     ``drone_safety_m`` replaces a drone's default distance to the model."""
@@ -90,7 +100,7 @@ def default_flight_settings(walked: bool, safety_distance: float | None, vlos_ra
     given = (safety_distance, vlos_radius, aircraft, altitude_limit, min_height)
     defaults = (d["safety_distance_m"], d["vlos_radius_m"], d["aircraft"], d["altitude_limit_m"], d["min_height_m"])
     safety, vlos, craft, limit, low = (x if v is None else v for v, x in zip(given, defaults))
-    return flight_settings(safety, vlos, ground_station, craft, limit, low)  # type: ignore[arg-type]
+    return flight_settings(safety, vlos, ground_station, craft, limit, low, position_error)  # type: ignore[arg-type]
 
 
 def _minutes(t: float | None) -> str:
@@ -126,6 +136,15 @@ def print_feasibility(console: Console, report, title: str, max_violations: int 
                   + (f" ({batteries} {'battery' if batteries == 1 else 'batteries'}), {total / 60:.1f} min of flight"
                      if total is not None else "")
                   + f"; least clearance {report.safety.waypoint_m.min():.2f} m")
+    h, v = report.error_m
+    if report.ground is not None and report.missions and report.missions[0].line_of_sight_ok is not None:
+        console.print(f"ground: {report.ground.reason}", highlight=False)
+    if report.paths:
+        rise = max(p.return_z_m - p.takeoff_m[2] for p in report.paths)
+        console.print(f"checked from take-off to landing: each mission's climb, flight out, return (at most "
+                      f"{rise:.1f} m above its take-off) and landing"
+                      + (f", at the worst of ±{h:g} m horizontal and ±{v:g} m vertical position error" if h or v else ""),
+                      highlight=False)
     if report.violations:
         console.print(f"[bold red]{len(report.violations)} violation(s):")
         for v in report.violations[:max_violations]:

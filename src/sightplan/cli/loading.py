@@ -70,10 +70,12 @@ def load_with_progress(console: Console, model: str, cache: bool, mesh_elements:
 
 
 def georef_kwargs(scene) -> dict:
-    """A flight-app mission (latitude/longitude) is placed with the model's georeference, taking off from its base."""
+    """A flight-app mission (latitude/longitude) is placed with the model's georeference, taking off from the site's
+    ground (:func:`~sightplan.plan.ground.ground_of`)."""
     from ..geo import Georeference
+    from ..plan.ground import ground_of
 
-    return {"georef": Georeference.from_scene_metadata(scene.metadata), "ground_z": float(scene.bounds()[0][2])}
+    return {"georef": Georeference.from_scene_metadata(scene.metadata), "ground_z": ground_of(scene).level_m}
 
 
 def print_warnings(console: Console, warnings) -> None:

@@ -11,6 +11,7 @@ from typing import Annotated, Any, Literal
 import typer
 
 from ..errors import PlanError
+from ..plan.ground import with_ground_z
 from ..plan.site import with_site
 from ..plan.templates.base import ParamInfo, cli_name, unit_of
 from ..plan.templates.registry import TEMPLATE_NAMES, TEMPLATES, WALKED, plan_from_template
@@ -19,7 +20,9 @@ from .camera_opts import CAMERA_FORMS, FocalOpt, cli_camera
 from .errors import friendly_errors, writable_file
 from .flight import (
     AltitudeOpt,
+    GroundZOpt,
     MinHeightOpt,
+    PositionErrorOpt,
     StationOpt,
     VlosOpt,
     default_flight_settings,
@@ -146,6 +149,8 @@ def plan_command(
              "of its fields; 'none': no battery. Default p4p, walker-360 for a route")] = None,
     altitude_limit: AltitudeOpt = 120.0,
     min_height: MinHeightOpt = None,
+    position_error: PositionErrorOpt = None,
+    ground_z: GroundZOpt = None,
     split: Annotated[bool, typer.Option(help="Split missions to keep line of sight and fit the batteries")] = True,
     date: DateOpt = None,
     schedule: ScheduleOpt = None,
@@ -175,12 +180,13 @@ def plan_command(
         raise PlanError(f"--{cli} {rest}" if cli else str(exc)) from None
     cam = cli_camera(camera, focal_mm)
     scene, _ = load_with_progress(console, model, cache)
-    scene = dated_scene(console, scene, model, schedule, rules, prefer_actual, date, date_basis, unscheduled)
+    scene = with_ground_z(dated_scene(console, scene, model, schedule, rules, prefer_actual, date, date_basis,
+                                      unscheduled), ground_z)
     obstacles = with_reality(console, scene, reality)  # templates go around the model; checks see everything
     walked = template in WALKED
     settings = default_flight_settings(walked, safety_distance, None if walked else vlos_radius,
                                        None if walked else ground_station, aircraft, None if walked else altitude_limit,
-                                       min_height=min_height)
+                                       min_height=min_height, position_error=position_error)
     plan, report = plan_from_template(template, scene, cam, params, settings, obstacles=obstacles, split=split)
     write_plan(plan, output)
     print_feasibility(console, report, f"{template} plan around {Path(str(model)).name} — {cam.name or camera}")
@@ -223,6 +229,8 @@ def check_command(
     altitude_limit: Annotated[float | None, typer.Option(
         "--altitude-limit", help="FAA §107.51 limit (m); 0: no check. Default 120, none for a walked route")] = None,
     min_height: MinHeightOpt = None,
+    position_error: PositionErrorOpt = None,
+    ground_z: GroundZOpt = None,
     split: Annotated[bool, typer.Option(help="Split the missions to keep line of sight and fit the batteries "
                                              "(write the result with -o)")] = False,
     output: Annotated[Path | None, typer.Option("-o", "--output", help="Write the (split) plan here")] = None,
@@ -250,13 +258,14 @@ def check_command(
     if json_out is not None:
         writable_file(json_out, "--json")  # before the checks run, not after
     scene, _ = load_with_progress(console, model, cache)
-    scene = dated_scene(console, scene, model, schedule, rules, prefer_actual, date, date_basis, unscheduled)
+    scene = with_ground_z(dated_scene(console, scene, model, schedule, rules, prefer_actual, date, date_basis,
+                                      unscheduled), ground_z)
     scene = with_reality(console, scene, reality)
     plan = load_plan(plan_file, camera=cli_camera(camera, focal_mm), **georef_kwargs(scene))
     warn_if_far(console, scene, plan)
     walked = walked_plan(plan)  # a rover or a walker: no sight line, no altitude limit
     settings = default_flight_settings(walked, safety_distance, vlos_radius, ground_station, aircraft, altitude_limit,
-                                       drone_safety_m=5.0, min_height=min_height)
+                                       drone_safety_m=5.0, min_height=min_height, position_error=position_error)
     report = (plan_flights if split else check_plan)(scene, plan, settings)
     print_feasibility(console, report, f"{Path(plan_file).name} against {Path(str(model)).name}")
     if output is not None:

@@ -16,16 +16,20 @@ from . import Autopilot, ExportedFile, ExportFormat, export_plan
 
 
 def takeoff_point(plan: Plan, scene: Scene | None, *, hint: str) -> NDArray[np.float64]:
-    """The take-off point the plan records (``takeoff_m``), else the south-west corner of the plan's region on the
-    model's base; without either a PlanError ending with ``hint`` (what the caller can give)."""
+    """The take-off point the plan records (``takeoff_m``), else the south-west pilot station of the plan's region
+    (:func:`~sightplan.plan.checks.feasibility.corner_stations`) on the site's ground; without either a PlanError
+    ending with ``hint`` (what the caller can give)."""
     if plan.parameters.get("takeoff_m") is not None:
         return np.asarray(plan.parameters["takeoff_m"], float)
     if scene is None:
         raise PlanError(f"the plan records no take-off point: {hint}")
     from ..plan.checks.feasibility import corner_stations
+    from ..plan.checks.gate import recorded_settings
+    from ..plan.ground import ground_z
 
-    takeoff = corner_stations(scene, plan)[0]
-    takeoff[2] = scene.bounds()[0][2]
+    settings = recorded_settings(plan)
+    takeoff = corner_stations(scene, plan, safety_m=settings.safety_distance_m, error_m=settings.error)[0]
+    takeoff[2] = float(ground_z(scene, takeoff[None, :2])[0])
     return takeoff
 
 

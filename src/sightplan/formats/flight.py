@@ -102,6 +102,12 @@ class Flight:
     speed_m_s: float
     fmt: str
     takeoffs: tuple[Takeoff, ...] = ()
+    paths: tuple[tuple[float, float] | None, ...] = ()  # per mission: (climb, return) heights above its take-off
+
+    def path_of(self, mission: int) -> tuple[float, float] | None:
+        """(climb height, return height) in metres above mission index ``mission``'s take-off point, as the checks
+        recorded them (:mod:`~sightplan.plan.trajectory`); None when the plan records none for that take-off."""
+        return self.paths[mission] if 0 <= mission < len(self.paths) else None
 
     def takeoff_of(self, mission: int) -> Takeoff:
         """The take-off of mission index ``mission`` (the flight's own when none was recorded per mission)."""
@@ -217,12 +223,30 @@ def build_flight(plan: Plan, georef: Georeference, takeoff_m: ArrayLike, *, fmt:
             close()
         current.append(i)
     close()
+    paths = _recorded_paths(plan, missions, starts)
     first = takeoffs[waypoints[0].mission] if waypoints else Takeoff((float(T[0]), float(T[1]), float(T[2])),
                                                                      *(float(v[0]) for v in georef.to_geodetic(T)))
     return Flight(plan=plan, georef=georef, missions=tuple(missions), waypoints=tuple(waypoints),
                   takeoff_m=first.position_m, takeoff_latitude_deg=first.latitude_deg,
                   takeoff_longitude_deg=first.longitude_deg, takeoff_height_m=first.height_m, speed_m_s=float(speed_m_s),
-                  fmt=fmt, takeoffs=takeoffs)
+                  fmt=fmt, takeoffs=takeoffs, paths=paths)
+
+
+def _recorded_paths(plan: Plan, missions: tuple[Mission, ...], starts: list) -> tuple[tuple[float, float] | None, ...]:
+    """Each mission's recorded (climb, return) heights above its take-off point, where the plan records them for
+    the take-off point the export uses (within 0.5 m)."""
+    from ..plan.trajectory import recorded_paths
+
+    rec = recorded_paths(plan.parameters)
+    flown = [k for k, m in enumerate(missions) if m.stop > m.start]
+    out: list[tuple[float, float] | None] = [None] * len(missions)
+    if len(rec) != len(flown):
+        return tuple(out)
+    for k, r in zip(flown, rec):
+        T = np.asarray(starts[k], float)
+        if np.linalg.norm(np.asarray(r["takeoff_m"]) - T) <= 0.5:
+            out[k] = (r["climb_z_m"] - float(T[2]), r["return_z_m"] - float(T[2]))
+    return tuple(out)
 
 
 def mission_paths(path: Path, numbers: list[int], *, several: bool) -> dict[int, Path]:

@@ -54,9 +54,14 @@ runs of consecutive photos with the same heading. What differs (``autopilot``):
   photos with that heading) followed by a waypoint at the same position that holds
   :data:`ARDUPILOT_STOP_HOLD_S` seconds: the aircraft turns and shoots during that hold, in place.
 
-A mission is ``MAV_CMD_NAV_TAKEOFF`` (22) at the take-off point to the first waypoint's altitude (at
-least 2 m), the waypoints, then ``MAV_CMD_NAV_RETURN_TO_LAUNCH`` (20). The NAV_WAYPOINT yaw (param4) is
-always the heading of the stop it starts or ends, so a ground station shows it.
+A mission is the whole flight the checks passed (:mod:`sightplan.plan.trajectory`): ``MAV_CMD_NAV_TAKEOFF`` (22)
+at the take-off point to the climb height (the first waypoint's altitude, at least 2 m, or the transit height when
+the way out must clear the model), a waypoint above the first one where the climb height is higher, the waypoints,
+then the return written out: a waypoint above the last one at the return height (where that is higher), one above
+the take-off point, and ``MAV_CMD_NAV_LAND`` (21) there. An autopilot's return-to-launch is left to its own
+altitude (ArduPilot's RTL_ALT, PX4's RTL_RETURN_ALT), which no check sees, so a plan whose return was never
+checked (no model at hand) ends with ``MAV_CMD_NAV_RETURN_TO_LAUNCH`` (20) instead. The NAV_WAYPOINT yaw (param4)
+is always the heading of the stop it starts or ends, so a ground station shows it.
 """
 
 from __future__ import annotations
@@ -75,7 +80,7 @@ from ..errors import CameraError, PlanError
 from ..geo import Georeference, GeoreferenceError
 from ..geometry.poses import R_from_gimbal
 from ..plan.types import Mission, Plan
-from .flight import Flight, Photo, Waypoint, same_angle
+from .flight import SAME_POSITION_M, Flight, Photo, Waypoint, same_angle
 from .reading import DEFAULT_PITCH_DEG, DEFAULT_SPEED_M_S, bearing, differs, given_camera
 
 # MAV_CMD: navigation
@@ -505,9 +510,13 @@ def mission_items(flight: Flight, waypoints: list[Waypoint], autopilot: Autopilo
     def mount(photo: Photo) -> None:
         add(DO_MOUNT_CONTROL, [photo.pitch_deg, 0, 0, 0, 0, 0, MOUNT_MODE_MAVLINK_TARGETING])
 
-    first = waypoints[0]
+    first, last = waypoints[0], waypoints[-1]
+    path = flight.path_of(first.mission)
+    climb = max(first.altitude_m, MIN_TAKEOFF_ALTITUDE_M, path[0] if path else -np.inf)
     add(NAV_TAKEOFF, [0, 0, 0, first.photos[0].heading_deg, flight.takeoff_latitude_deg, flight.takeoff_longitude_deg,
-                      max(first.altitude_m, MIN_TAKEOFF_ALTITUDE_M)], nav=True)
+                      climb], nav=True)
+    if path and climb > first.altitude_m + SAME_POSITION_M:  # level at the climb height, then down to the first
+        add(NAV_WAYPOINT, [0, 0, 0, first.photos[0].heading_deg, first.latitude_deg, first.longitude_deg, climb], nav=True)
     for wp in waypoints:
         groups = stops(wp.photos)
         if autopilot == "ardupilot":
@@ -523,5 +532,15 @@ def mission_items(flight: Flight, waypoints: list[Waypoint], autopilot: Autopilo
                 add(IMAGE_START_CAPTURE, [0, 0, 1, 0, 0, 0, 0])
             if autopilot == "ardupilot":
                 waypoint(wp, heading, ARDUPILOT_STOP_HOLD_S)
-    add(NAV_RETURN_TO_LAUNCH, [0, 0, 0, 0, 0, 0, 0])
+    if path is None:
+        add(NAV_RETURN_TO_LAUNCH, [0, 0, 0, 0, 0, 0, 0])
+        return items
+    # the return the checks passed, written out: up to the return height, home level, then land at the take-off point
+    home = flight.takeoff_of(first.mission)
+    back = max(path[1], last.altitude_m)
+    heading = last.photos[-1].heading_deg
+    if back > last.altitude_m + SAME_POSITION_M:
+        add(NAV_WAYPOINT, [0, 0, 0, heading, last.latitude_deg, last.longitude_deg, back], nav=True)
+    add(NAV_WAYPOINT, [0, 0, 0, heading, home.latitude_deg, home.longitude_deg, back], nav=True)
+    add(NAV_LAND, [0, 0, 0, heading, home.latitude_deg, home.longitude_deg, 0], nav=True)
     return items

@@ -647,14 +647,19 @@ def _mission_config(parent: ET.Element, flight: Flight, aircraft: DjiAircraft, t
     _el(cfg, "wpml:finishAction", "goHome")
     _el(cfg, "wpml:exitOnRCLost", "executeLostAction")
     _el(cfg, "wpml:executeRCLostAction", "goBack")
-    _el(cfg, "wpml:takeOffSecurityHeight", _clip(altitudes[0], HEIGHT_RANGE_M))
+    path = flight.path_of(flight.waypoints[0].mission)
+    _el(cfg, "wpml:takeOffSecurityHeight", number_text(_clip(max(altitudes[0], path[0] if path else -np.inf),
+                                                              HEIGHT_RANGE_M), 4))
     if template:
         lat, lon, h = flight.takeoff_latitude_deg, flight.takeoff_longitude_deg, flight.takeoff_height_m
         ellipsoidal = float(to_ellipsoidal(lat, lon, h)[0])
         _el(cfg, "wpml:takeOffRefPoint", f"{lat:.9f},{lon:.9f},{ellipsoidal:.4f}")
         _el(cfg, "wpml:takeOffRefPointAGLHeight", 0)  # the take-off point is on the ground
     _el(cfg, "wpml:globalTransitionalSpeed", flight.speed_m_s)
-    _el(cfg, "wpml:globalRTHHeight", number_text(_clip(max(altitudes) + RTH_MARGIN_M, HEIGHT_RANGE_M), 4))
+    # the return height the checks passed (:mod:`sightplan.plan.trajectory`); without one, the highest waypoint's plus
+    # a margin: DJI's return-to-home climbs to it at the last waypoint, flies home straight and lands
+    rth = max(path[1], altitudes[-1]) if path else max(altitudes) + RTH_MARGIN_M
+    _el(cfg, "wpml:globalRTHHeight", number_text(_clip(rth, HEIGHT_RANGE_M), 4))
     info = _el(cfg, "wpml:droneInfo")
     _el(info, "wpml:droneEnumValue", aircraft.drone)
     _el(info, "wpml:droneSubEnumValue", aircraft.sub)

@@ -212,6 +212,7 @@ class Scene:
         known = self.__dict__.get("_tie_pairs")
         if known is not None:
             out.set_tie_pairs(remap_pairs(known, keep))
+        object.__setattr__(out, "_derived_from", self.__dict__.get("_derived_from", self))  # its ground is ours
         return out
 
     def at(self, date: str | np.datetime64, basis: DateBasis = "finish",
@@ -244,4 +245,10 @@ class Scene:
             first_day = when[dated & self.elements.is_target].min() if (dated & self.elements.is_target).any() else None
             hint = f"; the first element is built on {str(first_day)[:10]}" if first_day is not None else ""
             raise ScheduleError(f"no element of the model exists on {day}{hint}")
-        return replace(scene, date=day)
+        out = replace(scene, date=day)
+        object.__setattr__(out, "_derived_from", scene.__dict__.get("_derived_from", self))
+        return out
+
+    def __getstate__(self) -> dict:
+        """What pickles: not the scene this one was derived from (kept only to share its ground)."""
+        return {k: v for k, v in self.__dict__.items() if k != "_derived_from"}

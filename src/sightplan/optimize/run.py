@@ -31,9 +31,10 @@ from ..evaluate import EvaluationSettings, evaluate
 from ..metrics import MetricParams, frame_metrics
 from ..model.scene import Scene
 from ..observations.table import Observations
-from ..plan.checks.battery import Aircraft
+from ..plan.checks.battery import Aircraft, Rover
 from ..plan.checks.feasibility import FeasibilityReport, FlightSettings, corner_stations, plan_flights
 from ..plan.checks.gate import record_checks
+from ..plan.checks.safety import PLACEMENT_MARGIN_M, placement_distance
 from ..plan.site import with_site
 from ..plan.types import Mission, Plan
 from .budget import Budget, longest_prefix
@@ -120,9 +121,10 @@ def optimize(scene: Scene, camera: Camera, targets: Targets | None = None, budge
         raise PlanError("no element is a target of the optimisation: check the targets' rules")
 
     t0 = time.perf_counter()
-    cands = candidate_views(scene, camera, g, distances_m=list(settings.distances_m) if settings.distances_m else None,
+    g_place, low = _placement(flight)
+    cands = candidate_views(scene, camera, g_place, distances_m=list(settings.distances_m) if settings.distances_m else None,
                             max_ssd_m_px=float(np.median(et.max_ssd_m_px[et.active])), spacing_m=settings.spacing_m,
-                            oblique_deg=settings.oblique_deg, min_height_m=flight.min_height_m,
+                            oblique_deg=settings.oblique_deg, min_height_m=low,
                             altitude_limit_m=flight.altitude_limit_m)
     pool, n_start = _with_start(cands, start)
     if settings.template_views:
@@ -166,7 +168,8 @@ def optimize(scene: Scene, camera: Camera, targets: Targets | None = None, budge
 
     t0 = time.perf_counter()
     takeoff = (flight.ground_stations[0] if flight.ground_stations is not None
-               else corner_stations(scene, pool.subset(sel.views) if len(sel.views) else pool)[0])
+               else corner_stations(scene, pool.subset(sel.views) if len(sel.views) else pool,
+                                    safety_m=flight.safety_distance_m, error_m=flight.error)[0])
 
     memo = LegMemo()  # legs measured once for every routing below
     stability = {"s": 0.0}
@@ -178,7 +181,7 @@ def optimize(scene: Scene, camera: Camera, targets: Targets | None = None, budge
         grown = stable_runs(features, views, targets.min_track, targets.min_features if grow else 0,
                             allowed=can_add, table=table)
         stability["s"] += time.perf_counter() - t
-        order, cuts, forbidden = order_views(scene, pool.C_world[grown.views], takeoff, g, _aircraft(flight), runs,
+        order, cuts, forbidden = order_views(scene, pool.C_world[grown.views], takeoff, g_place, _aircraft(flight), runs,
                                              ids=grown.views, memo=memo, groups=grown.groups)
         report = plan_flights(scene, ordered_plan(pool, grown.views[order], cuts), flight)
         return Flown(report, grown.views[order], forbidden, grown.added, views, grow)
@@ -248,8 +251,19 @@ def _aimed(scene: Scene, camera: Camera, pool: Plan, obs: Observations, table: C
         rest = frame[a + near:b]
         spread = rest[np.unique(np.linspace(0, len(rest) - 1, min(AIM_FROM - near, len(rest))).round().astype(int))]
         seen_from.append(pool.C_world[np.concatenate([frame[a:min(b, a + near)], spread])])
-    return aimed_views(scene, camera, flight.safety_distance_m, elements, seen_from, spacing_m,
-                       min_height_m=flight.min_height_m, altitude_limit_m=flight.altitude_limit_m)
+    g_place, low = _placement(flight)
+    return aimed_views(scene, camera, g_place, elements, seen_from, spacing_m,
+                       min_height_m=low, altitude_limit_m=flight.altitude_limit_m)
+
+
+def _placement(flight: FlightSettings) -> tuple[float, float | None]:
+    """How far from the model, and how high above the ground at least, views are placed (and legs kept) so that
+    they pass the flight checks at the position error in force (as the templates place their frames)."""
+    if isinstance(flight.aircraft, Rover):
+        return flight.safety_distance_m, flight.min_height_m
+    err = flight.error
+    low = None if flight.min_height_m is None else flight.min_height_m + err[1] + PLACEMENT_MARGIN_M
+    return placement_distance(flight.safety_distance_m, err), low
 
 
 def _aircraft(flight: FlightSettings) -> Aircraft | None:
@@ -291,15 +305,15 @@ def _with_start(cands: CandidateSet, start: Plan | None) -> tuple[Plan, int]:
 def _with_template_views(pool: Plan, scene: Scene, camera: Camera, flight: FlightSettings) -> Plan:
     """The candidates and the views of the facade, orbit and lawn-mower templates at 70 % overlap (the lawn-mower
     the safety distance above the targets' top): whatever a template could choose, the selection can choose too."""
-    from ..plan.ground import targets_only
     from ..plan.templates.registry import build_template
 
-    top = float(targets_only(scene).bounds()[1][2] - scene.bounds()[0][2])
+    error = (0.0, 0.0) if isinstance(flight.aircraft, Rover) else flight.error
     extra = []
     for name, params in (("facade", {"overlap": 0.7}), ("orbit", {"overlap": 0.7}),
-                         ("lawnmower", {"overlap": 0.7, "side_overlap": 0.7, "altitude_m": top + flight.safety_distance_m})):
+                         ("lawnmower", {"overlap": 0.7, "side_overlap": 0.7})):  # the lawn-mower over the top by g
         try:
-            extra.append(build_template(name, scene, camera, params, flight.safety_distance_m, flight.min_height_m))
+            extra.append(build_template(name, scene, camera, params, flight.safety_distance_m, flight.min_height_m,
+                                        error))
         except PlanError:  # a template that cannot be made here (a model too small for a grid, too high to fly over)
             continue
     return _concatenated([pool, *extra], pool.parameters)

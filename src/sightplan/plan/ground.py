@@ -1,21 +1,43 @@
 """The structure to capture and the ground it stands on.
 
 Templates place frames against the model's **targets**: occluder-only elements (terrain,
-furniture, site objects; ``is_target`` False) neither widen the box nor the outline. The
-**ground** under a point is the terrain surface where the model has one (the highest
-triangle of a non-target ``IfcSite`` or ``IfcGeographicElement`` under the point), else the
-model's base: the lowest point of its targets.
+furniture, site objects; ``is_target`` False) neither widen the box nor the outline.
+
+The **ground** is taken as a surveyor would (:class:`Ground`, one per scene, found once and kept on it):
+
+1. a height the user gives (``--ground-z``, the web form's "ground z", :func:`with_ground_z`), else
+2. the **terrain**: the top surface of the non-target ``IfcSite`` / ``IfcGeographicElement`` geometry under a
+   point; a point beyond the terrain's edge takes the terrain's top at its nearest terrain vertex; else
+3. the building's **outside ground level**, never a basement:
+   - the sill of its lowest *exterior* door: a door is exterior when, in a horizontal section of the model
+     through the door, the free space around it connects to the outside (a door opening onto a basement
+     stair or a corridor does not);
+   - with no door, the lowest point of the targets outside storeys named as basements ("basement",
+     "cellar", "Keller", "UG", "sous-sol", "kelder", "B1", "-1"…), when some storey is so named;
+   - else the model's base: the lowest point of its targets.
+
+A scene derived from another (:meth:`~sightplan.model.scene.Scene.with_present`, a date) has the ground of the
+scene it was derived from: the ground does not move while the building goes up.
 """
 
 from __future__ import annotations
 
+import re
+from dataclasses import dataclass
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ..errors import PlanError
 from ..model.scene import Scene
 
 TERRAIN_CLASSES = ("ifcsite", "ifcgeographicelement")
 MIN_HEIGHT_M = 2.0  # least height of a waypoint above the ground (a plan setting)
+GROUND_Z_KEY = "ground_z_m"  # scene metadata: the user's ground height (model frame)
+SECTION_CELL_M = 0.2  # the horizontal section's grid
+DOOR_SECTION_M = 1.0  # the section is this far above a door's sill (or at its middle, if lower)
+BASEMENT_WORDS = re.compile(r"basement|cellar|keller|sous[- ]?sol|kelder|souterrain|tiefgarage|\bug\b|\bb\d\b|"
+                            r"(^|\s)-\d\b|\bu\d\b|\bkg\b|\bsótano|\bsotano|interrato|podziem", re.I)
 _PAIRS = 4_000_000  # points × triangles compared at once
 
 
@@ -76,16 +98,156 @@ def _top_under(tri: NDArray, xy: NDArray) -> NDArray[np.float64]:
     return out
 
 
-def ground_z(scene: Scene, xy: ArrayLike) -> NDArray[np.float64]:
-    """(n,) height of the ground under each (n, 2) point (x, y; a third column is ignored): the terrain's top
-    surface where the model has terrain under the point, else the model's base (:func:`base_z`)."""
-    P = np.atleast_2d(np.asarray(xy, float))[:, :2]
+
+@dataclass(frozen=True)
+class Ground:
+    """The site's ground: ``level_m``, the outside ground level (model frame, m); ``terrain``, the (F, 3, 3)
+    terrain triangles (None without terrain); ``source`` ("user", "terrain", "exterior door", "storeys",
+    "model base") and ``reason``, a sentence saying why."""
+
+    level_m: float
+    source: str
+    reason: str
+    terrain: NDArray[np.float64] | None = None
+
+    def z(self, xy: ArrayLike) -> NDArray[np.float64]:
+        """(n,) the ground's height under each (n, 2) point (a third column is ignored)."""
+        P = np.atleast_2d(np.asarray(xy, float))[:, :2]
+        if self.terrain is None or not len(P):
+            return np.full(len(P), self.level_m)
+        top = _top_under(self.terrain, P)
+        off = np.isnan(top)
+        if off.any():  # beyond the terrain's edge: its top at the nearest terrain vertex
+            from scipy.spatial import cKDTree
+
+            corners = self.terrain.reshape(-1, 3)
+            _, near = cKDTree(corners[:, :2]).query(P[off])
+            top[off] = _top_under(self.terrain, corners[near, :2])
+        return np.where(np.isnan(top), self.level_m, top)
+
+    def to_dict(self) -> dict:
+        return {"level_m": round(self.level_m, 3), "source": self.source, "reason": self.reason}
+
+
+def with_ground_z(scene: Scene, z: float | None) -> Scene:
+    """The scene with the user's ground height (model frame, m), which overrides the terrain and the building's
+    ground level; the scene itself for None."""
+    if z is None:
+        return scene
+    if not np.isfinite(z):
+        raise PlanError(f"the ground height must be a finite number of metres, got {z}")
+    from dataclasses import replace
+
+    return replace(scene, metadata={**scene.metadata, GROUND_Z_KEY: float(z)})
+
+
+def ground_of(scene: Scene) -> Ground:
+    """The scene's :class:`Ground` (see the module docstring), found once per scene and kept on it."""
+    found = scene.__dict__.get("_ground")
+    if found is None:
+        root = scene.__dict__.get("_derived_from", scene)
+        found = root.__dict__.get("_ground") or _find_ground(root)
+        object.__setattr__(root, "_ground", found)
+        object.__setattr__(scene, "_ground", found)
+    return found
+
+
+def _find_ground(scene: Scene) -> Ground:
+    user = scene.metadata.get(GROUND_Z_KEY)
+    if user is not None:
+        return Ground(float(user), "user", f"given by the user: z = {float(user):+.2f} m")
     base = base_z(scene)
-    if not has_terrain(scene):
-        return np.full(len(P), base)
-    terrain = terrain_elements(scene)[scene.face_element]
-    top = _top_under(scene.vertices[scene.faces[terrain]].astype(float), P)
-    return np.where(np.isnan(top), base, top)
+    if has_terrain(scene):
+        tri = scene.vertices[scene.faces[terrain_elements(scene)[scene.face_element]]].astype(float)
+        top = float(tri[:, :, 2].max())
+        return Ground(top, "terrain", "the model's terrain surface (IfcSite / IfcGeographicElement geometry)", tri)
+    sills = exterior_door_sills(scene)
+    if len(sills):
+        z = float(sills.min())
+        return Ground(z, "exterior door", f"the sill of the lowest of {len(sills)} exterior door(s): z = {z:+.2f} m"
+                      + (f" (the model's base, {base:+.2f} m, is below the ground)" if base < z - 0.05 else ""))
+    storeys = np.array([str(s) for s in scene.elements.storey], dtype=object)
+    basement = np.array([bool(BASEMENT_WORDS.search(s)) for s in storeys])
+    above = scene.targets & ~basement
+    if (scene.targets & basement).any() and above[scene.face_element].any():
+        z = float(scene.vertices[scene.faces[above[scene.face_element]]][:, :, 2].min())
+        names = ", ".join(sorted(set(storeys[scene.targets & basement])))
+        return Ground(z, "storeys", f"the lowest point above the basement storeys ({names}): z = {z:+.2f} m")
+    return Ground(base, "model base", f"the model's base (lowest point of its targets): z = {base:+.2f} m; "
+                  "no terrain, exterior door or basement storey says otherwise")
+
+
+def exterior_door_sills(scene: Scene) -> NDArray[np.float64]:
+    """(k,) the sill (lowest point) of each present door that opens to the outside: in a horizontal section of the
+    model (terrain left out) :data:`DOOR_SECTION_M` above the sill, the free space next to the door reaches the
+    section's edge. Doors sharing a section height share one section."""
+    cls = np.array([str(c).lower() for c in scene.elements.ifc_class], dtype=object)
+    doors = np.flatnonzero(scene.present & np.isin(cls, ("ifcdoor", "ifcdoorstandardcase")))
+    if not len(doors) or not len(scene.faces):
+        return np.zeros(0)
+    tri = scene.vertices[scene.faces]
+    fe = scene.face_element
+    lo = np.full((len(scene.elements), 3), np.inf)
+    hi = np.full((len(scene.elements), 3), -np.inf)
+    np.minimum.at(lo, fe, tri.min(axis=1))
+    np.maximum.at(hi, fe, tri.max(axis=1))
+    doors = doors[np.isfinite(lo[doors, 0])]
+    solid = ~terrain_elements(scene)[fe]
+    zs = lo[doors, 2] + np.minimum(DOOR_SECTION_M, (hi[doors, 2] - lo[doors, 2]) / 2)
+    out = []
+    for z0 in np.unique(np.round(zs, 1)):
+        group = doors[np.round(zs, 1) == z0]
+        outside, origin = _section_outside(tri[solid], float(z0))
+        if outside is None:
+            continue
+        for d in group:
+            a = np.floor((lo[d, :2] - origin) / SECTION_CELL_M).astype(int) - 2
+            b = np.floor((hi[d, :2] - origin) / SECTION_CELL_M).astype(int) + 3
+            a, b = np.maximum(a, 0), np.minimum(b, outside.shape)
+            if outside[a[0]:b[0], a[1]:b[1]].any():
+                out.append(lo[d, 2])
+    return np.asarray(out, float)
+
+
+def _section_outside(tri: NDArray, z0: float) -> tuple[NDArray[np.bool_] | None, NDArray]:
+    """A grid (cells of :data:`SECTION_CELL_M`) of the horizontal section z = ``z0`` through the (F, 3, 3)
+    triangles: True where free space connects to the grid's edge; and the grid's origin (x, y)."""
+    from scipy import ndimage
+
+    zt = tri[:, :, 2]
+    cut = tri[(zt.min(axis=1) <= z0) & (zt.max(axis=1) >= z0)]
+    if not len(cut):
+        return None, np.zeros(2)
+    pts = []
+    for i, j in ((0, 1), (1, 2), (2, 0)):  # where each edge crosses the plane: the section's segments' ends
+        a, b = cut[:, i], cut[:, j]
+        da, db = a[:, 2] - z0, b[:, 2] - z0
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t = np.clip(np.where(da != db, da / (da - db), 0.0), 0, 1)
+        pts.append(a[:, :2] + t[:, None] * (b[:, :2] - a[:, :2]))
+    ends = np.stack(pts, axis=1)  # (k, 3, 2): a triangle's section lies within the hull of these
+    origin = ends.reshape(-1, 2).min(axis=0) - 4 * SECTION_CELL_M
+    shape = np.ceil((ends.reshape(-1, 2).max(axis=0) + 4 * SECTION_CELL_M - origin) / SECTION_CELL_M).astype(int) + 1
+    if shape.prod() > 50_000_000:
+        return None, origin
+    occupied = np.zeros(shape, bool)
+    for i, j in ((0, 1), (1, 2), (2, 0)):
+        p, q = ends[:, i], ends[:, j]
+        n = np.maximum(1, np.ceil(np.linalg.norm(q - p, axis=1) / (SECTION_CELL_M / 2)).astype(int))
+        owner = np.repeat(np.arange(len(p)), n + 1)
+        t = np.concatenate([np.linspace(0, 1, k + 1) for k in n]) if len(n) < 20_000 else \
+            (np.arange(len(owner)) - np.repeat(np.cumsum(n + 1) - (n + 1), n + 1)) / np.repeat(n, n + 1)
+        xy = p[owner] + t[:, None] * (q[owner] - p[owner])
+        cell = np.floor((xy - origin) / SECTION_CELL_M).astype(int)
+        occupied[cell[:, 0], cell[:, 1]] = True
+    labels, _ = ndimage.label(~occupied)
+    edge = np.unique(np.concatenate([labels[0], labels[-1], labels[:, 0], labels[:, -1]]))
+    return np.isin(labels, edge[edge > 0]), origin
+
+
+def ground_z(scene: Scene, xy: ArrayLike) -> NDArray[np.float64]:
+    """(n,) height of the ground under each (n, 2) point (x, y; a third column is ignored): see :class:`Ground`."""
+    return ground_of(scene).z(xy)
 
 
 def height_floor(scene: Scene, xy: ArrayLike, min_height_m: float) -> float:

@@ -161,8 +161,9 @@ def read_uploaded_plan(path: Path, camera: str | None, scene: Scene | None) -> P
     kwargs: dict[str, Any] = {}
     if scene is not None:
         from ..geo import Georeference
+        from ..plan.ground import ground_of
 
-        kwargs = {"georef": Georeference.from_scene_metadata(scene.metadata), "ground_z": float(scene.bounds()[0][2])}
+        kwargs = {"georef": Georeference.from_scene_metadata(scene.metadata), "ground_z": ground_of(scene).level_m}
     plan = load_plan(path, camera=camera or None, **kwargs)
     return with_site(plan, scene) if scene is not None else plan
 

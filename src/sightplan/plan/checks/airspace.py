@@ -88,10 +88,10 @@ class AltitudeReport:
 
 
 def check_altitude(scene: Scene, plan: Plan, limit_m: float = FAA_LIMIT_M,
-                   ground_z: float | NDArray | None = None) -> AltitudeReport:
+                   ground_z: float | NDArray | None = None, error_v_m: float = 0.0) -> AltitudeReport:
     """FAA §107.51: at most ``limit_m`` above the ground, or above the structure's highest point within
-    ``limit_m`` horizontally. The ground is the model's base unless ``ground_z`` says otherwise (one height, or
-    one per waypoint)."""
+    ``limit_m`` horizontally, when the aircraft strays ``error_v_m`` above its waypoint. The ground is the model's
+    base unless ``ground_z`` says otherwise (one height, or one per waypoint)."""
     from scipy.spatial import cKDTree
 
     if not limit_m > 0:
@@ -111,6 +111,6 @@ def check_altitude(scene: Scene, plan: Plan, limit_m: float = FAA_LIMIT_M,
             for i, near in zip(rest, tree.query_ball_point(C[rest], r=limit_m)):
                 if near:
                     limit[i] = max(limit[i], used[near, 2].max() + limit_m)
-    over = plan.C_world[:, 2] - limit
-    violations = tuple(f"waypoint {i} is {over[i]:.1f} m above the altitude limit" for i in np.flatnonzero(over > 0))
+    over = plan.C_world[:, 2] + float(error_v_m) - limit
+    violations = tuple(f"waypoint {i} is {over[i]:.1f} m above the altitude limit" for i in np.flatnonzero(over > 1e-3))
     return AltitudeReport(limit, over, violations)

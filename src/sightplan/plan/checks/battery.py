@@ -31,6 +31,7 @@ class Aircraft:
     flight_time_s: float
     capture_s: float = 2.0
     reserve: float = 0.25
+    rtk: bool = False  # positions by RTK: the checks' position error is POSITION_ERROR["rtk"], else "gnss"
 
     def __post_init__(self) -> None:
         for k in ("horizontal_speed", "vertical_speed", "accel", "flight_time_s"):
@@ -49,6 +50,9 @@ AIRCRAFT = {
     "p4p": Aircraft("DJI Phantom 4 Pro V2.0", 8.0, 3.0, 2.0, 30 * 60),
     "m3e": Aircraft("DJI Mavic 3 Enterprise", 10.0, 4.0, 2.5, 45 * 60),
     "m300": Aircraft("DJI Matrice 300 RTK with Zenmuse P1", 10.0, 4.0, 2.5, 40 * 60),
+    # the same aircraft flying with an RTK fix (a base station or a network): ±0.1 m position error
+    "m3e-rtk": Aircraft("DJI Mavic 3 Enterprise with the RTK module", 10.0, 4.0, 2.5, 45 * 60, rtk=True),
+    "m300-rtk": Aircraft("DJI Matrice 300 RTK with Zenmuse P1, RTK fix", 10.0, 4.0, 2.5, 40 * 60, rtk=True),
 }
 
 

@@ -17,11 +17,19 @@ from numpy.typing import NDArray
 
 from ...errors import PlanError
 from ...model.scene import Scene
-from ..ground import MIN_HEIGHT_M, ground_z, has_terrain, targets_only, without_terrain
+from ..ground import MIN_HEIGHT_M, Ground, ground_of, ground_z, has_terrain, targets_only, without_terrain
 from ..types import Mission, Plan
 from .airspace import FAA_LIMIT_M, AltitudeReport, check_altitude, sight_lines
 from .battery import AIRCRAFT, Aircraft, Rover, mission_time, split_by_battery, split_by_rover
-from .safety import SafetyReport, check_safety, segment_distances
+from .safety import (
+    CHECK_TOLERANCE_M,
+    POSITION_ERROR,
+    SafetyReport,
+    check_safety,
+    position_error,
+    segment_distances,
+    worst_segment_clearance,
+)
 
 GROUND_STATION_HEIGHT_M = 1.5
 
@@ -35,7 +43,9 @@ class FlightSettings:
     ground rover or walker (:class:`Rover`: no return leg, it resumes where it stopped), None: no battery check;
     min_height_m: least height of every waypoint and leg above the ground under it (the terrain, else the
     model's base; None: no check, and none for a rover). The safety distance applies to everything but the
-    terrain, which has the minimum height instead."""
+    terrain, which has the minimum height instead. position_error_m: (horizontal, vertical) metres the aircraft
+    may stray from its planned point (:data:`~.safety.POSITION_ERROR`); None: the aircraft's own (``rtk`` or
+    ``gnss``), none for a rover or walker. The safety, minimum-height and altitude checks hold at its worst."""
 
     safety_distance_m: float = 5.0
     vlos_radius_m: float | None = 500.0
@@ -43,8 +53,20 @@ class FlightSettings:
     altitude_limit_m: float | None = FAA_LIMIT_M
     aircraft: Aircraft | Rover | None = field(default_factory=lambda: AIRCRAFT["p4p"])
     min_height_m: float | None = MIN_HEIGHT_M
+    position_error_m: tuple[float, float] | None = None
+
+    @property
+    def error(self) -> tuple[float, float]:
+        """(h, v) position error in force: the one given, else the aircraft's (none for a rover or walker)."""
+        if self.position_error_m is not None:
+            return position_error(self.position_error_m)
+        if isinstance(self.aircraft, Rover):
+            return POSITION_ERROR["none"]
+        return POSITION_ERROR["rtk" if getattr(self.aircraft, "rtk", False) else "gnss"]
 
     def __post_init__(self) -> None:
+        if self.position_error_m is not None:
+            object.__setattr__(self, "position_error_m", position_error(self.position_error_m))
         if not self.safety_distance_m > 0:
             raise PlanError(f"the safety distance must be positive, got {self.safety_distance_m}")
         if self.vlos_radius_m is not None:
@@ -105,6 +127,9 @@ class FeasibilityReport:
     violations: tuple[str, ...]
     height_above_ground_m: NDArray[np.float64] | None = None
     batteries: int | None = None
+    ground: Ground | None = None
+    paths: tuple = ()  # one MissionPath per mission with waypoints: take-off, climb, return, landing
+    error_m: tuple[float, float] = (0.0, 0.0)
 
     @property
     def ok(self) -> bool:
@@ -136,24 +161,50 @@ class FeasibilityReport:
                            "height_above_ground_m": None if self.height_above_ground_m is None
                            else num(self.height_above_ground_m[i])}
                           for i in range(len(self.plan))],
+            "ground": None if self.ground is None else self.ground.to_dict(),
+            "position_error_m": list(self.error_m),
+            "trajectory": [p.to_dict() for p in self.paths],
             "violations": list(self.violations),
         }
 
 
-def corner_stations(scene: Scene, plan: Plan, height_m: float = GROUND_STATION_HEIGHT_M) -> NDArray[np.float64]:
-    """(4, 3) the corners of the plan's region (its waypoints and the model's targets), south-west first, then
-    south-east, north-east, north-west, ``height_m`` above the ground at each (the terrain, else the model's base)."""
+STATION_STEP_M = 2.0  # a corner station too near the model moves away from the model's centre by this much…
+STATION_STEPS = 100  # …up to this many times
+
+
+def corner_stations(scene: Scene, plan: Plan, height_m: float = GROUND_STATION_HEIGHT_M, safety_m: float = 0.0,
+                    error_m: tuple[float, float] = (0.0, 0.0)) -> NDArray[np.float64]:
+    """(4, 3) pilot stations near the corners of the plan's region (its waypoints and the model's targets),
+    south-west first, then south-east, north-east, north-west, ``height_m`` above the ground at each.
+
+    With ``safety_m``, each is a place a pilot can take off from: a corner whose vertical climb, from the ground to
+    the safety distance above the plan's highest waypoint and the model's top, comes nearer the model (terrain
+    aside) than ``safety_m`` at the worst of the position error (a corner on a roof, inside the footprint, by a
+    wall) moves away from the model's centre, :data:`STATION_STEP_M` at a time, until its climb is clear."""
     box = targets_only(scene).bounds()
     lo = np.minimum(plan.C_world.min(axis=0), box[0])
     hi = np.maximum(plan.C_world.max(axis=0), box[1])
     xy = np.array([[lo[0], lo[1]], [hi[0], lo[1]], [hi[0], hi[1]], [lo[0], hi[1]]])
+    if safety_m > 0:
+        obstacles = without_terrain(scene)
+        top = max(float(plan.C_world[:, 2].max()), float(obstacles.bounds()[1][2])) + safety_m + error_m[1]
+        centre = (box[0][:2] + box[1][:2]) / 2
+        away = xy - centre
+        away /= np.maximum(np.linalg.norm(away, axis=1, keepdims=True), 1e-9)
+        k = np.arange(STATION_STEPS + 1)
+        cand = (xy[:, None, :] + STATION_STEP_M * k[None, :, None] * away[:, None, :]).reshape(-1, 2)
+        g = ground_z(scene, cand)
+        bottom, up = np.column_stack([cand, g]), np.column_stack([cand, np.maximum(g, top)])
+        ok = (worst_segment_clearance(obstacles, bottom, up, error_m) >= safety_m - CHECK_TOLERANCE_M).reshape(4, -1)
+        first = np.where(ok.any(axis=1), ok.argmax(axis=1), 0)
+        xy = cand.reshape(4, -1, 2)[np.arange(4), first]
     return np.column_stack([xy, ground_z(scene, xy) + height_m])
 
 
 def _stations(scene: Scene, plan: Plan, settings: FlightSettings) -> NDArray[np.float64]:
     if settings.ground_stations is not None:
         return np.asarray(settings.ground_stations, float).reshape(-1, 3)
-    return corner_stations(scene, plan)
+    return corner_stations(scene, plan, safety_m=settings.safety_distance_m, error_m=settings.error)
 
 
 def _visible(scene: Scene, plan: Plan, stations: NDArray, radius: float) -> NDArray[np.bool_]:
@@ -266,7 +317,9 @@ def check_plan(scene: Scene, plan: Plan, settings: FlightSettings) -> Feasibilit
         raise PlanError("the plan has no frames to check")
     default = _stations(scene, plan, settings)[0]
     station_of = [np.asarray(m.ground_station if m.ground_station is not None else default, float) for m in plan.missions]
-    safety = check_safety(without_terrain(scene), plan, settings.safety_distance_m)
+    error = settings.error
+    obstacles = without_terrain(scene)
+    safety = check_safety(obstacles, plan, settings.safety_distance_m, error)
     violations = list(safety.violations)
     dist = np.full(len(plan), np.nan)
     in_sight = np.ones(len(plan), bool)
@@ -288,12 +341,18 @@ def check_plan(scene: Scene, plan: Plan, settings: FlightSettings) -> Feasibilit
             violations.append(f"{_span(a, b)} hidden from the ground station by the model")
     altitude = None
     if settings.altitude_limit_m is not None:
-        ground = ground_z(scene, plan.C_world) if has_terrain(scene) else None  # over terrain, the ground under each
-        altitude = check_altitude(scene, plan, settings.altitude_limit_m, ground_z=ground)
+        ground = ground_z(scene, plan.C_world)  # the ground under each waypoint
+        altitude = check_altitude(scene, plan, settings.altitude_limit_m, ground_z=ground, error_v_m=error[1])
         violations += altitude.violations
     above, low_wp, low_leg = None, np.zeros(len(plan), bool), np.zeros(max(len(plan) - 1, 0), bool)
-    if settings.min_height_m is not None and not isinstance(settings.aircraft, Rover):
-        above, low_wp, low_leg, found = check_min_height(scene, plan, settings.min_height_m)
+    flown = settings.min_height_m is not None and not isinstance(settings.aircraft, Rover)
+    if flown:
+        above, low_wp, low_leg, found = check_min_height(scene, plan, settings.min_height_m, error[1])
+        violations += found
+    paths: list = []
+    path_ok = [True] * len(plan.missions)
+    if not isinstance(settings.aircraft, Rover) and plan.missions:
+        paths, path_ok, found = check_paths(scene, obstacles, plan, station_of, settings)
         violations += found
     reports = []
     for k, m in enumerate(plan.missions):
@@ -317,15 +376,53 @@ def check_plan(scene: Scene, plan: Plan, settings: FlightSettings) -> Feasibilit
             if not ok_battery:
                 violations.append(f"mission {m.name!r} takes {t / 60:.1f} min, more than one battery "
                                   f"({ac.usable_s / 60:.1f} min usable)")
-        seg = safety.segment_m[m.start:max(m.stop - 1, m.start)]
-        safety_ok = bool((safety.waypoint_m[sl] >= settings.safety_distance_m).all()
-                         and not (seg < settings.safety_distance_m).any())
+        seg = safety.segment_worst_m[m.start:max(m.stop - 1, m.start)]
+        lim = settings.safety_distance_m - CHECK_TOLERANCE_M
+        safety_ok = bool((safety.waypoint_worst_m[sl] >= lim).all() and not (seg < lim).any())
         alt_ok = None if altitude is None else bool((altitude.over_m[sl] <= 0).all())
         height_ok = None if above is None else bool(not low_wp[sl].any() and not low_leg[m.start:max(m.stop - 1, m.start)].any())
+        safety_ok = safety_ok and path_ok[k]
         reports.append(MissionReport(m.name, m.start, m.stop, station_of[k], t, d, ok_battery, los_ok[k], safety_ok, alt_ok,
                                      height_ok))
     return FeasibilityReport(plan, tuple(reports), safety, dist, in_sight, altitude, tuple(violations), above,
-                             battery_count(reports, settings.aircraft))
+                             battery_count(reports, settings.aircraft), ground_of(scene), tuple(paths), error)
+
+
+def check_paths(scene: Scene, obstacles: Scene, plan: Plan, station_of: list[NDArray], settings: FlightSettings
+                ) -> tuple[list, list[bool], list[str]]:
+    """Each mission's take-off, flight out, return and landing (:mod:`~sightplan.plan.trajectory`), from the ground
+    under its station, against the model (at the worst of the position error) and the minimum height; the paths,
+    a verdict per mission and the violations."""
+    from ..trajectory import PARTS, Transit, mission_paths
+
+    takeoffs = [np.array([gs[0], gs[1], float(ground_z(scene, gs[None, :2])[0])]) for gs in station_of]
+    flown = [k for k, m in enumerate(plan.missions) if m.stop > m.start]
+    paths = mission_paths(scene, obstacles, plan.C_world, [plan.missions[k] for k in flown],
+                          [takeoffs[k] for k in flown], settings.safety_distance_m, settings.error,
+                          None if isinstance(settings.aircraft, Rover) else settings.min_height_m)
+    ok = [True] * len(plan.missions)
+    violations: list[str] = []
+    if not paths:
+        return paths, ok, violations
+    seg = np.concatenate([p.segments() for p in paths])
+    clear = worst_segment_clearance(obstacles, seg[:, 0], seg[:, 1], settings.error).reshape(len(paths), len(PARTS))
+    transit = Transit(scene, obstacles, settings.safety_distance_m, settings.error, settings.min_height_m)
+    for k, p, c in zip(flown, paths, clear):
+        for part, d in zip(PARTS, c):
+            if d < settings.safety_distance_m - CHECK_TOLERANCE_M:
+                ok[k] = False
+                violations.append(f"mission {p.name!r}: the {part} passes {max(d, 0.0):.2f} m from the model at the "
+                                  f"worst (safety distance {settings.safety_distance_m:g} m); take-off at "
+                                  f"{p.takeoff_m[0]:.1f},{p.takeoff_m[1]:.1f}")
+        if settings.min_height_m is not None:
+            s = p.segments()
+            for part, (a, b) in (("flight out", s[1]), ("flight home", s[4])):
+                low = a[2] - settings.error[1] - transit.ground_top(a, b)
+                if low < settings.min_height_m - CHECK_TOLERANCE_M:
+                    ok[k] = False
+                    violations.append(f"mission {p.name!r}: the {part} comes down to {low:+.2f} m above the ground "
+                                      f"(minimum {settings.min_height_m:g} m)")
+    return paths, ok, violations
 
 
 def battery_count(missions, aircraft) -> int | None:
@@ -350,17 +447,18 @@ def battery_count(missions, aircraft) -> int | None:
 LEG_SAMPLE_M = 0.5  # legs are checked against uneven terrain at points this far apart
 
 
-def check_min_height(scene: Scene, plan: Plan, min_height_m: float
+def check_min_height(scene: Scene, plan: Plan, min_height_m: float, error_v_m: float = 0.0
                      ) -> tuple[NDArray[np.float64], NDArray[np.bool_], NDArray[np.bool_], list[str]]:
     """Each waypoint's height above the ground under it, which waypoints and which legs within a mission come lower
-    than ``min_height_m``, and the violations. Over flat ground a leg is as high as its lower end; over terrain
-    it is sampled every ``LEG_SAMPLE_M``."""
+    than ``min_height_m`` when the aircraft strays ``error_v_m`` below them, and the violations. Over flat ground a
+    leg is as high as its lower end; over terrain it is sampled every ``LEG_SAMPLE_M``."""
     C = plan.C_world
     above = C[:, 2] - ground_z(scene, C[:, :2])
-    tol = 1e-6
+    tol = CHECK_TOLERANCE_M + error_v_m  # the comparisons below are of the nominal heights
     low_wp = above < min_height_m - tol
-    violations = [f"{_span(a, b)} less than {min_height_m:g} m above the ground (lowest {above[a:b].min():+.2f} m)"
-                  for a, b in _runs(low_wp)]
+    error_note = f" less the ±{error_v_m:g} m vertical position error" if error_v_m else ""
+    violations = [f"{_span(a, b)} less than {min_height_m:g} m above the ground{error_note} (lowest "
+                  f"{above[a:b].min() - error_v_m:+.2f} m)" for a, b in _runs(low_wp)]
     low_leg = np.zeros(max(len(C) - 1, 0), bool)
     if has_terrain(scene):
         legs = [i for m in plan.missions for i in range(m.start, max(m.stop - 1, m.start))]
@@ -375,6 +473,6 @@ def check_min_height(scene: Scene, plan: Plan, min_height_m: float
             bad = clear < min_height_m - tol
             bad &= ~(low_wp[legs] | low_wp[legs + 1])  # a low end is reported already
             low_leg[legs[bad]] = True
-            violations += [f"leg {legs[j]}→{legs[j] + 1} comes down to {clear[j]:+.2f} m above the ground "
-                           f"(minimum {min_height_m:g} m)" for j in np.flatnonzero(bad)]
+            violations += [f"leg {legs[j]}→{legs[j] + 1} comes down to {clear[j] - error_v_m:+.2f} m above the ground"
+                           f"{error_note} (minimum {min_height_m:g} m)" for j in np.flatnonzero(bad)]
     return above, low_wp, low_leg, violations

@@ -45,7 +45,7 @@ def settings_from_record(record: dict) -> FlightSettings:
     return FlightSettings(safety_distance_m=float(record["safety_distance_m"]), vlos_radius_m=record.get("vlos_radius_m"),
                           ground_stations=None if stations is None else np.asarray(stations, float),
                           altitude_limit_m=record.get("altitude_limit_m"), aircraft=craft,
-                          min_height_m=record.get("min_height_m"))
+                          min_height_m=record.get("min_height_m"), position_error_m=record.get("position_error_m"))
 
 
 #: the ``template`` parameter of the plans walked or driven on the ground: an indoor route, an optimised indoor plan
@@ -67,8 +67,17 @@ def default_settings(plan: Plan) -> FlightSettings:
 
 def record_checks(plan: Plan, report: FeasibilityReport, settings: FlightSettings) -> Plan:
     """The plan with the checks that ``report`` ran (settings and violations) in its parameters."""
+    from ..trajectory import TRAJECTORY_KEY
+
     checks = {"ok": report.ok, "violations": list(report.violations), "settings": settings_record(settings)}
-    return replace(plan, parameters={**plan.parameters, CHECKS_KEY: checks})
+    if report.ground is not None:
+        checks["ground"] = report.ground.to_dict()
+    params = {**plan.parameters, CHECKS_KEY: checks}
+    if report.paths:
+        params[TRAJECTORY_KEY] = {"missions": [p.to_dict() for p in report.paths]}
+    else:
+        params.pop(TRAJECTORY_KEY, None)
+    return replace(plan, parameters=params)
 
 
 def recorded_settings(plan: Plan) -> FlightSettings:

@@ -1,4 +1,18 @@
-"""Safety distance: the true minimum distance from waypoints and flight segments to the model."""
+"""Safety distance: the true minimum distance from waypoints and flight segments to the model, and what is left of
+it when the aircraft strays by its position error.
+
+**Position error** (``(h, v)`` metres: how far the aircraft may stand off its planned point horizontally and
+vertically; :data:`POSITION_ERROR`). The aircraft is somewhere in a cylinder of radius h and half-height v around
+the planned point (or segment). Its worst-case clearance is the nominal distance d less the cylinder's reach along
+the distance's gradient n (the unit direction away from the nearest surface, found by central differences of the
+exact distance): d − (h·|n_xy| + v·|n_z|). That is exact for a plane (a wall, a roof) and a lower bound for any
+convex obstacle (the distance to a convex set is a convex function of the position); at an inside corner it is
+the reach toward the nearer surface.
+
+**One tolerance** (:data:`CHECK_TOLERANCE_M`): a clearance passes when it is at least the minimum less 1 mm, so a
+point placed at the minimum by arithmetic does not fail on rounding. Templates place their frames
+:data:`PLACEMENT_MARGIN_M` beyond the safety distance plus the position error's reach (:func:`placement_distance`).
+"""
 
 from __future__ import annotations
 
@@ -12,6 +26,90 @@ from ...geometry.distance import min_point_distances, min_segment_distances
 from ...model.scene import Scene
 from ..types import Plan
 
+CHECK_TOLERANCE_M = 1e-3  # every flight check's comparison: a value passes when ≥ its minimum − 1 mm
+PLACEMENT_MARGIN_M = 0.01  # templates place frames this far beyond the safety distance plus the position error
+_STEP_M = 1e-3  # the central differences' step
+
+#: Position error presets (horizontal, vertical) in metres: how far a multirotor holds off its planned point.
+#: ``gnss``: DJI's published hovering accuracy with GNSS positioning (±1.5 m horizontal, ±0.5 m vertical, the
+#: figure on the Phantom 4 Pro V2.0, Mavic 3 Enterprise and Matrice 300 RTK specification pages); ``rtk``: the same
+#: pages' figure with RTK positioning (±0.1 m both ways); ``none``: a route walked by a person, or an exact replay.
+POSITION_ERROR: dict[str, tuple[float, float]] = {"gnss": (1.5, 0.5), "rtk": (0.1, 0.1), "none": (0.0, 0.0)}
+
+
+def position_error(value: object) -> tuple[float, float]:
+    """(h, v) metres from a preset name, "H,V" text or a pair; a PlanError names a bad value."""
+    if isinstance(value, str):
+        if value.strip().lower() in POSITION_ERROR:
+            return POSITION_ERROR[value.strip().lower()]
+        parts = value.split(",")
+    else:
+        parts = list(value) if isinstance(value, (list, tuple, np.ndarray)) else [value]
+    try:
+        h, v = (float(x) for x in parts)
+    except (TypeError, ValueError):
+        raise PlanError(f"the position error must be 'H,V' in metres or one of {', '.join(POSITION_ERROR)}, "
+                        f"got {value!r}") from None
+    if not (np.isfinite(h) and np.isfinite(v) and 0 <= h <= 100 and 0 <= v <= 100):
+        raise PlanError(f"the position error must be two numbers of metres from 0 to 100, got {value!r}")
+    return float(h), float(v)
+
+
+def placement_distance(safety_distance_m: float, error_m: tuple[float, float] = (0.0, 0.0)) -> float:
+    """How far from the model a template places its frames: the safety distance, plus the most the position error
+    can reach in any direction (√(h² + v²)), plus :data:`PLACEMENT_MARGIN_M`; frames placed so pass the checks at
+    that error whatever the direction of the nearest surface."""
+    return float(safety_distance_m) + float(np.hypot(*error_m)) + PLACEMENT_MARGIN_M
+
+
+def _reach(dist, nominal: NDArray, h: float, v: float) -> NDArray[np.float64]:
+    """(n,) how much of the nominal distances the position-error cylinder can take away: h·|n_xy| + v·|n_z| with
+    n the distance's gradient; ``dist(offset)`` gives the distances with every point moved by ``offset``."""
+    g = np.zeros((len(nominal), 3))
+    for axis in range(3):
+        e = np.zeros(3)
+        e[axis] = _STEP_M
+        g[:, axis] = (dist(e) - dist(-e)) / (2 * _STEP_M)
+    with np.errstate(invalid="ignore"):
+        norm = np.linalg.norm(g, axis=1)
+        n = np.where(norm[:, None] > 1e-9, g / np.maximum(norm, 1e-12)[:, None], 0.0)
+    reach = h * np.hypot(n[:, 0], n[:, 1]) + v * np.abs(n[:, 2])
+    return np.where(norm > 1e-9, reach, max(h, v))  # no gradient (inside, or on a ridge): the whole error
+
+
+def worst_point_clearance(scene: Scene, points: NDArray, error_m: tuple[float, float] = (0.0, 0.0),
+                          nominal: NDArray | None = None) -> NDArray[np.float64]:
+    """(n,) the least distance to the model of an aircraft planned at each (n, 3) point but off it by up to the
+    position error (see the module docstring)."""
+    P = np.asarray(points, float).reshape(-1, 3)
+    d = point_distances(scene, P) if nominal is None else np.asarray(nominal, float)
+    h, v = error_m
+    if (h == 0 and v == 0) or not len(P):
+        return d
+    out = d.copy()
+    near = np.isfinite(d) & (d < 1e6)
+    if near.any():
+        Q = P[near]
+        out[near] = d[near] - _reach(lambda e: point_distances(scene, Q + e), d[near], h, v)
+    return out
+
+
+def worst_segment_clearance(scene: Scene, start: NDArray, end: NDArray, error_m: tuple[float, float] = (0.0, 0.0),
+                            nominal: NDArray | None = None) -> NDArray[np.float64]:
+    """(m,) :func:`worst_point_clearance` for the segments start[i]→end[i]."""
+    p = np.asarray(start, float).reshape(-1, 3)
+    q = np.asarray(end, float).reshape(-1, 3)
+    d = segment_distances(scene, p, q) if nominal is None else np.asarray(nominal, float)
+    h, v = error_m
+    if (h == 0 and v == 0) or not len(p):
+        return d
+    out = d.copy()
+    near = np.isfinite(d) & (d < 1e6)
+    if near.any():
+        a, b = p[near], q[near]
+        out[near] = d[near] - _reach(lambda e: segment_distances(scene, a + e, b + e), d[near], h, v)
+    return out
+
 
 @dataclass(frozen=True)
 class SafetyReport:
@@ -24,6 +122,9 @@ class SafetyReport:
     waypoint_m: NDArray[np.float64]
     segment_m: NDArray[np.float64]
     violations: tuple[str, ...]
+    error_m: tuple[float, float] = (0.0, 0.0)
+    waypoint_worst_m: NDArray[np.float64] | None = None  # (n,) at the worst of the position error
+    segment_worst_m: NDArray[np.float64] | None = None
 
     @property
     def ok(self) -> bool:
@@ -58,8 +159,11 @@ def segment_distances(scene: Scene, start: NDArray, end: NDArray) -> NDArray[np.
     return min_segment_distances(p, q, *_triangles(scene), (ends * (1 + 1e-9) + 1e-9) ** 2)
 
 
-def check_safety(scene: Scene, plan: Plan, minimum_m: float) -> SafetyReport:
-    """Distances of every waypoint (the frames' centres, in flight order) and every segment within a mission."""
+def check_safety(scene: Scene, plan: Plan, minimum_m: float,
+                 error_m: tuple[float, float] = (0.0, 0.0)) -> SafetyReport:
+    """Distances of every waypoint (the frames' centres, in flight order) and every segment within a mission,
+    nominal and at the worst of the position error ``error_m`` (h, v); what falls short of ``minimum_m`` (less
+    :data:`CHECK_TOLERANCE_M`) at the worst is a violation."""
     if not minimum_m > 0:
         raise PlanError(f"the safety distance must be positive, got {minimum_m}")
     C = plan.C_world
@@ -71,6 +175,22 @@ def check_safety(scene: Scene, plan: Plan, minimum_m: float) -> SafetyReport:
     if inside.any():
         idx = np.flatnonzero(inside)
         seg[idx] = segment_distances(scene, C[idx], C[idx + 1])
-    violations = [f"waypoint {i} ({plan.frame_names[i]}) is {wp[i]:.2f} m from the model" for i in np.flatnonzero(wp < minimum_m)]
-    violations += [f"segment {i}→{i + 1} passes {seg[i]:.2f} m from the model" for i in np.flatnonzero(seg < minimum_m)]
-    return SafetyReport(float(minimum_m), wp, seg, tuple(violations))
+    wp_w = worst_point_clearance(scene, C, error_m, nominal=wp)
+    seg_w = seg.copy()
+    if inside.any():
+        seg_w[idx] = worst_segment_clearance(scene, C[idx], C[idx + 1], error_m, nominal=seg[idx])
+    lim = minimum_m - CHECK_TOLERANCE_M
+    strays = any(error_m)
+
+    def worst(d: float, w: float) -> str:
+        if not strays or d < lim:
+            return ""
+        return f" ({max(w, 0.0):.2f} m at the worst of ±{error_m[0]:g} m / ±{error_m[1]:g} m position error)"
+
+    violations = [f"waypoint {i} ({plan.frame_names[i]}) is {wp[i]:.2f} m from the model{worst(wp[i], wp_w[i])}"
+                  for i in np.flatnonzero(wp_w < lim)]
+    with np.errstate(invalid="ignore"):
+        bad_seg = np.flatnonzero(seg_w < lim)
+    violations += [f"segment {i}→{i + 1} passes {seg[i]:.2f} m from the model{worst(seg[i], seg_w[i])}"
+                   for i in bad_seg]
+    return SafetyReport(float(minimum_m), wp, seg, tuple(violations), tuple(error_m), wp_w, seg_w)

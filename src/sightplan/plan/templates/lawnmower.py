@@ -21,12 +21,13 @@ from .spacing import waypoint_spacing
 def lawnmower(scene: Scene, camera: Camera, altitude_m: float | None = None, gsd_m: float | None = None,
               front_overlap: float = 0.8, side_overlap: float = 0.7, margin_m: float = 0.0,
               oblique_pitch_deg: float | None = None, min_height_m: float = MIN_HEIGHT_M,
-              drop_blind: bool = True) -> Plan:
+              drop_blind: bool = True, safety_distance_m: float | None = None) -> Plan:
     """Nadir frames on north–south lines over the targets' footprint (plus ``margin_m``), flown as a snake.
 
     altitude_m: height of the camera above the targets' base (their lowest point); or
     ``gsd_m``, the ground sampling distance wanted on the targets' top (m/px), which sets
-    the altitude. A grid less than ``min_height_m`` above the ground under it is refused.
+    the altitude; with neither, the lowest grid that clears the targets' top by ``safety_distance_m``.
+    A grid less than ``min_height_m`` above the ground under it is refused.
     Frames that see no target are dropped unless ``drop_blind`` is False.
     Spacing follows eq. 11 at the distance to the model's top, where overlap is least:
     along a line with the vertical field of view (the image's height lies along the line),
@@ -43,8 +44,11 @@ def lawnmower(scene: Scene, camera: Camera, altitude_m: float | None = None, gsd
         raise PlanError("a lawn-mower grid needs a perspective (pinhole) camera")
     if oblique_pitch_deg is not None and not -90 <= oblique_pitch_deg < 0:
         raise PlanError(f"the oblique pitch must look down, between -90° and 0°, got {oblique_pitch_deg}")
-    if (altitude_m is None) == (gsd_m is None):
-        raise PlanError("give either an altitude or a ground sampling distance")
+    if altitude_m is not None and gsd_m is not None:
+        raise PlanError("give either an altitude or a ground sampling distance, not both")
+    if altitude_m is None and gsd_m is None:
+        if safety_distance_m is None or not (safety_distance_m > 0 and np.isfinite(safety_distance_m)):
+            raise PlanError("give an altitude, a ground sampling distance or a safety distance to clear the model by")
     min_h = _valid_min_height(min_height_m)
     structure = targets_only(scene)
     lo, hi = structure.bounds()
@@ -52,7 +56,9 @@ def lawnmower(scene: Scene, camera: Camera, altitude_m: float | None = None, gsd
     base = float(lo[2])
     lo[:2] -= margin_m
     hi[:2] += margin_m
-    if altitude_m is None:
+    if altitude_m is None and gsd_m is None:
+        altitude_m = hi[2] - lo[2] + float(safety_distance_m)
+    elif altitude_m is None:
         if not gsd_m > 0:
             raise PlanError(f"the ground sampling distance must be positive, got {gsd_m}")
         clearance = gsd_m * camera.sampling_focal_px
@@ -93,7 +99,8 @@ def lawnmower(scene: Scene, camera: Camera, altitude_m: float | None = None, gsd
 @dataclass(frozen=True)
 class LawnmowerParams(Params):
     overlap: float = param(0.8, "image overlap along a line", ge=0, le=0.95)
-    altitude_m: float | None = param(None, "camera height above the model's base", gt=0, label="Altitude")
+    altitude_m: float | None = param(None, "camera height above the model's base (default: the safety distance above "
+                                     "its top)", gt=0, label="Altitude")
     gsd_m_px: float | None = param(None, "ground sampling distance on the model's top (instead of the altitude)",
                                    gt=0, cli="gsd", label="GSD")
     side_overlap: float = param(0.7, "overlap between lines", ge=0, le=0.95)
@@ -103,7 +110,8 @@ class LawnmowerParams(Params):
 
 def _build(scene: Scene, camera: Camera, p: LawnmowerParams, safety_distance_m: float, min_height_m: float) -> Plan:
     return lawnmower(scene, camera, altitude_m=p.altitude_m, gsd_m=p.gsd_m_px, front_overlap=p.overlap,
-                     side_overlap=p.side_overlap, oblique_pitch_deg=p.oblique_pitch_deg, min_height_m=min_height_m)
+                     side_overlap=p.side_overlap, oblique_pitch_deg=p.oblique_pitch_deg, min_height_m=min_height_m,
+                     safety_distance_m=safety_distance_m)
 
 
 TEMPLATE = Template("lawnmower", "nadir grid", LawnmowerParams, _build, order=2)

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import importlib
 import pkgutil
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -20,6 +21,7 @@ from ...errors import PlanError
 from ...model.scene import Scene
 from ..checks.feasibility import FeasibilityReport, FlightSettings, check_plan, plan_flights
 from ..checks.gate import record_checks
+from ..checks.safety import PLACEMENT_MARGIN_M, placement_distance
 from ..ground import MIN_HEIGHT_M
 from ..site import with_site
 from ..types import Plan
@@ -64,15 +66,27 @@ def default_flight(walked: bool) -> dict:
 
 
 def build_template(name: str, scene: Scene, camera: Camera, p: Params | dict[str, Any], safety_distance_m: float,
-                   min_height_m: float | None) -> Plan:
+                   min_height_m: float | None, error_m: tuple[float, float] = (0.0, 0.0)) -> Plan:
     """The frames of template ``name`` around ``scene`` (before any flight check) with parameters ``p`` (its
-    dataclass, or a dict of its fields); a PlanError names what is missing or wrong."""
+    dataclass, or a dict of its fields); a PlanError names what is missing or wrong.
+
+    With a position error ``error_m`` (h, v), a flown template places its frames so that they pass the checks at
+    that error: at :func:`~sightplan.plan.checks.safety.placement_distance` from the model (the safety distance
+    plus √(h² + v²) plus 1 cm) and at least the minimum height plus v plus 1 cm above the ground."""
     t = template(name)
     if isinstance(p, dict):
         p = t.make(p)
     if not isinstance(p, t.params):
         raise PlanError(f"the {name} template takes {t.params.__name__}, not {type(p).__name__}")
-    return t.build(scene, camera, p, safety_distance_m, min_height_m if min_height_m is not None else 0.0)
+    if t.walked or not any(error_m):
+        return t.build(scene, camera, p, safety_distance_m, min_height_m if min_height_m is not None else 0.0)
+    g = placement_distance(safety_distance_m, error_m)
+    low = (min_height_m + error_m[1] + PLACEMENT_MARGIN_M) if min_height_m is not None else 0.0
+    plan = t.build(scene, camera, p, g, low)
+    params = {**plan.parameters, "placed_at_m": g, "position_error_m": list(error_m)}
+    if "safety_distance_m" in params:
+        params["safety_distance_m"] = float(safety_distance_m)
+    return replace(plan, parameters=params)
 
 
 def plan_from_template(name: str, scene: Scene, camera: Camera, p: Params | dict[str, Any], settings: FlightSettings, *,
@@ -80,6 +94,6 @@ def plan_from_template(name: str, scene: Scene, camera: Camera, p: Params | dict
     """The template's plan, split into missions that keep line of sight and fit a battery (``split``) or only
     checked, against ``obstacles`` (default: the scene; with a reality model, both), with the checks recorded and
     the site (georeference, take-off under the first mission's ground station) set; and the feasibility report."""
-    frames = build_template(name, scene, camera, p, settings.safety_distance_m, settings.min_height_m)
+    frames = build_template(name, scene, camera, p, settings.safety_distance_m, settings.min_height_m, settings.error)
     report = (plan_flights if split else check_plan)(obstacles if obstacles is not None else scene, frames, settings)
     return with_site(record_checks(report.plan, report, settings), scene, replace_takeoff=True), report
