@@ -2,9 +2,9 @@
 ``../shared/data``, the bundled sample and the basement-and-terrain fixture, through ``sightplan plan`` → ``sightplan
 check`` → ``sightplan export --format wpl`` without ``--force``; and ``sightplan optimize`` with and without a budget.
 
-A model without a georeference gets one with ``--origin`` at export, as its user would give it. The two largest
-models (the Tekla steel structure, 85k triangles, and the precast model) take minutes through the three commands on
-two cores: ``make bench`` runs them (marker ``bench``)."""
+A model without a georeference gets one with ``--origin`` at export, as its user would give it. ``make test`` runs
+the sample and the basement-and-terrain fixture; the models of ``../shared/data`` take from seconds to minutes each
+through the three commands on two cores, and ``make bench`` runs them (marker ``bench``)."""
 
 from __future__ import annotations
 
@@ -16,15 +16,15 @@ from conftest import shared_file
 from site_fixture import write_basement_house
 from test_cli import run_cli
 
-MODELS = {
-    "sample": None,
+MODELS = {"sample": None}
+LARGE = {
     "duplex_electrical": ("ifc", "Ifc2s3_Duplex_Electrical.ifc"),
     "ifcopenhouse": ("ifc", "IfcOpenHouse_IFC4.ifc"),
     "construction_task": ("ifc", "construction_scheduling_task.ifc"),
     "xella": ("schependomlaan", "XELLA-Begane grond.ifc"),
+    "multicom": ("schependomlaan", "MULTICOM-Prefab.ifc"),
+    "bernts": ("schependomlaan", "BERNTS-Staalconstructie.ifc"),
 }
-LARGE = {"multicom": ("schependomlaan", "MULTICOM-Prefab.ifc"),
-         "bernts": ("schependomlaan", "BERNTS-Staalconstructie.ifc")}
 TEMPLATES = ["facade", "orbit", "lawnmower"]
 
 

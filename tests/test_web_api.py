@@ -244,11 +244,12 @@ def test_template_plans(client, project, model):
                     json={"model_id": model, "template": "facade", "safety_distance_m": 8, "camera": "p4p"})
     assert r.status_code == 201, r.text
     facade = r.json()
-    # 36 columns of 5 layers from 2 m above the base to the top, and the top row
-    assert facade["latest_version"] == 1 and facade["versions"][0]["frames"] == 216
+    # 32 columns of 4 layers from 2.51 m above the ground (the door sills at z = 0) to the top, and the top row, at
+    # 8 m + the GNSS position error's reach + 1 cm (9.59 m): the grid passes its checks at that error
+    assert facade["latest_version"] == 1 and facade["versions"][0]["frames"] == 160
     assert facade["versions"][0]["missions"] == 4 and facade["source"] == "template facade (p4p)"
     plan = client.get(f"/api/projects/{project}/plans/{facade['id']}/versions/1").json()
-    assert plan["format"] == "sightplan-plan" and len(plan["frames"]) == 216
+    assert plan["format"] == "sightplan-plan" and len(plan["frames"]) == 160
     assert plan["georeference"]["kind"] == "topocentric" and "takeoff_m" in plan["parameters"]
     r = client.post(f"/api/projects/{project}/plans",
                     json={"model_id": model, "template": "lawnmower", "altitude_m": 40, "overlap": 0.6, "side_overlap": 0.5})

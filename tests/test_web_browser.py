@@ -80,8 +80,8 @@ def test_pilot_walks_from_upload_to_export(browser, server, artifacts):
         (plan,) = server.get(f"/api/projects/{project}/plans")
         v1 = server.get(f"/api/projects/{project}/plans/{plan['id']}/versions/1")
         drawn = page.evaluate("window.sightplanTest.view.planFrames()")
-        assert plan["versions"][0]["frames"] == len(v1["frames"]) == drawn == 216
-        assert page.inner_text("#plan-summary").startswith("216 frames · 4 mission(s)")
+        assert plan["versions"][0]["frames"] == len(v1["frames"]) == drawn == 160
+        assert page.inner_text("#plan-summary").startswith("160 frames · 4 mission(s)")
         page.wait_for_function("document.querySelector('#checks-summary').textContent.startsWith('The plan can be flown')",
                                timeout=30_000)
         shot(page, artifacts, "02-facade-plan")
@@ -163,7 +163,7 @@ def test_pilot_walks_from_upload_to_export(browser, server, artifacts):
         page.click("#plan-save")
         page.wait_for_function("window.sightplanTest.planVersion() === 2 && !window.sightplanTest.dirty()", timeout=30_000)
         v2 = server.get(f"/api/projects/{project}/plans/{plan['id']}/versions/2")
-        assert len(v2["frames"]) == 216
+        assert len(v2["frames"]) == 160
         assert v2["frames"][frame]["position"] == pytest.approx(np.add(v1["frames"][frame]["position"], [2, 0, 1]).tolist())
         assert [f["position"] for k, f in enumerate(v2["frames"]) if k != frame] == \
             [f["position"] for k, f in enumerate(v1["frames"]) if k != frame]
@@ -182,7 +182,7 @@ def test_pilot_walks_from_upload_to_export(browser, server, artifacts):
         evaluations = server.get(f"/api/projects/{project}/evaluations")
         assert [(e["plan_version"], e["status"]) for e in evaluations] == [(1, "done"), (2, "done")]
         ev2 = evaluations[1]
-        assert ev2["settings"]["scale"] == SCALE_2 and ev2["metrics"]["frames"] == 216
+        assert ev2["settings"]["scale"] == SCALE_2 and ev2["metrics"]["frames"] == 160
         assert page.evaluate("window.sightplanTest.evaluationId()") == ev2["id"]
         page.click("button[data-tab=compare]")
         assert page.input_value("#compare-a") == str(ev1["id"]) and page.input_value("#compare-b") == str(ev2["id"])
@@ -202,7 +202,7 @@ def test_pilot_walks_from_upload_to_export(browser, server, artifacts):
             kmz = zipfile.ZipFile(BytesIO(kmzs.read(name)))
             assert name.endswith(".kmz") and {"wpmz/template.kml", "wpmz/waylines.wpml"} <= set(kmz.namelist())
             indexes += kmz.read("wpmz/waylines.wpml").decode().count("<wpml:index>")
-        assert indexes >= 216 // 2  # waypoints of every mission
+        assert indexes >= 160 // 2  # waypoints of every mission
         page.select_option("#export-mission", "1")
         with page.expect_download() as info:
             page.click("#export-qgc")

@@ -1,5 +1,6 @@
 """The sample project of ``sightplan serve --sample`` (the quick start's main job): the bundled Duplex, the README's
-facade grid (216 frames at g = 8 m, 80 % overlap) and its evaluation, made once per data folder."""
+facade grid (160 frames at g = 8 m plus the GNSS position error, 80 % overlap) and its evaluation, made once per data
+folder."""
 
 from __future__ import annotations
 
@@ -40,7 +41,7 @@ def test_sample_project_is_made_once_and_evaluated(tmp_path):
         model = c.get(f"/api/projects/{pid}/models").json()[0]
         assert model["status"] == "ready" and model["targets"] == 154
         plan = c.get(f"/api/projects/{pid}/plans").json()[0]
-        assert plan["versions"][0]["frames"] == 216 and plan["versions"][0]["missions"] == 4
+        assert plan["versions"][0]["frames"] == 160 and plan["versions"][0]["missions"] == 4
         ev = c.get(f"/api/projects/{pid}/evaluations").json()[0]
         data = c.get(f"/api/projects/{pid}/plans/{plan['id']}/versions/1").json()
     scene, _ = load_model("sample")
