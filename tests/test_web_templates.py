@@ -37,10 +37,11 @@ def client(tmp_path_factory):
 
 
 def test_bridge_template_gives_the_hand_counted_frames(client):
-    """A 60 × 10 m deck with its underside at 8 m on two piers; passes 15 m off the axis. Side passes: frames
-    2·15·0.75·0.2 = 4.5 m apart → 15 per pass, 4 layers per side (2·15·0.5·0.2 = 3 m apart from the 2 m minimum
-    height to the 10 m top) → 120 frames. Under the deck, 3 m below it (the default clearance): 2·3·0.5·0.2 = 0.6 m
-    apart → 60 / 0.6 + 1 = 101 frames. 221 in all."""
+    """A 60 × 10 m deck with its underside at 8 m on two piers; passes g = 15 m + √(1.5² + 0.5²) + 0.01 = 16.59 m
+    off the axis (the safety distance plus a GNSS drone's position error). Side passes: frames 2·g·0.75·0.2 = 4.98 m
+    apart → 14 per pass, 4 layers per side (2·g·0.5·0.2 = 3.32 m apart from the 2.51 m minimum height, 2 m plus
+    the 0.5 m vertical error plus 1 cm, to the 10 m top) → 112 frames. Under the deck, 3 m below it (the default
+    clearance): 2·3·0.5·0.2 = 0.6 m apart → 60 / 0.6 + 1 = 101 frames. 213 in all."""
     pid = client.post("/api/projects", json={"name": "bridge"}).json()["id"]
     mesh = trimesh.util.concatenate([box((60, 10, 2), (0, -5, 8)), box((4, 2, 8), (28, 3, 0)),
                                      box((4, 2, 8), (28, -5, 0))])
@@ -52,7 +53,7 @@ def test_bridge_template_gives_the_hand_counted_frames(client):
         "aircraft": "m300", "vlos_radius_m": 0, "altitude_limit_m": 0})
     assert r.status_code == 201, r.text
     plan = client.get(f"/api/projects/{pid}/plans/{r.json()['id']}/versions/1").json()
-    assert len(plan["frames"]) == 221 and plan["parameters"]["template"] == "bridge"
+    assert len(plan["frames"]) == 213 and plan["parameters"]["template"] == "bridge"
     assert plan["parameters"]["deck_z"] == pytest.approx(8.0) and plan["parameters"]["under_deck_z"] == pytest.approx(5.0)
     bad = client.post(f"/api/projects/{pid}/plans", json={"model_id": mid, "template": "bridge", "axis": [[0, 0]]})
     assert bad.status_code == 422 and "axis" in bad.json()["detail"]
