@@ -325,7 +325,7 @@
  * @property {boolean} [split] Split into missions that keep line of sight and fit a battery
  * @property {'lawnmower'} template nadir grid
  * @property {number} [overlap] image overlap along a line
- * @property {(number|null)} [altitude_m] camera height above the model's base (m)
+ * @property {(number|null)} [altitude_m] camera height above the model's base (default: the safety distance above its top) (m)
  * @property {(number|null)} [gsd_m_px] ground sampling distance on the model's top (instead of the altitude) (m/px)
  * @property {number} [side_overlap] overlap between lines
  * @property {(number|null)} [oblique_pitch_deg] add crossed east–west lines with the gimbal at this pitch (e.g. -60): a double grid (°)
