@@ -450,7 +450,7 @@ def test_export_without_georeference_is_422_naming_it(client, project, data_dir)
     assert wait_job(client, r.json()["job"]["id"])["status"] == "done"
     assert client.get(f"/api/projects/{project}/models/{mesh}").json()["georeferenced"] is False
     r = client.post(f"/api/projects/{project}/plans", json={"model_id": mesh, "template": "orbit", "radius_m": [10],
-                                                             "height_m": [2], "step_deg": 90})
+                                                             "height_m": [3], "step_deg": 90})
     assert r.status_code == 201, r.text
     plan_id = r.json()["id"]
     r = client.get(f"/api/projects/{project}/plans/{plan_id}/versions/1/export", params={"format": "kml"})
@@ -495,7 +495,7 @@ def test_delete_project_removes_its_files(tmp_path):
         wait_job(c, r.json()["job"]["id"])
         mid = r.json()["model"]["id"]
         r = c.post(f"/api/projects/{pid}/plans", json={"model_id": mid, "template": "orbit", "radius_m": [10],
-                                                         "height_m": [2], "step_deg": 90})
+                                                         "height_m": [3], "step_deg": 90})
         assert r.status_code == 201
         assert files_under(data / "models") and files_under(data / "plans")
         assert c.delete(f"/api/projects/{pid}").status_code == 204
