@@ -250,5 +250,6 @@ class Scene:
         return out
 
     def __getstate__(self) -> dict:
-        """What pickles: not the scene this one was derived from (kept only to share its ground)."""
-        return {k: v for k, v in self.__dict__.items() if k != "_derived_from"}
+        """What pickles: not the scene this one was derived from (kept only to share its ground), nor the vertex
+        tree the flight checks keep on it (rebuilt where needed)."""
+        return {k: v for k, v in self.__dict__.items() if k not in ("_derived_from", "_vertex_tree")}

@@ -31,10 +31,10 @@ from ..evaluate import EvaluationSettings, evaluate
 from ..metrics import MetricParams, frame_metrics
 from ..model.scene import Scene
 from ..observations.table import Observations
-from ..plan.checks.battery import Aircraft, Rover
+from ..plan.checks.battery import Aircraft
 from ..plan.checks.feasibility import FeasibilityReport, FlightSettings, corner_stations, plan_flights
 from ..plan.checks.gate import record_checks
-from ..plan.checks.safety import PLACEMENT_MARGIN_M, placement_distance
+from ..plan.checks.safety import placement
 from ..plan.site import with_site
 from ..plan.types import Mission, Plan
 from .budget import Budget, longest_prefix
@@ -258,12 +258,8 @@ def _aimed(scene: Scene, camera: Camera, pool: Plan, obs: Observations, table: C
 
 def _placement(flight: FlightSettings) -> tuple[float, float | None]:
     """How far from the model, and how high above the ground at least, views are placed (and legs kept) so that
-    they pass the flight checks at the position error in force (as the templates place their frames)."""
-    if isinstance(flight.aircraft, Rover):
-        return flight.safety_distance_m, flight.min_height_m
-    err = flight.error
-    low = None if flight.min_height_m is None else flight.min_height_m + err[1] + PLACEMENT_MARGIN_M
-    return placement_distance(flight.safety_distance_m, err), low
+    they pass the flight checks at the position error in force, as the templates place their frames."""
+    return placement(flight.safety_distance_m, flight.min_height_m, flight.error)
 
 
 def _aircraft(flight: FlightSettings) -> Aircraft | None:
@@ -307,13 +303,12 @@ def _with_template_views(pool: Plan, scene: Scene, camera: Camera, flight: Fligh
     the safety distance above the targets' top): whatever a template could choose, the selection can choose too."""
     from ..plan.templates.registry import build_template
 
-    error = (0.0, 0.0) if isinstance(flight.aircraft, Rover) else flight.error
     extra = []
     for name, params in (("facade", {"overlap": 0.7}), ("orbit", {"overlap": 0.7}),
                          ("lawnmower", {"overlap": 0.7, "side_overlap": 0.7})):  # the lawn-mower over the top by g
         try:
             extra.append(build_template(name, scene, camera, params, flight.safety_distance_m, flight.min_height_m,
-                                        error))
+                                        flight.error))
         except PlanError:  # a template that cannot be made here (a model too small for a grid, too high to fly over)
             continue
     return _concatenated([pool, *extra], pool.parameters)

@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import re
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -118,12 +119,16 @@ class Ground:
         top = _top_under(self.terrain, P)
         off = np.isnan(top)
         if off.any():  # beyond the terrain's edge: its top at the nearest terrain vertex
-            from scipy.spatial import cKDTree
-
-            corners = self.terrain.reshape(-1, 3)
-            _, near = cKDTree(corners[:, :2]).query(P[off])
-            top[off] = _top_under(self.terrain, corners[near, :2])
+            _, near = self._corner_tree.query(P[off])
+            top[off] = _top_under(self.terrain, self.terrain.reshape(-1, 3)[near, :2])
         return np.where(np.isnan(top), self.level_m, top)
+
+    @cached_property
+    def _corner_tree(self):
+        """A k-d tree of the terrain triangles' corners in XY, built on the first point beyond the terrain's edge."""
+        from scipy.spatial import cKDTree
+
+        return cKDTree(self.terrain.reshape(-1, 3)[:, :2])
 
     def to_dict(self) -> dict:
         return {"level_m": round(self.level_m, 3), "source": self.source, "reason": self.reason}
@@ -235,8 +240,7 @@ def _section_outside(tri: NDArray, z0: float) -> tuple[NDArray[np.bool_] | None,
         p, q = ends[:, i], ends[:, j]
         n = np.maximum(1, np.ceil(np.linalg.norm(q - p, axis=1) / (SECTION_CELL_M / 2)).astype(int))
         owner = np.repeat(np.arange(len(p)), n + 1)
-        t = np.concatenate([np.linspace(0, 1, k + 1) for k in n]) if len(n) < 20_000 else \
-            (np.arange(len(owner)) - np.repeat(np.cumsum(n + 1) - (n + 1), n + 1)) / np.repeat(n, n + 1)
+        t = (np.arange(len(owner)) - np.repeat(np.cumsum(n + 1) - (n + 1), n + 1)) / np.repeat(n, n + 1)
         xy = p[owner] + t[:, None] * (q[owner] - p[owner])
         cell = np.floor((xy - origin) / SECTION_CELL_M).astype(int)
         occupied[cell[:, 0], cell[:, 1]] = True

@@ -27,7 +27,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..model.scene import Scene
-from .checks.safety import CHECK_TOLERANCE_M, PLACEMENT_MARGIN_M, worst_segment_clearance
+from .checks.safety import CHECK_TOLERANCE_M, PLACEMENT_MARGIN_M, _triangles, worst_segment_clearance
 from .ground import ground_z
 
 SAMPLE_M = 0.5  # level flights are checked against the ground at points this far apart
@@ -69,36 +69,39 @@ class MissionPath:
 
 
 class Transit:
-    """The level-flight heights over a scene, with its obstacles' boxes computed once."""
+    """The level-flight heights over a scene: its obstacles' boxes found once, every way measured in one call."""
 
     def __init__(self, scene: Scene, obstacles: Scene, safety_m: float, error_m: tuple[float, float],
                  min_height_m: float | None) -> None:
         self.scene, self.obstacles = scene, obstacles
         self.safety, self.error = float(safety_m), (float(error_m[0]), float(error_m[1]))
         self.min_height = None if min_height_m is None else float(min_height_m)
-        tri = obstacles.vertices[obstacles.faces] if len(obstacles.faces) else np.zeros((0, 3, 3))
-        self.lo, self.hi = tri.min(axis=1) if len(tri) else np.zeros((0, 3)), tri.max(axis=1) if len(tri) else np.zeros((0, 3))
+        self.reach = float(np.hypot(*self.error))  # the most the position error can take away, in any direction
+        _, self.lo, self.hi = _triangles(obstacles)
 
-    def ground_top(self, a: NDArray, b: NDArray) -> float:
-        """The ground's highest point under the way from a to b (XY), sampled every :data:`SAMPLE_M`."""
-        n = max(2, int(np.ceil(np.linalg.norm(b[:2] - a[:2]) / SAMPLE_M)) + 1)
-        P = a[None, :2] + np.linspace(0, 1, n)[:, None] * (b[:2] - a[:2])[None]
-        return float(ground_z(self.scene, P).max())
+    def ground_tops(self, a: NDArray, b: NDArray) -> NDArray[np.float64]:
+        """(k,) the ground's highest point under each way from a[i] to b[i] (XY), sampled every :data:`SAMPLE_M`."""
+        a, b = np.atleast_2d(a)[:, :2], np.atleast_2d(b)[:, :2]
+        n = np.maximum(2, np.ceil(np.linalg.norm(b - a, axis=1) / SAMPLE_M).astype(int) + 1)
+        owner = np.repeat(np.arange(len(a)), n)
+        t = (np.arange(len(owner)) - np.repeat(np.cumsum(n) - n, n)) / np.repeat(n - 1, n)
+        top = np.full(len(a), -np.inf)
+        np.maximum.at(top, owner, ground_z(self.scene, a[owner] + t[:, None] * (b[owner] - a[owner])))
+        return top
 
-    def ground_floor(self, a: NDArray, b: NDArray) -> float:
-        """The least height a level flight from a to b (XY) may keep over the ground: the ground's highest point
-        on the way plus the minimum height and the vertical position error (−inf without a minimum height)."""
+    def ground_floors(self, a: NDArray, b: NDArray) -> NDArray[np.float64]:
+        """(k,) the least height each level flight from a[i] to b[i] may keep over the ground: the ground's highest
+        point on the way plus the minimum height and the vertical position error (−inf without a minimum height)."""
         if self.min_height is None:
-            return -np.inf
-        return self.ground_top(a, b) + self.min_height + self.error[1] + PLACEMENT_MARGIN_M
+            return np.full(len(np.atleast_2d(a)), -np.inf)
+        return self.ground_tops(a, b) + self.min_height + self.error[1] + PLACEMENT_MARGIN_M
 
     def over_obstacles(self, a: NDArray, b: NDArray) -> float:
         """The height at which a level flight from a to b (XY) clears every obstacle whose box comes within the
-        safety distance plus the horizontal position error of the way (−inf when none does)."""
+        safety distance plus the error's reach of the way (−inf when none does)."""
         if not len(self.lo):
             return -np.inf
-        reach = float(np.hypot(*self.error))  # the most the position error can take away, in any direction
-        r = self.safety + reach + PLACEMENT_MARGIN_M
+        r = self.safety + self.reach + PLACEMENT_MARGIN_M
         lo, hi = self.lo[:, :2] - r, self.hi[:, :2] + r
         d = b[:2] - a[:2]
         t0, t1 = np.zeros(len(lo)), np.ones(len(lo))
@@ -112,38 +115,39 @@ class Transit:
         hit = t0 <= t1
         if not hit.any():
             return -np.inf
-        return float(self.hi[hit, 2].max()) + self.safety + reach + PLACEMENT_MARGIN_M
+        return float(self.hi[hit, 2].max()) + self.safety + self.reach + PLACEMENT_MARGIN_M
 
     def clear(self, segments: NDArray) -> NDArray[np.float64]:
         """(k,) each (k, 2, 3) segment's worst-case clearance from the obstacles."""
         S = np.asarray(segments, float).reshape(-1, 2, 3)
         return worst_segment_clearance(self.obstacles, S[:, 0], S[:, 1], self.error)
 
-    def height(self, at: NDArray, home: NDArray) -> float:
-        """z for the level flight between waypoint ``at`` and take-off point ``home``: the waypoint's own height
-        where that is clear (:meth:`clear` and :meth:`ground_floor`), else the transit height."""
-        floor = self.ground_floor(at, home)
-        z = max(float(at[2]), floor)
-        direct = np.array([[[home[0], home[1], home[2]], [home[0], home[1], z]],
-                           [[home[0], home[1], z], [at[0], at[1], z]], [[at[0], at[1], z], at]])
-        if (self.clear(direct) >= self.safety - CHECK_TOLERANCE_M).all():
-            return z
-        return max(z, self.over_obstacles(at, home))
+    def heights(self, at: NDArray, home: NDArray) -> NDArray[np.float64]:
+        """(k,) z for the level flight between each waypoint ``at[i]`` and take-off point ``home[i]``: the waypoint's
+        own height where that is clear (:meth:`clear` and :meth:`ground_floors`), else the transit height."""
+        at, home = np.atleast_2d(np.asarray(at, float)), np.atleast_2d(np.asarray(home, float))
+        z = np.maximum(at[:, 2], self.ground_floors(at, home))
+        up = np.column_stack([home[:, :2], z])
+        over = np.column_stack([at[:, :2], z])
+        direct = np.stack([np.stack([home, up], 1), np.stack([up, over], 1), np.stack([over, at], 1)], 1)  # (k, 3, 2, 3)
+        ok = (self.clear(direct).reshape(-1, 3) >= self.safety - CHECK_TOLERANCE_M).all(axis=1)
+        for i in np.flatnonzero(~ok):
+            z[i] = max(z[i], self.over_obstacles(at[i], home[i]))
+        return z
 
 
-def mission_paths(scene: Scene, obstacles: Scene, C: NDArray, missions, takeoffs: list[NDArray], safety_m: float,
-                  error_m: tuple[float, float], min_height_m: float | None) -> list[MissionPath]:
+def mission_paths(transit: Transit, C: NDArray, missions, takeoffs: list[NDArray]) -> list[MissionPath]:
     """One :class:`MissionPath` per mission with waypoints: C (n, 3) the waypoints, ``takeoffs`` each mission's
-    take-off point (on the ground)."""
-    transit = Transit(scene, obstacles, safety_m, error_m, min_height_m)
-    out = []
-    for m, T in zip(missions, takeoffs):
-        if m.stop <= m.start:
-            continue
-        T = np.asarray(T, float)
-        A, B = np.asarray(C[m.start], float), np.asarray(C[m.stop - 1], float)
-        out.append(MissionPath(m.name, T, A, B, transit.height(A, T), transit.height(B, T)))
-    return out
+    take-off point (on the ground); the heights of every mission found together."""
+    flown = [(m, np.asarray(T, float)) for m, T in zip(missions, takeoffs) if m.stop > m.start]
+    if not flown:
+        return []
+    T = np.array([t for _, t in flown])
+    A = np.array([C[m.start] for m, _ in flown], float)
+    B = np.array([C[m.stop - 1] for m, _ in flown], float)
+    z = transit.heights(np.concatenate([A, B]), np.concatenate([T, T]))
+    k = len(flown)
+    return [MissionPath(m.name, T[i], A[i], B[i], float(z[i]), float(z[k + i])) for i, (m, _) in enumerate(flown)]
 
 
 def recorded_paths(parameters: dict) -> list[dict]:

@@ -173,20 +173,21 @@ STATION_STEPS = 100  # …up to this many times
 
 
 def corner_stations(scene: Scene, plan: Plan, height_m: float = GROUND_STATION_HEIGHT_M, safety_m: float = 0.0,
-                    error_m: tuple[float, float] = (0.0, 0.0)) -> NDArray[np.float64]:
+                    error_m: tuple[float, float] = (0.0, 0.0), obstacles: Scene | None = None) -> NDArray[np.float64]:
     """(4, 3) pilot stations near the corners of the plan's region (its waypoints and the model's targets),
     south-west first, then south-east, north-east, north-west, ``height_m`` above the ground at each.
 
     With ``safety_m``, each is a place a pilot can take off from: a corner whose vertical climb, from the ground to
     the safety distance above the plan's highest waypoint and the model's top, comes nearer the model (terrain
     aside) than ``safety_m`` at the worst of the position error (a corner on a roof, inside the footprint, by a
-    wall) moves away from the model's centre, :data:`STATION_STEP_M` at a time, until its climb is clear."""
+    wall) moves away from the model's centre, :data:`STATION_STEP_M` at a time, until its climb is clear.
+    ``obstacles``: the scene less its terrain, when the caller has it already."""
     box = targets_only(scene).bounds()
     lo = np.minimum(plan.C_world.min(axis=0), box[0])
     hi = np.maximum(plan.C_world.max(axis=0), box[1])
     xy = np.array([[lo[0], lo[1]], [hi[0], lo[1]], [hi[0], hi[1]], [lo[0], hi[1]]])
     if safety_m > 0:
-        obstacles = without_terrain(scene)
+        obstacles = without_terrain(scene) if obstacles is None else obstacles
         top = max(float(plan.C_world[:, 2].max()), float(obstacles.bounds()[1][2])) + safety_m + error_m[1]
         centre = (box[0][:2] + box[1][:2]) / 2
         away = xy - centre
@@ -201,10 +202,10 @@ def corner_stations(scene: Scene, plan: Plan, height_m: float = GROUND_STATION_H
     return np.column_stack([xy, ground_z(scene, xy) + height_m])
 
 
-def _stations(scene: Scene, plan: Plan, settings: FlightSettings) -> NDArray[np.float64]:
+def _stations(scene: Scene, plan: Plan, settings: FlightSettings, obstacles: Scene | None = None) -> NDArray[np.float64]:
     if settings.ground_stations is not None:
         return np.asarray(settings.ground_stations, float).reshape(-1, 3)
-    return corner_stations(scene, plan, safety_m=settings.safety_distance_m, error_m=settings.error)
+    return corner_stations(scene, plan, safety_m=settings.safety_distance_m, error_m=settings.error, obstacles=obstacles)
 
 
 def _visible(scene: Scene, plan: Plan, stations: NDArray, radius: float) -> NDArray[np.bool_]:
@@ -315,10 +316,12 @@ def check_plan(scene: Scene, plan: Plan, settings: FlightSettings) -> Feasibilit
     """Every check on ``plan``'s missions as they are; a mission without a ground station uses the first candidate."""
     if len(plan) == 0:
         raise PlanError("the plan has no frames to check")
-    default = _stations(scene, plan, settings)[0]
-    station_of = [np.asarray(m.ground_station if m.ground_station is not None else default, float) for m in plan.missions]
     error = settings.error
     obstacles = without_terrain(scene)
+    # the first candidate station, only for the missions that record none (finding it measures many climbs)
+    default = _stations(scene, plan, settings, obstacles)[0] if any(m.ground_station is None for m in plan.missions) \
+        else None
+    station_of = [np.asarray(m.ground_station if m.ground_station is not None else default, float) for m in plan.missions]
     safety = check_safety(obstacles, plan, settings.safety_distance_m, error)
     violations = list(safety.violations)
     dist = np.full(len(plan), np.nan)
@@ -345,8 +348,7 @@ def check_plan(scene: Scene, plan: Plan, settings: FlightSettings) -> Feasibilit
         altitude = check_altitude(scene, plan, settings.altitude_limit_m, ground_z=ground, error_v_m=error[1])
         violations += altitude.violations
     above, low_wp, low_leg = None, np.zeros(len(plan), bool), np.zeros(max(len(plan) - 1, 0), bool)
-    flown = settings.min_height_m is not None and not isinstance(settings.aircraft, Rover)
-    if flown:
+    if settings.min_height_m is not None and not isinstance(settings.aircraft, Rover):
         above, low_wp, low_leg, found = check_min_height(scene, plan, settings.min_height_m, error[1])
         violations += found
     paths: list = []
@@ -395,33 +397,33 @@ def check_paths(scene: Scene, obstacles: Scene, plan: Plan, station_of: list[NDA
     a verdict per mission and the violations."""
     from ..trajectory import PARTS, Transit, mission_paths
 
-    takeoffs = [np.array([gs[0], gs[1], float(ground_z(scene, gs[None, :2])[0])]) for gs in station_of]
+    stations = np.asarray(station_of, float).reshape(-1, 3)
+    takeoffs = np.column_stack([stations[:, :2], ground_z(scene, stations)])
+    transit = Transit(scene, obstacles, settings.safety_distance_m, settings.error, settings.min_height_m)
     flown = [k for k, m in enumerate(plan.missions) if m.stop > m.start]
-    paths = mission_paths(scene, obstacles, plan.C_world, [plan.missions[k] for k in flown],
-                          [takeoffs[k] for k in flown], settings.safety_distance_m, settings.error,
-                          None if isinstance(settings.aircraft, Rover) else settings.min_height_m)
+    paths = mission_paths(transit, plan.C_world, [plan.missions[k] for k in flown], takeoffs[flown])
     ok = [True] * len(plan.missions)
     violations: list[str] = []
     if not paths:
         return paths, ok, violations
-    seg = np.concatenate([p.segments() for p in paths])
-    clear = worst_segment_clearance(obstacles, seg[:, 0], seg[:, 1], settings.error).reshape(len(paths), len(PARTS))
-    transit = Transit(scene, obstacles, settings.safety_distance_m, settings.error, settings.min_height_m)
-    for k, p, c in zip(flown, paths, clear):
+    seg = np.stack([p.segments() for p in paths])  # (missions, parts, 2, 3)
+    clear = transit.clear(seg).reshape(len(paths), len(PARTS))
+    low = np.full((len(paths), 2), np.inf)  # the flights out and home above the ground, at the worst of the error
+    if settings.min_height_m is not None:
+        level = seg[:, [1, 4]].reshape(-1, 2, 3)
+        low = (level[:, 0, 2] - settings.error[1] - transit.ground_tops(level[:, 0], level[:, 1])).reshape(-1, 2)
+    for k, p, c, h in zip(flown, paths, clear, low):
         for part, d in zip(PARTS, c):
             if d < settings.safety_distance_m - CHECK_TOLERANCE_M:
                 ok[k] = False
                 violations.append(f"mission {p.name!r}: the {part} passes {max(d, 0.0):.2f} m from the model at the "
                                   f"worst (safety distance {settings.safety_distance_m:g} m); take-off at "
                                   f"{p.takeoff_m[0]:.1f},{p.takeoff_m[1]:.1f}")
-        if settings.min_height_m is not None:
-            s = p.segments()
-            for part, (a, b) in (("flight out", s[1]), ("flight home", s[4])):
-                low = a[2] - settings.error[1] - transit.ground_top(a, b)
-                if low < settings.min_height_m - CHECK_TOLERANCE_M:
-                    ok[k] = False
-                    violations.append(f"mission {p.name!r}: the {part} comes down to {low:+.2f} m above the ground "
-                                      f"(minimum {settings.min_height_m:g} m)")
+        for part, above in zip(("flight out", "flight home"), h):
+            if settings.min_height_m is not None and above < settings.min_height_m - CHECK_TOLERANCE_M:
+                ok[k] = False
+                violations.append(f"mission {p.name!r}: the {part} comes down to {above:+.2f} m above the ground "
+                                  f"(minimum {settings.min_height_m:g} m)")
     return paths, ok, violations
 
 

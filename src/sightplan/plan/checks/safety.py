@@ -62,19 +62,36 @@ def placement_distance(safety_distance_m: float, error_m: tuple[float, float] = 
     return float(safety_distance_m) + float(np.hypot(*error_m)) + PLACEMENT_MARGIN_M
 
 
-def _reach(dist, nominal: NDArray, h: float, v: float) -> NDArray[np.float64]:
-    """(n,) how much of the nominal distances the position-error cylinder can take away: h·|n_xy| + v·|n_z| with
-    n the distance's gradient; ``dist(offset)`` gives the distances with every point moved by ``offset``."""
-    g = np.zeros((len(nominal), 3))
-    for axis in range(3):
-        e = np.zeros(3)
-        e[axis] = _STEP_M
-        g[:, axis] = (dist(e) - dist(-e)) / (2 * _STEP_M)
-    with np.errstate(invalid="ignore"):
-        norm = np.linalg.norm(g, axis=1)
-        n = np.where(norm[:, None] > 1e-9, g / np.maximum(norm, 1e-12)[:, None], 0.0)
-    reach = h * np.hypot(n[:, 0], n[:, 1]) + v * np.abs(n[:, 2])
-    return np.where(norm > 1e-9, reach, max(h, v))  # no gradient (inside, or on a ridge): the whole error
+def placement(safety_distance_m: float, min_height_m: float | None,
+              error_m: tuple[float, float] = (0.0, 0.0)) -> tuple[float, float | None]:
+    """(distance from the model, least height above the ground) at which templates and the optimiser place frames so
+    that they pass the checks at the position error ``error_m``: :func:`placement_distance`, and the minimum height
+    plus the vertical error plus :data:`PLACEMENT_MARGIN_M` (None without a minimum height)."""
+    low = None if min_height_m is None else float(min_height_m) + error_m[1] + PLACEMENT_MARGIN_M
+    return placement_distance(safety_distance_m, error_m), low
+
+
+def _worst(nominal: NDArray, ends: list[NDArray], dist, error_m: tuple[float, float]) -> NDArray[np.float64]:
+    """(n,) the nominal distances less what the position-error cylinder can take away, h·|n_xy| + v·|n_z| with n the
+    distance's gradient (central differences). ``ends``: the (n, 3) points, or a segment's two ends; ``dist(*ends)``
+    measures them. The six displaced copies are measured in one call."""
+    d = np.asarray(nominal, float)
+    h, v = error_m
+    near = np.isfinite(d) & (d < 1e6)
+    if (h == 0 and v == 0) or not near.any():
+        return d.copy()
+    k = int(near.sum())
+    step = _STEP_M * np.concatenate([np.eye(3), -np.eye(3)])  # +x, +y, +z, −x, −y, −z
+    moved = [(e[near][None] + step[:, None]).reshape(-1, 3) for e in ends]
+    dd = dist(*moved).reshape(6, k)
+    g = ((dd[:3] - dd[3:]) / (2 * _STEP_M)).T
+    norm = np.linalg.norm(g, axis=1)
+    n = g / np.maximum(norm, 1e-12)[:, None]
+    reach = np.where(norm > 1e-9, h * np.hypot(n[:, 0], n[:, 1]) + v * np.abs(n[:, 2]),
+                     max(h, v))  # no gradient (inside, or on a ridge): the whole error
+    out = d.copy()
+    out[near] = d[near] - reach
+    return out
 
 
 def worst_point_clearance(scene: Scene, points: NDArray, error_m: tuple[float, float] = (0.0, 0.0),
@@ -82,16 +99,8 @@ def worst_point_clearance(scene: Scene, points: NDArray, error_m: tuple[float, f
     """(n,) the least distance to the model of an aircraft planned at each (n, 3) point but off it by up to the
     position error (see the module docstring)."""
     P = np.asarray(points, float).reshape(-1, 3)
-    d = point_distances(scene, P) if nominal is None else np.asarray(nominal, float)
-    h, v = error_m
-    if (h == 0 and v == 0) or not len(P):
-        return d
-    out = d.copy()
-    near = np.isfinite(d) & (d < 1e6)
-    if near.any():
-        Q = P[near]
-        out[near] = d[near] - _reach(lambda e: point_distances(scene, Q + e), d[near], h, v)
-    return out
+    d = point_distances(scene, P) if nominal is None else nominal
+    return _worst(d, [P], lambda q: point_distances(scene, q), error_m)
 
 
 def worst_segment_clearance(scene: Scene, start: NDArray, end: NDArray, error_m: tuple[float, float] = (0.0, 0.0),
@@ -99,16 +108,8 @@ def worst_segment_clearance(scene: Scene, start: NDArray, end: NDArray, error_m:
     """(m,) :func:`worst_point_clearance` for the segments start[i]→end[i]."""
     p = np.asarray(start, float).reshape(-1, 3)
     q = np.asarray(end, float).reshape(-1, 3)
-    d = segment_distances(scene, p, q) if nominal is None else np.asarray(nominal, float)
-    h, v = error_m
-    if (h == 0 and v == 0) or not len(p):
-        return d
-    out = d.copy()
-    near = np.isfinite(d) & (d < 1e6)
-    if near.any():
-        a, b = p[near], q[near]
-        out[near] = d[near] - _reach(lambda e: segment_distances(scene, a + e, b + e), d[near], h, v)
-    return out
+    d = segment_distances(scene, p, q) if nominal is None else nominal
+    return _worst(d, [p, q], lambda a, b: segment_distances(scene, a, b), error_m)
 
 
 @dataclass(frozen=True)
@@ -137,16 +138,28 @@ def _triangles(scene: Scene) -> tuple[NDArray, NDArray, NDArray]:
     return tri, np.ascontiguousarray(tri.min(axis=1)), np.ascontiguousarray(tri.max(axis=1))
 
 
+def _vertex_tree(scene: Scene):
+    """A k-d tree of the vertices the scene's faces use, built once per scene object and kept on it."""
+    tree = scene.__dict__.get("_vertex_tree")
+    if tree is None:
+        from scipy.spatial import cKDTree
+
+        tree = cKDTree(scene.vertices[np.unique(scene.faces)])
+        object.__setattr__(scene, "_vertex_tree", tree)
+    return tree
+
+
 def point_distances(scene: Scene, points: NDArray) -> NDArray[np.float64]:
     """(n,) exact distance from each (n, 3) point to the scene's nearest triangle (inf for an empty scene)."""
     pts = np.ascontiguousarray(np.asarray(points, float).reshape(-1, 3))
     if len(scene.faces) == 0:
         return np.full(len(pts), np.inf)
-    from scipy.spatial import cKDTree
+    return _point_distances(pts, _triangles(scene), _vertex_tree(scene))
 
-    used = scene.vertices[np.unique(scene.faces)]
-    nearest_vertex, _ = cKDTree(used).query(pts)  # the nearest vertex bounds the distance from above
-    return min_point_distances(pts, *_triangles(scene), (nearest_vertex * (1 + 1e-9) + 1e-9) ** 2)
+
+def _point_distances(pts: NDArray, tri: tuple[NDArray, NDArray, NDArray], tree) -> NDArray[np.float64]:
+    nearest_vertex, _ = tree.query(pts)  # the nearest vertex bounds the distance from above
+    return min_point_distances(np.ascontiguousarray(pts), *tri, (nearest_vertex * (1 + 1e-9) + 1e-9) ** 2)
 
 
 def segment_distances(scene: Scene, start: NDArray, end: NDArray) -> NDArray[np.float64]:
@@ -155,8 +168,10 @@ def segment_distances(scene: Scene, start: NDArray, end: NDArray) -> NDArray[np.
     q = np.ascontiguousarray(np.asarray(end, float).reshape(-1, 3))
     if len(scene.faces) == 0:
         return np.full(len(p), np.inf)
-    ends = np.minimum(point_distances(scene, p), point_distances(scene, q))  # a segment is no farther than its ends
-    return min_segment_distances(p, q, *_triangles(scene), (ends * (1 + 1e-9) + 1e-9) ** 2)
+    tri = _triangles(scene)
+    both = _point_distances(np.concatenate([p, q]), tri, _vertex_tree(scene))
+    ends = np.minimum(both[:len(p)], both[len(p):])  # a segment is no farther than its ends
+    return min_segment_distances(p, q, *tri, (ends * (1 + 1e-9) + 1e-9) ** 2)
 
 
 def check_safety(scene: Scene, plan: Plan, minimum_m: float,

@@ -21,7 +21,7 @@ from ...errors import PlanError
 from ...model.scene import Scene
 from ..checks.feasibility import FeasibilityReport, FlightSettings, check_plan, plan_flights
 from ..checks.gate import record_checks
-from ..checks.safety import PLACEMENT_MARGIN_M, placement_distance
+from ..checks.safety import placement
 from ..ground import MIN_HEIGHT_M
 from ..site import with_site
 from ..types import Plan
@@ -80,9 +80,8 @@ def build_template(name: str, scene: Scene, camera: Camera, p: Params | dict[str
         raise PlanError(f"the {name} template takes {t.params.__name__}, not {type(p).__name__}")
     if t.walked or not any(error_m):
         return t.build(scene, camera, p, safety_distance_m, min_height_m if min_height_m is not None else 0.0)
-    g = placement_distance(safety_distance_m, error_m)
-    low = (min_height_m + error_m[1] + PLACEMENT_MARGIN_M) if min_height_m is not None else 0.0
-    plan = t.build(scene, camera, p, g, low)
+    g, low = placement(safety_distance_m, min_height_m, error_m)
+    plan = t.build(scene, camera, p, g, low if low is not None else 0.0)
     params = {**plan.parameters, "placed_at_m": g, "position_error_m": list(error_m)}
     if "safety_distance_m" in params:
         params["safety_distance_m"] = float(safety_distance_m)
