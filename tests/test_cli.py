@@ -350,7 +350,7 @@ def test_check_refuses_impossible_settings(tmp_path):
     assert run_cli("plan", "facade", "sample", "-o", str(out), cwd=tmp_path).returncode == 0
     assert_clean_error(run_cli("check", str(out), "sample", "--safety-distance", "600", cwd=tmp_path), "VLOS radius")
     assert_clean_error(run_cli("check", str(out), "sample", "--aircraft", "zeppelin", cwd=tmp_path), "unknown aircraft")
-    assert_clean_error(run_cli("check", str(out), "sample", "--ground-station", "1,2", cwd=tmp_path), "x,y,z")
+    assert_clean_error(run_cli("check", str(out), "sample", "--ground-station", "1,2,3,4", cwd=tmp_path), "x,y,z")
 
 
 def test_plan_options_match_the_library(tmp_path):

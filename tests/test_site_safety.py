@@ -6,6 +6,8 @@ terrain block whose top is at −0.15 m: every take-off and ground is at −0.15
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 import trimesh
@@ -171,3 +173,48 @@ def test_lawnmower_defaults_clear_the_top_by_the_safety_distance(house, house_pl
     plan, _ = house_plans[f"lawnmower {dict()}"]
     # the targets' top is the roof at 6.3 m; the grid flies the placement distance above it
     assert plan.C_world[:, 2] == pytest.approx(6.3 + SAFETY + np.hypot(1.5, 0.5) + 0.01)
+
+
+def test_a_pilot_station_given_by_latitude_and_longitude(house, tmp_path):
+    """A station typed from a phone's map: 25 m from the site's reference point at azimuth 126.87° (20 m east, 15 m
+    south; WGS 84 geodesic, computed by pyproj.Geod, not by the georeference) lands there, 1.5 m above the terrain."""
+    import json
+
+    from pyproj import Geod
+
+    from test_cli import assert_clean_error, run_cli
+
+    lon, lat, _ = Geod(ellps="WGS84").fwd(5.87, 51.838, np.degrees(np.arctan2(20.0, -15.0)), 25.0)
+    model = write_basement_house(tmp_path / "house.ifc")
+    out = tmp_path / "facade.json"
+    res = run_cli("plan", "facade", str(model), "--no-cache", "--split", "--ground-station", f"geo:{lat:.9f},{lon:.9f}",
+                  "-o", str(out), cwd=tmp_path)
+    assert res.returncode == 0, res.stdout + res.stderr
+    report = tmp_path / "check.json"
+    res = run_cli("check", str(out), str(model), "--no-cache", "--ground-station", f"{lat:.9f},{lon:.9f}",
+                  "--json", str(report), cwd=tmp_path)
+    d = json.loads(report.read_text())
+    # one pilot south-east of the house cannot see its north side; nothing else fails, and nothing is an error
+    assert d["violations"] and all("hidden from the ground station" in v for v in d["violations"])
+    assert res.returncode == 1 and "error:" not in res.stderr
+    stations = {tuple(m["ground_station"]) for m in d["missions"]}
+    assert len(stations) == 1
+    np.testing.assert_allclose(stations.pop(), [20.0, -15.0, TERRAIN_TOP + 1.5], atol=0.01)
+    # the longitude first: 5.87° N, 51.838° E is thousands of km away; the error says what to give
+    assert_clean_error(run_cli("check", str(out), str(model), "--no-cache", "--ground-station", f"{lon},{lat}",
+                               cwd=tmp_path), "km from the model", "latitude first")
+    assert_clean_error(run_cli("check", str(out), str(model), "--no-cache", "--ground-station", "1,2,x",
+                               cwd=tmp_path), "x,y,z", "lat,lon")
+
+
+def test_the_position_error_is_recorded_with_the_checks_the_export_repeats(house, tmp_path):
+    from sightplan.plan.checks.gate import recorded_settings
+
+    settings = FlightSettings(safety_distance_m=SAFETY, position_error_m="rtk")
+    plan, _ = plan_from_template("orbit", house, P4P, {}, settings)
+    assert recorded_settings(plan).error == (0.1, 0.1)
+    # placed for ±0.1 m, the orbit passes its checks at ±0.1 m; checked at the default ±1.5 m it would not
+    assert export_violations(plan, scene=house) == []
+    checks = plan.parameters["checks"]
+    gnss = {**checks, "settings": {**checks["settings"], "position_error_m": [1.5, 0.5]}}
+    assert export_violations(replace(plan, parameters={**plan.parameters, "checks": gnss}), scene=house)

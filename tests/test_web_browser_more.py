@@ -296,6 +296,72 @@ def test_schedule_from_the_page_dates_the_site_and_the_evaluation(browser, serve
         ctx.close()
 
 
+# --------------------------------------------------------------------------- (b2) on site: the pilot's position, the
+# checked take-off and return, and an export that fails its checks
+def test_pilot_position_take_off_and_return_and_export_anyway(browser, server, artifacts, duplex):
+    from sightplan.geo import Georeference
+
+    project, model = duplex
+    scene = load_model("sample")[0]
+    lat, lon, _ = Georeference.from_scene_metadata(scene.metadata).to_geodetic([[-30.0, -20.0, 0.0]])
+    ctx, page, problems = open_project(browser, server, project)
+    try:
+        # the phone's position is the pilot's: 30 m west, 20 m south of the model's origin
+        ctx.grant_permissions(["geolocation"], origin=server.url)
+        ctx.set_geolocation({"latitude": float(lat[0]), "longitude": float(lon[0]), "accuracy": 3})
+        page.click("#plan-new summary")
+        page.select_option("#plan-template", "orbit")
+        page.fill("#plan-name", "on site")
+        page.fill("#plan-radius_m", "22")
+        page.fill("#plan-height_m", "4")
+        page.fill("#plan-step_deg", "30")
+        page.click("#my-position")
+        page.wait_for_function("document.querySelector('#plan-stations').value.includes(',')")
+        page.select_option("#plan-position-error", "rtk")
+        page.click("#plan-create")
+        wait_for(page, "window.sightplanTest.view.planFrames() === 12 && window.sightplanTest.flightChecked()")
+        plan = next(p for p in server.get(f"/api/projects/{project}/plans") if p["name"] == "on site")
+        v1 = server.get(f"/api/projects/{project}/plans/{plan['id']}/versions/1")
+        assert {tuple(np.round(m["ground_station"], 2)) for m in v1["missions"]} == {(-30.0, -20.0, 1.5)}
+        assert v1["parameters"]["flight"]["position_error_m"] == [0.1, 0.1]
+        # each mission's flight out and home, three legs each, drawn from the checks
+        checks = server.get(f"/api/projects/{project}/plans/{plan['id']}/versions/1/checks")
+        missions = len(checks["trajectory"])
+        assert missions == len(v1["missions"]) >= 1
+        assert page.evaluate("window.sightplanTest.view.flightLines()") == [
+            {"name": "flight out", "segments": 3 * missions}, {"name": "flight home", "segments": 3 * missions}]
+        assert "checked at ±0.1 m horizontal" in page.inner_text("#checks-summary")
+        shot(page, artifacts, "23b-take-off-and-return")
+
+        # version 2: frame 4 a metre from the west wall; the export is refused with the violations listed
+        lo, hi = scene.bounds()
+        v1["frames"][4]["position"] = [float(lo[0]) - 1.0, float((lo[1] + hi[1]) / 2), 3.0]
+        server.request("PUT", f"/api/projects/{project}/plans/{plan['id']}?note=by+the+wall", v1)
+        page.reload()
+        page.wait_for_function("document.body?.dataset.state === 'ready'", timeout=30_000)
+        page.select_option("#plan-select", str(plan["id"]))
+        page.wait_for_function("window.sightplanTest.planId() !== null")
+        page.select_option("#version-select", "2")
+        wait_for(page, "window.sightplanTest.planVersion() === 2 && window.sightplanTest.flightChecked()")
+        page.click("#export-qgc")
+        page.wait_for_selector("#force-dialog[open]")
+        listed = page.locator("#force-violations li").all_inner_texts()
+        assert any("waypoint 4" in v for v in listed)
+        shot(page, artifacts, "23c-export-refused")
+        page.click("#force-cancel")
+        page.wait_for_selector("#force-dialog", state="hidden")
+        assert "Not exported" in page.inner_text("#messages")
+        page.click("#export-qgc")
+        page.wait_for_selector("#force-dialog[open]")
+        with page.expect_download() as info:
+            page.click("#force-export")
+        assert info.value.suggested_filename.endswith((".plan", ".zip"))
+        page.wait_for_function("document.querySelector('#messages').textContent.includes('despite')")
+        assert not [p for p in problems if "page error" in p], problems
+    finally:
+        ctx.close()
+
+
 # --------------------------------------------------------------------------- (c) reality captures
 def ply_wall(n: int = 200_000) -> bytes:
     """A wall of blue points 5 m east of the house: x 14, y −20 … 2, z −1.5 … 6."""

@@ -15,7 +15,7 @@ SHARED = {"colours.js": Path(sightplan.__file__).parent / "report" / "colours.js
 TESTS = Path(__file__).parent
 MAX_LINES = 600
 # older than the split of the page into modules; it may not grow
-LONGER = {"viewer3d.js": 930}
+LONGER = {"viewer3d.js": 893}
 
 # import … from './x.js', import './x.js', export … from './x.js', import('./x.js')
 RELATIVE = re.compile(r"""(?:\bfrom|\bimport)\s*\(?\s*['"](\./[\w.-]+\.js)['"]""")

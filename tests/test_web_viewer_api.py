@@ -169,6 +169,68 @@ def test_checks_find_the_frame_moved_too_close(client, project, plan, scene):
     assert r.status_code == 422 and "safety_distance_m" in r.json()["detail"]
 
 
+def test_checks_draw_the_checked_flight_out_and_home(client, project, plan):
+    js = client.get(f"/api/projects/{project}/plans/{plan}/versions/1").json()
+    c = client.get(f"/api/projects/{project}/plans/{plan}/versions/1/checks").json()
+    C = np.array([f["position"] for f in js["frames"]])
+    assert c["ground"]["source"] == "exterior door" and c["position_error_m"] == [1.5, 0.5]
+    assert len(c["trajectory"]) == len(js["missions"]) >= 1
+    for m, t in zip(js["missions"], c["trajectory"]):
+        out, home = np.array(t["out"]), np.array(t["home"])
+        start, stop = m["frames"]
+        T = np.array(t["takeoff_m"])
+        assert T[2] == pytest.approx(c["ground"]["level_m"])  # on the ground, not 1.5 m up at the pilot's eyes
+        # out: the take-off, straight up to the climb height, over to the first frame, down to it; home the reverse
+        assert np.allclose(out, [T, [*T[:2], t["climb_z_m"]], [*C[start][:2], t["climb_z_m"]], C[start]], atol=1e-3)
+        assert np.allclose(home, [C[stop - 1], [*C[stop - 1][:2], t["return_z_m"]], [*T[:2], t["return_z_m"]], T],
+                           atol=1e-3)
+    # the same heights the plan recorded when it was made, which its exports fly
+    recorded = js["parameters"]["trajectory"]["missions"]
+    assert [(r["climb_z_m"], r["return_z_m"]) for r in recorded] == [(t["climb_z_m"], t["return_z_m"])
+                                                                      for t in c["trajectory"]]
+
+
+def test_a_failing_export_lists_its_violations_and_exports_only_when_forced(client, project, plan, scene, caplog):
+    js = client.get(f"/api/projects/{project}/plans/{plan}/versions/1").json()
+    lo, hi = scene.bounds()
+    js["frames"][4]["position"] = [float(lo[0]) - 1.0, float((lo[1] + hi[1]) / 2), 3.0]  # 1 m from the west wall
+    number = client.put(f"/api/projects/{project}/plans/{plan}", json=js, params={"note": "by the wall"}).json()
+    number = number["latest_version"]
+    url = f"/api/projects/{project}/plans/{plan}/versions/{number}/export"
+    r = client.get(url, params={"format": "kml"})
+    assert r.status_code == 409
+    violations = r.json()["violations"]
+    assert any("waypoint 4" in v for v in violations) and r.json()["detail"].startswith("the plan fails its flight")
+    assert r.headers["x-sightplan-flight-violations"] == str(len(violations))
+    with caplog.at_level("WARNING", logger="sightplan.web"):
+        r = client.get(url, params={"format": "kml", "force": True})
+    assert r.status_code == 200 and b"<kml" in r.content
+    assert r.headers["x-sightplan-flight-violations"] == str(len(violations))
+    logged = [rec.getMessage() for rec in caplog.records if "despite its flight checks" in rec.getMessage()]
+    assert [m.split("despite its flight checks: ", 1)[1] for m in logged] == violations
+
+
+def test_a_pilot_station_by_latitude_and_longitude(client, project, model, scene):
+    from sightplan.geo import Georeference
+
+    geo = Georeference.from_scene_metadata(scene.metadata)
+    lat, lon, _ = geo.to_geodetic([[-30.0, -20.0, 0.0]])
+    r = client.post(f"/api/projects/{project}/plans", json={
+        "model_id": model, "template": "orbit", "radius_m": [22], "height_m": [4.0], "step_deg": 30,
+        "ground_station_geo": [[float(lat[0]), float(lon[0])]], "position_error": "rtk"})
+    assert r.status_code == 201, r.text
+    js = client.get(f"/api/projects/{project}/plans/{r.json()['id']}/versions/1").json()
+    assert js["missions"][0]["ground_station"] == pytest.approx([-30.0, -20.0, 0.0 + 1.5], abs=0.01)
+    assert js["parameters"]["flight"]["position_error_m"] == [0.1, 0.1]
+    r = client.post(f"/api/projects/{project}/plans", json={
+        "model_id": model, "template": "orbit", "radius_m": [22], "height_m": [4.0],
+        "ground_station_geo": [[float(lon[0]), float(lat[0])]]})  # the wrong way round
+    assert r.status_code == 422 and "km from the model" in r.json()["detail"]
+    r = client.post(f"/api/projects/{project}/plans", json={"model_id": model, "template": "orbit", "radius_m": [22],
+                                                             "height_m": [4.0], "position_error": "2,x"})
+    assert r.status_code == 422 and "position error" in r.json()["detail"]
+
+
 # --------------------------------------------------------------------------- an evaluation
 def test_feedback_matches_the_library(client, project, evaluation, reference):
     from sightplan.report.colours import default_bounds, visibility_class

@@ -12,8 +12,9 @@ from rich.table import Table
 
 VlosOpt = Annotated[float, typer.Option("--vlos-radius", help="Visual line-of-sight radius around the pilot (m); 0: no check")]
 StationOpt = Annotated[list[str] | None, typer.Option(
-    "--ground-station", help="Pilot position 'x,y,z' in the model frame (m); repeat for candidates. "
-                             "Default: the four corners of the plan's region")]
+    "--ground-station", help="Pilot position: 'x,y,z' in the model frame (m), or 'lat,lon' (WGS 84 degrees, or a "
+                             "'geo:lat,lon' link from a phone's map) on the ground of a georeferenced model; repeat "
+                             "for candidates. Default: the four corners of the plan's region")]
 AltitudeOpt = Annotated[float, typer.Option("--altitude-limit", help="FAA §107.51 altitude limit (m); 0: no check")]
 MinHeightOpt = Annotated[float | None, typer.Option(
     "--min-height", help="Least height of a waypoint above the ground under it (the terrain, else the model's base), "
@@ -42,6 +43,52 @@ def parse_point(text: str, what: str):
     if len(xyz) != 3 or not all(np.isfinite(xyz)):
         raise PlanError(f"{what} {text!r} must be three numbers 'x,y,z' in metres")
     return np.array(xyz)
+
+
+def parse_stations(texts: list[str] | None, scene=None, georeference=None):
+    """--ground-station values → (n, 3) model points, or None: 'x,y,z' as given, 'lat,lon' or 'geo:lat,lon'
+    at :data:`~sightplan.plan.checks.feasibility.GROUND_STATION_HEIGHT_M` above the ground there, placed by
+    ``georeference`` (a plan's), else the scene's."""
+    import numpy as np
+
+    from ..errors import PlanError
+
+    if not texts:
+        return None
+    model, geodetic = [], []
+    for text in texts:
+        body = text.strip()
+        uri = body.lower().startswith("geo:")
+        if uri:
+            body = body[4:].split(";")[0]  # geo:lat,lon[,alt][;u=…] (RFC 5870)
+        try:
+            values = [float(v) for v in body.split(",")]
+        except ValueError:
+            values = []
+        if uri and len(values) in (2, 3):
+            values = values[:2]
+        if len(values) == 2 and np.isfinite(values).all():
+            geodetic.append((len(model) + len(geodetic), values))
+        elif len(values) == 3 and not uri and np.isfinite(values).all():
+            model.append((len(model) + len(geodetic), values))
+        else:
+            raise PlanError(f"ground station {text!r} must be 'x,y,z' in metres (model frame) or 'lat,lon' in degrees")
+    out = np.zeros((len(texts), 3))
+    for k, v in model:
+        out[k] = v
+    if geodetic:
+        from ..geo import Georeference, resolve_georeference
+        from ..plan.checks.feasibility import GROUND_STATION_HEIGHT_M
+        from ..plan.ground import stations_from_geodetic
+
+        if scene is None:
+            raise PlanError("a ground station given by latitude/longitude needs the model")
+        geo = resolve_georeference(georeference, Georeference.from_scene_metadata(scene.metadata),
+                                   what="a ground station given by latitude/longitude")
+        where = stations_from_geodetic(scene, geo, [v for _, v in geodetic], GROUND_STATION_HEIGHT_M)
+        for (k, _), xyz in zip(geodetic, where):
+            out[k] = xyz
+    return out
 
 
 def aircraft_from_option(name: str):
@@ -74,12 +121,11 @@ def aircraft_from_option(name: str):
 
 
 def flight_settings(safety_distance: float, vlos_radius: float, ground_station: list[str] | None, aircraft: str,
-                    altitude_limit: float, min_height: float | None = None, position_error: str | None = None):
-    import numpy as np
-
+                    altitude_limit: float, min_height: float | None = None, position_error: str | None = None,
+                    scene=None, georeference=None):
     from ..plan.checks.feasibility import FlightSettings
 
-    stations = np.array([parse_point(s, "ground station") for s in ground_station]) if ground_station else None
+    stations = parse_stations(ground_station, scene, georeference)
     return FlightSettings(safety_distance_m=safety_distance, vlos_radius_m=vlos_radius or None, ground_stations=stations,
                           altitude_limit_m=altitude_limit or None, aircraft=aircraft_from_option(aircraft),
                           min_height_m=min_height, position_error_m=position_error)
@@ -88,7 +134,7 @@ def flight_settings(safety_distance: float, vlos_radius: float, ground_station: 
 def default_flight_settings(walked: bool, safety_distance: float | None, vlos_radius: float | None,
                             ground_station: list[str] | None, aircraft: str | None, altitude_limit: float | None,
                             drone_safety_m: float | None = None, min_height: float | None = None,
-                            position_error: str | None = None):
+                            position_error: str | None = None, scene=None, georeference=None):
     """:func:`flight_settings` with the defaults of a drone flight, or of a walked or driven route
     (:func:`~sightplan.plan.templates.registry.default_flight`), for the options not given (None);
     ``drone_safety_m`` replaces a drone's default distance to the model."""
@@ -100,7 +146,8 @@ def default_flight_settings(walked: bool, safety_distance: float | None, vlos_ra
     given = (safety_distance, vlos_radius, aircraft, altitude_limit, min_height)
     defaults = (d["safety_distance_m"], d["vlos_radius_m"], d["aircraft"], d["altitude_limit_m"], d["min_height_m"])
     safety, vlos, craft, limit, low = (x if v is None else v for v, x in zip(given, defaults))
-    return flight_settings(safety, vlos, ground_station, craft, limit, low, position_error)  # type: ignore[arg-type]
+    return flight_settings(safety, vlos, ground_station, craft, limit, low, position_error,  # type: ignore[arg-type]
+                           scene, georeference)
 
 
 def _minutes(t: float | None) -> str:

@@ -87,7 +87,7 @@ def optimize_command(
     walked = cam.kind == "equirectangular"  # a 360° camera: an indoor plan, walked storey by storey
     flight = default_flight_settings(walked, safety_distance, None if walked else vlos_radius,
                                      None if walked else ground_station, aircraft, None if walked else altitude_limit,
-                                     min_height=min_height)
+                                     min_height=min_height, scene=scene)
     settings = OptimizeSettings(scale=scale, engine=engine, spacing_m=spacing, cache_dir=None if cache else False,
                                 cluster=cluster, batch_frames=batch_frames)
     with stage_bars(console) as progress:

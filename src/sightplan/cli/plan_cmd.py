@@ -186,7 +186,7 @@ def plan_command(
     walked = template in WALKED
     settings = default_flight_settings(walked, safety_distance, None if walked else vlos_radius,
                                        None if walked else ground_station, aircraft, None if walked else altitude_limit,
-                                       min_height=min_height, position_error=position_error)
+                                       min_height=min_height, position_error=position_error, scene=scene)
     plan, report = plan_from_template(template, scene, cam, params, settings, obstacles=obstacles, split=split)
     write_plan(plan, output)
     print_feasibility(console, report, f"{template} plan around {Path(str(model)).name} — {cam.name or camera}")
@@ -265,7 +265,8 @@ def check_command(
     warn_if_far(console, scene, plan)
     walked = walked_plan(plan)  # a rover or a walker: no sight line, no altitude limit
     settings = default_flight_settings(walked, safety_distance, vlos_radius, ground_station, aircraft, altitude_limit,
-                                       drone_safety_m=5.0, min_height=min_height, position_error=position_error)
+                                       drone_safety_m=5.0, min_height=min_height, position_error=position_error,
+                                       scene=scene, georeference=plan.parameters.get("georeference"))
     report = (plan_flights if split else check_plan)(scene, plan, settings)
     print_feasibility(console, report, f"{Path(plan_file).name} against {Path(str(model)).name}")
     if output is not None:

@@ -258,3 +258,28 @@ def height_floor(scene: Scene, xy: ArrayLike, min_height_m: float) -> float:
     """The lowest height (model frame) a waypoint over any of the (n, 2) points may fly at: the highest ground under
     them plus ``min_height_m``."""
     return float(ground_z(scene, xy).max()) + float(min_height_m)
+
+
+FAR_STATION_M = 5_000.0  # a pilot station given by latitude/longitude farther than this from the model is a mistake
+
+
+def stations_from_geodetic(scene: Scene, geo, latlon: ArrayLike, height_m: float = 1.5) -> NDArray[np.float64]:
+    """(n, 3) pilot stations (model frame) at (n, 2) latitude°, longitude° (WGS 84): ``height_m`` above the
+    ground there (:func:`ground_z`); ``geo`` is the model's :class:`~sightplan.geo.Georeference`.
+
+    A point more than :data:`FAR_STATION_M` from the model is refused, naming it: a latitude and longitude
+    given the wrong way round, or another site's."""
+    ll = np.asarray(latlon, float).reshape(-1, 2)
+    bad = ~np.isfinite(ll).all(axis=1) | (np.abs(ll[:, 0]) > 90) | (np.abs(ll[:, 1]) > 180)
+    if bad.any():
+        lat, lon = ll[np.flatnonzero(bad)[0]]
+        raise PlanError(f"ground station {lat:g}, {lon:g} is not a latitude (−90…90) and a longitude (−180…180)")
+    xyz = geo.from_geodetic(ll[:, 0], ll[:, 1], np.full(len(ll), geo.height_m))
+    lo, hi = scene.vertices.min(axis=0), scene.vertices.max(axis=0)
+    far = np.linalg.norm(np.maximum(0.0, np.maximum(lo[:2] - xyz[:, :2], xyz[:, :2] - hi[:2])), axis=1)
+    if (far > FAR_STATION_M).any():
+        k = int(np.argmax(far))
+        raise PlanError(f"ground station {ll[k, 0]:.6f}, {ll[k, 1]:.6f} lies {far[k] / 1000:,.1f} km from the model "
+                        f"(placed by {geo.source}): give latitude first, then longitude, of a point on this site")
+    xyz[:, 2] = ground_z(scene, xyz) + float(height_m)
+    return xyz

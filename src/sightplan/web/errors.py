@@ -29,10 +29,21 @@ def validation_message(exc: RequestValidationError) -> str:
     return "; ".join(clauses) + more
 
 
+class FlightChecksFailed(StarletteHTTPException):
+    """409: an export of a plan that fails its flight checks; the answer lists them (``violations``)."""
+
+    def __init__(self, detail: str, violations: list[str], headers: dict[str, str] | None = None) -> None:
+        super().__init__(409, detail, headers)
+        self.violations = violations
+
+
 def install_error_handlers(app: FastAPI) -> None:
     @app.exception_handler(StarletteHTTPException)
     async def http_error(_request: Request, exc: StarletteHTTPException) -> JSONResponse:
-        return JSONResponse({"detail": str(exc.detail)}, status_code=exc.status_code, headers=exc.headers)
+        body: dict = {"detail": str(exc.detail)}
+        if isinstance(exc, FlightChecksFailed):
+            body["violations"] = list(exc.violations)
+        return JSONResponse(body, status_code=exc.status_code, headers=exc.headers)
 
     @app.exception_handler(RequestValidationError)
     async def invalid_request(_request: Request, exc: RequestValidationError) -> JSONResponse:

@@ -27,6 +27,7 @@ class Orm(BaseModel):
 
 class ErrorOut(BaseModel):
     detail: str = Field(description="One readable message")
+    violations: list[str] | None = Field(None, description="An export refused for its flight checks: each violation")
 
 
 class InfoOut(BaseModel):
@@ -118,6 +119,13 @@ class FlightIn(BaseModel):
                                                                 "no check. Default 500, none for a route")
     ground_station: list[Point3] = Field(default_factory=list, description="Pilot positions [x, y, z] to choose from "
                                                                            "(default: the corners of the plan's region)")
+    ground_station_geo: list[Point2] = Field(default_factory=list, max_length=100, description=(
+        "Pilot positions [latitude, longitude] (WGS 84 degrees), placed on the ground of the model's "
+        "georeference, 1.5 m up; with ground_station, candidates to choose from"))
+    position_error: str | None = Field(None, max_length=40, description=(
+        "How far the aircraft may stray from its planned point: 'gnss' (±1.5 m horizontal, ±0.5 m vertical), "
+        "'rtk' (±0.1 m), 'none' or 'H,V' metres. The checks hold at its worst and the frames are placed by it. "
+        "Default: the aircraft's"))
     altitude_limit_m: float | None = Field(None, ge=0, description="Altitude limit (m); 0: no check. Default 120, none "
                                                                    "for a route")
     min_height_m: float | None = Field(None, ge=0, description="Least height of a waypoint above the ground under it "
@@ -421,6 +429,14 @@ class FlightChecksOut(BaseModel):
     missions: list[dict[str, Any]] = Field(description="Per mission: ground station, time, distance and verdicts, "
                                                        "as `sightplan check --json`")
     violations: list[str] = Field(description="Every violation, one sentence each")
+    ground: dict[str, Any] | None = Field(None, description="The site's ground the checks used: its level (model "
+                                                            "frame, m), where it comes from and why")
+    position_error_m: list[float] = Field(default_factory=list, description="The position error the checks hold at: "
+                                                                            "horizontal, vertical (m)")
+    trajectory: list[dict[str, Any]] = Field(default_factory=list, description=(
+        "Per mission: its take-off point, climb and return heights, and the checked flight out (take-off, climb, "
+        "over the first waypoint, the first waypoint) and home (the last waypoint, up, over the take-off, "
+        "landing) as [x, y, z] polylines (model frame, m)"))
 
 
 # --------------------------------------------------------------------------- plan files, evaluations' feedback

@@ -121,7 +121,28 @@ def flight_record(body: TemplatePlanBase | OptimizeIn) -> dict[str, Any]:
         given["min_height_m"] = body.min_height_m
     record = {k: v if v is not None else d[k] for k, v in given.items()}
     _aircraft(record["aircraft"])  # an unknown preset is refused before anything is planned
+    if body.position_error is not None and not walked:
+        from ..plan.checks.safety import position_error
+
+        record["position_error_m"] = list(position_error(body.position_error))  # a bad value is refused here too
     return record
+
+
+def ground_stations(scene: Scene, points: list | None, geodetic: list | None) -> list[list[float]]:
+    """The pilot stations of a request: its model points, then its latitude/longitude points placed on the
+    model's ground by the model's georeference (a model with none is refused, naming what to do)."""
+    out = [list(map(float, p)) for p in points or []]
+    if geodetic:
+        from ..geo import Georeference, GeoreferenceError
+        from ..plan.checks.feasibility import GROUND_STATION_HEIGHT_M
+        from ..plan.ground import stations_from_geodetic
+
+        geo = Georeference.from_scene_metadata(scene.metadata)
+        if geo is None:
+            raise GeoreferenceError("ground stations by latitude/longitude need a georeferenced model "
+                                    "(IfcMapConversion, or IfcSite RefLatitude/RefLongitude): give them as x, y, z")
+        out += stations_from_geodetic(scene, geo, geodetic, GROUND_STATION_HEIGHT_M).tolist()
+    return out
 
 
 def flight_settings(record: dict[str, Any], ground_stations=None, **overrides):
@@ -134,7 +155,8 @@ def flight_settings(record: dict[str, Any], ground_stations=None, **overrides):
     stations = np.array(ground_stations, float) if ground_stations is not None and len(ground_stations) else None
     return FlightSettings(safety_distance_m=float(r["safety_distance_m"]), vlos_radius_m=r["vlos_radius_m"] or None,
                           ground_stations=stations, altitude_limit_m=r["altitude_limit_m"] or None,
-                          aircraft=_aircraft(r["aircraft"]), min_height_m=r.get("min_height_m"))
+                          aircraft=_aircraft(r["aircraft"]), min_height_m=r.get("min_height_m"),
+                          position_error_m=r.get("position_error_m"))
 
 
 def template_plan(scene: Scene, body: TemplatePlanBase) -> Plan:
@@ -149,7 +171,8 @@ def template_plan(scene: Scene, body: TemplatePlanBase) -> Plan:
     fields = {f for f, _, _ in TEMPLATES[name].web_fields()}
     params = TEMPLATES[name].make({f: getattr(body, f) for f in fields})
     plan, _ = plan_from_template(name, scene, get_camera(body.camera), params,
-                                 flight_settings(record, body.ground_station), split=body.split)
+                                 flight_settings(record, ground_stations(scene, body.ground_station,
+                                                                         body.ground_station_geo)), split=body.split)
     return replace(plan, parameters={**plan.parameters, FLIGHT_KEY: record})
 
 

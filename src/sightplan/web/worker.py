@@ -25,6 +25,7 @@ from .services import (
     add_plan_version,
     evaluation_settings,
     flight_settings,
+    ground_stations,
     load_scene,
     report_summary,
     save_element_dates,
@@ -349,7 +350,7 @@ class Worker:
             p, stored, project_id, model_id = dict(job.params), model.stored_name, job.project_id, model.id
             job.message = f"optimising a plan around {model.original_name}"
         scene = load_scene(self.storage, stored)[0]
-        flight = flight_settings(p["flight"], p.get("ground_station") or None)
+        flight = flight_settings(p["flight"], ground_stations(scene, p.get("ground_station"), p.get("ground_station_geo")))
         targets = Targets(k=p["k"], max_ssd_m_px=p.get("max_ssd_m_px"), max_angle_deg=p["max_angle_deg"])
         budget = Budget(frames=p.get("budget_frames"), minutes=p.get("budget_minutes"), batteries=p.get("batteries"))
         progress = staged_progress(self._progress(job_id, 1.0), OPTIMIZE_STAGES)

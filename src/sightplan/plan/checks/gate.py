@@ -29,6 +29,7 @@ def settings_record(settings: FlightSettings) -> dict:
     craft = settings.aircraft
     return {"safety_distance_m": settings.safety_distance_m, "vlos_radius_m": settings.vlos_radius_m,
             "altitude_limit_m": settings.altitude_limit_m, "min_height_m": settings.min_height_m,
+            "position_error_m": list(settings.error),
             "ground_stations": None if settings.ground_stations is None
             else np.asarray(settings.ground_stations, float).tolist(),
             "aircraft": None if craft is None else {"kind": "rover" if isinstance(craft, Rover) else "aircraft",

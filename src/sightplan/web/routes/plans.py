@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import logging
 import re
 import zipfile
 from pathlib import Path
@@ -20,18 +21,23 @@ from ...model.scene import Scene
 from ...plan.templates.registry import TEMPLATES
 from ...plan.types import Plan as PlanData
 from ..deps import PROJECT_ACCESS, ServerState, SessionDep, StateDep, in_project, ready_model
+from ..errors import FlightChecksFailed
 from ..models import Job, Model, Plan, PlanVersion
 from ..schemas import ErrorOut, JobOut, OptimizeIn, PlanFileOut, PlanOut, PlanVersionOut, TemplatePlanIn
 from ..services import (
     add_plan_version,
     checked_plan_json,
     flight_record,
+    ground_stations,
     load_scene,
     read_uploaded_plan,
     template_plan,
 )
 from ..storage import PLAN_SUFFIXES, display_name
 from ..uploads import receive_upload
+
+log = logging.getLogger("sightplan.web")
+FLIGHT_CHECKS_HEADER = "X-Sightplan-Flight-Violations"  # an export's flight-check violations: a 409's, a forced file's
 
 router = APIRouter(prefix="/api/projects/{project_id}/plans", tags=["plans"], dependencies=PROJECT_ACCESS)
 NOT_FOUND = {404: {"model": ErrorOut, "description": "No such project, plan, version or model"}}
@@ -92,6 +98,10 @@ def create_optimised(project_id: int, body: OptimizeIn, session: SessionDep, sta
         raise PlanError("optimised plans need a perspective (pinhole) camera")
     flight = flight_record(body)  # an unknown aircraft is refused before the job
     params = body.model_dump() | {"flight": flight}
+    if body.ground_station_geo:  # placed now: a point off the site is refused before the job
+        scene = ready_scene(state, session, project_id, body.model_id)[1]
+        params |= {"ground_station": ground_stations(scene, body.ground_station, body.ground_station_geo),
+                   "ground_station_geo": []}
     job = Job(project_id=project_id, kind="optimize", model_id=model.id, params=params, message="queued",
               progress_total=1.0)
     session.add(job)
@@ -236,14 +246,16 @@ def export_version(project_id: int, plan_id: int, number: int, session: SessionD
                                 f"none and {where}. Georeference the IFC, or upload a plan that records one")
     geo = resolve_georeference(data.parameters.get("georeference"), model_geo, what=f"a {format} export")
     takeoff = takeoff_point(data, scene, hint="give model_id to take the south-west corner of its region")
-    if not force:
-        from ...plan.checks.gate import export_violations
+    from ...plan.checks.gate import export_violations
 
-        failed = export_violations(data, takeoff, scene)
-        if failed:
-            raise HTTPException(409, f"the plan fails its flight checks ({len(failed)} violation(s)): "
-                                     f"{'; '.join(failed[:20])}{' …' if len(failed) > 20 else ''}. "
-                                     "Fix the plan, or export it anyway with force=true")
+    failed = export_violations(data, takeoff, scene)
+    if failed and not force:
+        raise FlightChecksFailed(f"the plan fails its flight checks ({len(failed)} violation(s)): "
+                                 f"{'; '.join(failed[:20])}{' …' if len(failed) > 20 else ''}. "
+                                 "Fix the plan, or export it anyway with force=true", list(failed),
+                                 headers={FLIGHT_CHECKS_HEADER: str(len(failed))})
+    for v in failed:  # as the CLI's warnings: who exported what despite which violation
+        log.warning("plan %s version %s exported as %s despite its flight checks: %s", plan_id, number, format, v)
     folder = state.storage.temp_path()
     folder.mkdir()
     background.add_task(state.storage.remove, folder)
@@ -262,4 +274,5 @@ def export_version(project_id: int, plan_id: int, number: int, session: SessionD
         with zipfile.ZipFile(path, "w", zipfile.ZIP_DEFLATED) as zf:
             for p in paths:
                 zf.write(p, Path(p).name)
-    return FileResponse(path, media_type=MEDIA.get(path.suffix, "application/octet-stream"), filename=path.name)
+    return FileResponse(path, media_type=MEDIA.get(path.suffix, "application/octet-stream"), filename=path.name,
+                        headers={FLIGHT_CHECKS_HEADER: str(len(failed))} if failed else None)

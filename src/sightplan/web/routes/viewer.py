@@ -250,6 +250,10 @@ def flight_checks(scene, plan, settings) -> dict[str, Any]:
         "in_sight": report.in_sight.tolist(),
         "missions": summary["missions"],
         "violations": list(report.violations),
+        "ground": summary["ground"],
+        "position_error_m": summary["position_error_m"],
+        "trajectory": [{**p.to_dict(), "out": np.round(out, 3).tolist(), "home": np.round(home, 3).tolist()}
+                       for p in report.paths for out, home in [p.points()]],
     }
 
 

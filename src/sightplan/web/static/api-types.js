@@ -46,6 +46,8 @@
  * @property {(string|null)} [aircraft] Aircraft preset (p4p, m3e, m300), rover preset for a route (walker-360, spot, tracked), or 'none' for no battery check. Default p4p, walker-360 for a route
  * @property {(number|null)} [vlos_radius_m] Visual line-of-sight radius around the pilot (m); 0: no check. Default 500, none for a route
  * @property {Array<Array<number>>} [ground_station] Pilot positions [x, y, z] to choose from (default: the corners of the plan's region)
+ * @property {Array<Array<number>>} [ground_station_geo] Pilot positions [latitude, longitude] (WGS 84 degrees), placed on the ground of the model's georeference, 1.5 m up; with ground_station, candidates to choose from
+ * @property {(string|null)} [position_error] How far the aircraft may stray from its planned point: 'gnss' (±1.5 m horizontal, ±0.5 m vertical), 'rtk' (±0.1 m), 'none' or 'H,V' metres. The checks hold at its worst and the frames are placed by it. Default: the aircraft's
  * @property {(number|null)} [altitude_limit_m] Altitude limit (m); 0: no check. Default 120, none for a route
  * @property {(number|null)} [min_height_m] Least height of a waypoint above the ground under it (m). Default 2, none for a route
  * @property {string} [name] Default: the template's name
@@ -118,6 +120,7 @@
 /**
  * @typedef {object} ErrorOut
  * @property {string} detail One readable message
+ * @property {(Array<string>|null)} [violations] An export refused for its flight checks: each violation
  */
 
 /**
@@ -163,6 +166,8 @@
  * @property {(string|null)} [aircraft] Aircraft preset (p4p, m3e, m300), rover preset for a route (walker-360, spot, tracked), or 'none' for no battery check. Default p4p, walker-360 for a route
  * @property {(number|null)} [vlos_radius_m] Visual line-of-sight radius around the pilot (m); 0: no check. Default 500, none for a route
  * @property {Array<Array<number>>} [ground_station] Pilot positions [x, y, z] to choose from (default: the corners of the plan's region)
+ * @property {Array<Array<number>>} [ground_station_geo] Pilot positions [latitude, longitude] (WGS 84 degrees), placed on the ground of the model's georeference, 1.5 m up; with ground_station, candidates to choose from
+ * @property {(string|null)} [position_error] How far the aircraft may stray from its planned point: 'gnss' (±1.5 m horizontal, ±0.5 m vertical), 'rtk' (±0.1 m), 'none' or 'H,V' metres. The checks hold at its worst and the frames are placed by it. Default: the aircraft's
  * @property {(number|null)} [altitude_limit_m] Altitude limit (m); 0: no check. Default 120, none for a route
  * @property {(number|null)} [min_height_m] Least height of a waypoint above the ground under it (m). Default 2, none for a route
  * @property {string} [name] Default: the template's name
@@ -267,6 +272,9 @@
  * @property {Array<boolean>} in_sight Each waypoint within the VLOS radius of its mission's ground station
  * @property {Array<Object<string, *>>} missions Per mission: ground station, time, distance and verdicts, as `sightplan check --json`
  * @property {Array<string>} violations Every violation, one sentence each
+ * @property {(Object<string, *>|null)} [ground] The site's ground the checks used: its level (model frame, m), where it comes from and why
+ * @property {Array<number>} [position_error_m] The position error the checks hold at: horizontal, vertical (m)
+ * @property {Array<Object<string, *>>} [trajectory] Per mission: its take-off point, climb and return heights, and the checked flight out (take-off, climb, over the first waypoint, the first waypoint) and home (the last waypoint, up, over the take-off, landing) as [x, y, z] polylines (model frame, m)
  */
 
 /**
@@ -316,6 +324,8 @@
  * @property {(string|null)} [aircraft] Aircraft preset (p4p, m3e, m300), rover preset for a route (walker-360, spot, tracked), or 'none' for no battery check. Default p4p, walker-360 for a route
  * @property {(number|null)} [vlos_radius_m] Visual line-of-sight radius around the pilot (m); 0: no check. Default 500, none for a route
  * @property {Array<Array<number>>} [ground_station] Pilot positions [x, y, z] to choose from (default: the corners of the plan's region)
+ * @property {Array<Array<number>>} [ground_station_geo] Pilot positions [latitude, longitude] (WGS 84 degrees), placed on the ground of the model's georeference, 1.5 m up; with ground_station, candidates to choose from
+ * @property {(string|null)} [position_error] How far the aircraft may stray from its planned point: 'gnss' (±1.5 m horizontal, ±0.5 m vertical), 'rtk' (±0.1 m), 'none' or 'H,V' metres. The checks hold at its worst and the frames are placed by it. Default: the aircraft's
  * @property {(number|null)} [altitude_limit_m] Altitude limit (m); 0: no check. Default 120, none for a route
  * @property {(number|null)} [min_height_m] Least height of a waypoint above the ground under it (m). Default 2, none for a route
  * @property {string} [name] Default: the template's name
@@ -431,6 +441,8 @@
  * @property {(string|null)} [aircraft] Aircraft preset (p4p, m3e, m300), rover preset for a route (walker-360, spot, tracked), or 'none' for no battery check. Default p4p, walker-360 for a route
  * @property {(number|null)} [vlos_radius_m] Visual line-of-sight radius around the pilot (m); 0: no check. Default 500, none for a route
  * @property {Array<Array<number>>} [ground_station] Pilot positions [x, y, z] to choose from (default: the corners of the plan's region)
+ * @property {Array<Array<number>>} [ground_station_geo] Pilot positions [latitude, longitude] (WGS 84 degrees), placed on the ground of the model's georeference, 1.5 m up; with ground_station, candidates to choose from
+ * @property {(string|null)} [position_error] How far the aircraft may stray from its planned point: 'gnss' (±1.5 m horizontal, ±0.5 m vertical), 'rtk' (±0.1 m), 'none' or 'H,V' metres. The checks hold at its worst and the frames are placed by it. Default: the aircraft's
  * @property {(number|null)} [altitude_limit_m] Altitude limit (m); 0: no check. Default 120, none for a route
  * @property {(number|null)} [min_height_m] Least height of a waypoint above the ground under it (m). Default 2, none for a route
  * @property {string} [name] Default: 'optimised (k = …)'
@@ -452,6 +464,8 @@
  * @property {(string|null)} [aircraft] Aircraft preset (p4p, m3e, m300), rover preset for a route (walker-360, spot, tracked), or 'none' for no battery check. Default p4p, walker-360 for a route
  * @property {(number|null)} [vlos_radius_m] Visual line-of-sight radius around the pilot (m); 0: no check. Default 500, none for a route
  * @property {Array<Array<number>>} [ground_station] Pilot positions [x, y, z] to choose from (default: the corners of the plan's region)
+ * @property {Array<Array<number>>} [ground_station_geo] Pilot positions [latitude, longitude] (WGS 84 degrees), placed on the ground of the model's georeference, 1.5 m up; with ground_station, candidates to choose from
+ * @property {(string|null)} [position_error] How far the aircraft may stray from its planned point: 'gnss' (±1.5 m horizontal, ±0.5 m vertical), 'rtk' (±0.1 m), 'none' or 'H,V' metres. The checks hold at its worst and the frames are placed by it. Default: the aircraft's
  * @property {(number|null)} [altitude_limit_m] Altitude limit (m); 0: no check. Default 120, none for a route
  * @property {(number|null)} [min_height_m] Least height of a waypoint above the ground under it (m). Default 2, none for a route
  * @property {string} [name] Default: the template's name
@@ -600,6 +614,8 @@
  * @property {(string|null)} [aircraft] Aircraft preset (p4p, m3e, m300), rover preset for a route (walker-360, spot, tracked), or 'none' for no battery check. Default p4p, walker-360 for a route
  * @property {(number|null)} [vlos_radius_m] Visual line-of-sight radius around the pilot (m); 0: no check. Default 500, none for a route
  * @property {Array<Array<number>>} [ground_station] Pilot positions [x, y, z] to choose from (default: the corners of the plan's region)
+ * @property {Array<Array<number>>} [ground_station_geo] Pilot positions [latitude, longitude] (WGS 84 degrees), placed on the ground of the model's georeference, 1.5 m up; with ground_station, candidates to choose from
+ * @property {(string|null)} [position_error] How far the aircraft may stray from its planned point: 'gnss' (±1.5 m horizontal, ±0.5 m vertical), 'rtk' (±0.1 m), 'none' or 'H,V' metres. The checks hold at its worst and the frames are placed by it. Default: the aircraft's
  * @property {(number|null)} [altitude_limit_m] Altitude limit (m); 0: no check. Default 120, none for a route
  * @property {(number|null)} [min_height_m] Least height of a waypoint above the ground under it (m). Default 2, none for a route
  * @property {string} [name] Default: the template's name

@@ -2,22 +2,25 @@
 // byte progress, and the Server-Sent Events of a background job.
 
 export class ApiError extends Error {
-  constructor(status, detail) {
+  constructor(status, detail, violations = null) {
     super(detail);
     this.status = status;
     this.detail = detail;
+    this.violations = violations;  // an export refused for its flight checks: each violation
   }
 }
 
 async function errorOf(response) {
   let detail = `${response.status} ${response.statusText}`;
+  let violations = null;
   try {
     const body = await response.json();
     if (body && typeof body.detail === 'string') detail = body.detail;
+    if (body && Array.isArray(body.violations)) violations = body.violations;
   } catch {
     // not JSON: keep the status line
   }
-  return new ApiError(response.status, detail);
+  return new ApiError(response.status, detail, violations);
 }
 
 let onUnauthorized = null;
@@ -71,7 +74,7 @@ export async function download(url) {
   a.click();
   a.remove();
   setTimeout(() => URL.revokeObjectURL(href), 60000);
-  return { name, size: blob.size };
+  return { name, size: blob.size, headers: response.headers };
 }
 
 // Multipart upload with progress of the bytes sent (fetch cannot report it).

@@ -125,7 +125,11 @@ function renderChecks() {
   $('#checks-summary').textContent = (c.ok ? 'The plan can be flown' : `${c.violations.length} violation(s)`)
     + ` — safety distance ${c.safety_distance_m} m, VLOS radius ${c.vlos_radius_m ?? '—'} m${time}; `
     + `least clearance ${formatNumber(Math.min(...c.clearance_m.filter((x) => x !== null)), 3)} m`
-    + (unsafe ? `; ${c.unsafe_frames.length} frame(s) and ${c.unsafe_segments.length} segment(s) too close (red)` : '');
+    + (unsafe ? `; ${c.unsafe_frames.length} frame(s) and ${c.unsafe_segments.length} segment(s) too close (red)` : '')
+    + (c.ground ? `. Ground z ${formatNumber(c.ground.level_m, 2)} m (${c.ground.source})` : '')
+    + (c.position_error_m && c.position_error_m.length
+      ? `; checked at ±${c.position_error_m[0]} m horizontal, ±${c.position_error_m[1]} m vertical position error` : '')
+    + (c.trajectory && c.trajectory.length ? '; take-off and return drawn green and amber' : '');
   const yes = (v) => (v === null ? '—' : v ? 'ok' : 'NO');
   $('#missions-table tbody').replaceChildren(...c.missions.map((m) => el('tr', {},
     el('td', {}, m.name), el('td', {}, `${m.frames[0]}–${m.frames[1] - 1}`),
@@ -201,8 +205,36 @@ async function exportPlan(format) {
   if ($('#export-mission').value) q.set('mission', $('#export-mission').value);
   if (format === 'wpml' && $('#export-aircraft').value) q.set('aircraft', $('#export-aircraft').value);
   if (state.model && state.model.status === 'ready') q.set('model_id', String(state.model.id));
-  const file = await api.download(projectUrl(`/plans/${state.plan.id}/versions/${state.version}/export?${q}`));
+  const url = (force) => projectUrl(`/plans/${state.plan.id}/versions/${state.version}/export?${q}${force ? '&force=true' : ''}`);
+  let file;
+  try {
+    file = await api.download(url(false));
+  } catch (err) {
+    if (!(err.status === 409 && err.violations)) throw err;
+    if (!(await confirmForce(format, err.violations))) {
+      showMessage(`Not exported: the plan fails ${err.violations.length} flight check(s).`, 'info');
+      return;
+    }
+    file = await api.download(url(true));
+    showMessage(`Exported ${file.name} despite ${err.violations.length} flight-check violation(s): fly it only `
+      + 'after checking them on site.', 'error');
+    return;
+  }
   showMessage(`Downloaded ${file.name} (${(file.size / 1024).toFixed(1)} kB).`, 'ok');
+}
+
+// the violations that refused an export, and the choice to export anyway: true when chosen
+function confirmForce(format, violations) {
+  const dialog = $('#force-dialog');
+  $('#force-summary').textContent = `The ${format} export was refused: ${violations.length} violation(s).`;
+  $('#force-violations').replaceChildren(...violations.slice(0, 50).map((v) => el('li', {}, v)),
+    ...(violations.length > 50 ? [el('li', {}, `… and ${violations.length - 50} more`)] : []));
+  return new Promise((resolve) => {
+    dialog.addEventListener('close', () => resolve(dialog.returnValue === 'force'), { once: true });
+    dialog.returnValue = '';
+    dialog.showModal();
+    $('#force-cancel').focus();
+  });
 }
 
 export function bindPlans() {

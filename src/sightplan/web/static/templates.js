@@ -50,9 +50,43 @@ export function flightBody() {
   const num = (node) => (node.value === '' ? null : Number(node.value));
   const body = { vlos_radius_m: num($('#plan-vlos')), altitude_limit_m: num($('#plan-alt-limit')) };
   if ($('#plan-aircraft').value) body.aircraft = $('#plan-aircraft').value;
-  const stations = parsePoints($('#plan-stations').value, 3, 'ground station');
-  if (stations.length) body.ground_station = stations;
+  if ($('#plan-position-error').value) body.position_error = $('#plan-position-error').value;
+  const { model, geodetic } = parseStations($('#plan-stations').value);
+  if (model.length) body.ground_station = model;
+  if (geodetic.length) body.ground_station_geo = geodetic;
   return body;
+}
+
+/** The ground stations typed, one a line: 'x, y, z' in metres (model frame), or 'lat, lon' in degrees (WGS 84)
+ * or a phone map's 'geo:lat,lon' link, which the server places on the model's ground by its georeference. */
+export function parseStations(text) {
+  const model = [];
+  const geodetic = [];
+  text.split(/[\n;]+/).map((l) => l.trim()).filter(Boolean).forEach((line, k) => {
+    const uri = /^geo:/i.test(line);
+    const body = uri ? line.slice(4).split(';')[0] : line.replace(/^\[|\]$/g, '');
+    const v = body.split(/[,\s]+/).filter(Boolean).map(Number);
+    if (v.some((x) => !Number.isFinite(x))) v.length = 0;
+    if (v.length === 2 || (uri && v.length === 3)) geodetic.push(v.slice(0, 2));
+    else if (v.length === 3) model.push(v);
+    else throw new Error(`ground station ${k + 1} (“${line}”) must be x, y, z in metres or lat, lon in degrees`);
+  });
+  return { model, geodetic };
+}
+
+// the pilot's own position from the phone's or laptop's location, as a 'lat, lon' line of the stations
+function addMyPosition() {
+  if (!navigator.geolocation) throw new Error('this browser gives no location');
+  return new Promise((resolve, reject) => navigator.geolocation.getCurrentPosition((pos) => {
+    const { latitude, longitude, accuracy } = pos.coords;
+    const box = $('#plan-stations');
+    box.value = `${box.value.trim() ? `${box.value.trim()}\n` : ''}${latitude.toFixed(7)}, ${longitude.toFixed(7)}`;
+    showMessage(`Your position (±${Math.round(accuracy)} m) is a ground station; the server places it on the `
+      + 'model’s ground.', 'ok');
+    updateMarkers();
+    resolve();
+  }, (err) => reject(new Error(`no location: ${err.message}${window.isSecureContext ? ''
+    : ' (a browser gives it only to https pages and localhost)'}`)), { enableHighAccuracy: true, timeout: 20000 }));
 }
 
 const bounds = (f) => [f.ge !== null ? `≥ ${f.ge}` : '', f.gt !== null ? `> ${f.gt}` : '', f.le !== null ? `≤ ${f.le}` : '',
@@ -174,7 +208,7 @@ function updateMarkers() {
     const points = safe(() => parsePoints($(`#plan-${f.name}`).value, n, f.label));
     sets.push({ colour: COLOURS[f.kind], line: true, points: n === 2 ? points.map(([x, y]) => [x, y, ground]) : points });
   }
-  sets.push({ colour: COLOURS.stations, line: false, points: safe(() => parsePoints($('#plan-stations').value, 3, 'ground station')) });
+  sets.push({ colour: COLOURS.stations, line: false, points: safe(() => parseStations($('#plan-stations').value).model) });
   viewer.setMarkers(sets);
 }
 
@@ -221,6 +255,7 @@ export function bindTemplateForm({ planCreated }) {
   $('#pick-stations').addEventListener('click', (ev) => act('Picking points', async () => startPicking('stations', {
     button: ev.currentTarget, what: 'a ground station', onPoint: (point) => addPickedPoint(stations, point) })));
   $('#plan-stations').addEventListener('input', updateMarkers);
+  $('#my-position').addEventListener('click', () => act('Reading your position', addMyPosition));
   $('#plan-new').addEventListener('toggle', () => {
     if (!$('#plan-new').open) stopPicking();
     updateMarkers();

@@ -18,6 +18,7 @@
 //   view.screenPoint([x, y, z])    where a model point is on screen: { x, y, inView } (client pixels)
 //   view.frameScreenPoint(i), view.elementScreenPoint(e)
 //                                  where frame i's centre is; a point where element e is the first thing hit (or null)
+//   view.flightLines()             the take-off and return lines drawn: [{ name, segments }]
 //   view.highlightedElement()      the element outlined, or null
 //   view.realityInfo()             each reality capture drawn: { id, kind, shown, box, triangles, pointsVisible, … }
 //   view.toViewer([x, y, z])       a model point in the viewer's frame
@@ -35,6 +36,8 @@ export function installTestHook() {
     screenPoint: (p) => viewer.screenPoint(p),
     frameScreenPoint: (i) => viewer.frameScreenPoint(i),
     elementScreenPoint: (e) => viewer.elementScreenPoint(e),
+    flightLines: () => (viewer.plan && viewer.plan.stations ? viewer.plan.stations.children.filter((o) => o.isLineSegments)
+      .map((o) => ({ name: o.name, segments: o.geometry.getAttribute('position').count / 2 })) : []),
     highlightedElement: () => (viewer.highlight ? viewer.highlight.userData.element : null),
     realityInfo: () => viewer.realityInfo(),
     toViewer: (p) => viewer.toViewer(p),

@@ -10,6 +10,7 @@ import * as THREE from 'three';
 import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
 import { MeshBVH } from 'three-mesh-bvh/core/MeshBVH.js';
 import { acceleratedRaycast } from 'three-mesh-bvh/utils/ExtensionUtilities.js';
+import { flightGroup } from './flight3d.js';
 
 const SOLID = 0;
 const GHOST = 1;
@@ -411,45 +412,8 @@ export class Viewer {
   }
 
   _stations(plan, checks) {
-    const seen = new Map();
-    plan.missions.forEach((ms) => {
-      if (ms.ground_station) seen.set(ms.ground_station.join(','), ms.ground_station);
-    });
-    const group = new THREE.Group();
-    const size = this.frameSize;
-    const vlos = checks && checks.vlos_radius_m;
-    for (const gs of seen.values()) {
-      const p = this.toViewer(gs);
-      const cone = new THREE.Mesh(new THREE.ConeGeometry(0.45 * size, 1.3 * size, 16),
-        new THREE.MeshLambertMaterial({ color: 0x0b7a3e }));
-      cone.position.set(p[0], p[1] + 0.65 * size, p[2]);
-      group.add(cone);
-      if (vlos) {
-        const ring = [];
-        for (let k = 0; k <= 128; k++) {
-          const a = (k / 128) * Math.PI * 2;
-          ring.push(p[0] + vlos * Math.cos(a), p[1], p[2] + vlos * Math.sin(a));
-        }
-        const g = new THREE.BufferGeometry();
-        g.setAttribute('position', new THREE.Float32BufferAttribute(ring, 3));
-        group.add(new THREE.Line(g, new THREE.LineDashedMaterial({ color: 0x0b7a3e, dashSize: vlos / 40,
-          gapSize: vlos / 60 })).computeLineDistances());
-      }
-    }
-    // each mission's take-off line: station to its first frame
-    const links = [];
-    for (const ms of plan.missions) {
-      if (!ms.ground_station || ms.stop <= ms.start) continue;
-      links.push(...this.toViewer(ms.ground_station), ...this.plan.centres.subarray(3 * ms.start, 3 * ms.start + 3));
-    }
-    if (links.length) {
-      const g = new THREE.BufferGeometry();
-      g.setAttribute('position', new THREE.Float32BufferAttribute(links, 3));
-      group.add(new THREE.LineSegments(g, new THREE.LineBasicMaterial({ color: 0x0b7a3e, transparent: true,
-        opacity: 0.5 })));
-    }
-    this.plan.stations = group;
-    this.planGroup.add(group);
+    this.plan.stations = flightGroup(plan, checks, this.frameSize, (p) => this.toViewer(p));
+    this.planGroup.add(this.plan.stations);
   }
 
   _violations(checks) {
