@@ -178,7 +178,7 @@ def test_every_export_is_accepted_by_its_autopilot(tmp_path, plans, autopilot):
                     assert why is None, f"{name}, {path.name}: {why}"
                     checked += 1
                 commands = {r[0] for r in rows}
-                assert commands <= {16, 20, 21, 22, 115, 205, 2000}
+                assert commands <= {16, 20, 21, 22, 93, 112, 115, 205, 2000}
                 assert (115 in commands) == (autopilot == "ardupilot")
     assert checked > 2000
 
@@ -239,8 +239,8 @@ def test_wpl_headings_read_back_with_pymavlink(tmp_path, plans, autopilot):
                 got = fly_ardupilot(items) if autopilot == "ardupilot" else fly_px4(items)
                 photos += [(lat, lon, home.z + alt, h, p) for lat, lon, alt, h, p in got]
                 yaws += sum(w.command == 115 for w in items)
-                # the stops: waypoints followed by a gimbal command (the climb, the return and home are not stops)
-                waypoints += sum(w.command == 16 and items[k + 1].command == 205 for k, w in enumerate(items[1:-1], 1))
+                # the stops: waypoints followed by a photo (PX4; the climb, the return and home are not stops)
+                waypoints += sum(w.command == 16 and items[k + 1].command == 2000 for k, w in enumerate(items[1:-1], 1))
             assert len(photos) == len(plan), name
             xyz = georef.from_geodetic(*np.array([g[:3] for g in photos]).T)
             np.testing.assert_allclose(xyz, C, atol=0.01, err_msg=name)

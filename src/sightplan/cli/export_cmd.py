@@ -100,7 +100,7 @@ def export_command(
     written: list = []
     paths = export_files(plan, fmt, out, geo, takeoff_m, speed_m_s=speed, mission=mission, mission_label="--mission",
                          autopilot=autopilot, aircraft=aircraft if spec.aircraft_choice else None,
-                         per_mission_takeoff=takeoff is None, report=written)
+                         per_mission_takeoff=takeoff is None, report=written, faithful=not force)
     console.print(f"georeference: {geo.describe()}", highlight=False)
     low = [f for f in written if f.lowest_altitude_m < MIN_ALTITUDE_M - 1e-6]
     if low:

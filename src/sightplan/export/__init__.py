@@ -14,6 +14,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, replace
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from numpy.typing import ArrayLike
 
@@ -25,6 +26,9 @@ from ..formats.registry import EXPORT_FORMATS, FORMATS, WRITERS, ExportFormat, w
 from ..formats.wpml import AircraftError  # importable from here: export_plan raises it
 from ..geo import Georeference
 from ..plan.types import Plan
+
+if TYPE_CHECKING:
+    from ..flight.fidelity import Fidelity
 
 EXTENSIONS = {f.name: f.suffix for f in WRITERS}
 
@@ -53,10 +57,13 @@ class ExportedFile:
     lowest_altitude_m: float  # model metres (z) above the waypoint's take-off point
     takeoff: Takeoff | None
     settings: tuple[str, ...] = ()
+    simulated: Fidelity | None = None  # the replay of its missions (MAVLink formats)
 
     def summary(self) -> str:
         """'(what it is for): lowest waypoint …; settings' for the CLI's ``wrote PATH`` line."""
         bits = [f"lowest waypoint {self.lowest_altitude_m:+.1f} m above take-off"]
+        if self.simulated is not None:
+            bits.append(self.simulated.summary())
         if self.takeoff is not None:
             bits.append(f"take off at {self.takeoff.latitude_deg:.6f},{self.takeoff.longitude_deg:.6f}")
         bits += list(self.settings)
@@ -66,7 +73,7 @@ class ExportedFile:
 def export_plan(plan: Plan, fmt: ExportFormat, path: str | Path, georef: Georeference, takeoff_m: ArrayLike,
                 speed_m_s: float = 5.0, mission: int | None = None, autopilot: Autopilot | None = None,
                 aircraft: str | None = None, per_mission_takeoff: bool = True,
-                report: list[ExportedFile] | None = None) -> list[Path]:
+                report: list[ExportedFile] | None = None, faithful: bool = True) -> list[Path]:
     """Write ``plan`` for a flight app or a map; returns the files written.
 
     georef: where the model frame lies on the Earth. takeoff_m: (3,) model-frame take-off (home)
@@ -82,6 +89,9 @@ def export_plan(plan: Plan, fmt: ExportFormat, path: str | Path, georef: Georefe
     aircraft: for ``wpml``, a key of :data:`~sightplan.formats.wpml.AIRCRAFT`; None: the aircraft that
     carries the plan's camera (a camera none carries is refused, naming the choices).
     report: a list to which an :class:`ExportedFile` is appended per file written.
+    faithful: for ``qgc`` and ``wpl``, every mission is first replayed under its autopilot's rules
+    (:mod:`sightplan.flight`); a photo more than 0.1 m or 1° from its frame, or taken while the gimbal moves,
+    refuses the export (a PlanError naming it) unless ``faithful`` is False.
     Raises :class:`~sightplan.errors.PlanError` naming the frames a drone cannot take in that
     format (gimbal pitch out of range, a rolled camera), and for ``wpml`` an aircraft, speed or pitch
     DJI cannot fly (:class:`~sightplan.formats.wpml.AircraftError`).
@@ -109,15 +119,25 @@ def export_plan(plan: Plan, fmt: ExportFormat, path: str | Path, georef: Georefe
         jobs = [(build(m - 1), paths[m]) for m in numbers]
     else:
         jobs = [(build(mission), path)]
+    replays: list[Fidelity | None] = [None] * len(jobs)
+    if spec.autopilot:
+        from ..flight.fidelity import flight_fidelity
+
+        replays = [flight_fidelity(flight, autopilot) for flight, _ in jobs]
+        off = next((r for r in replays if not r.faithful), None)
+        if off is not None and faithful:
+            raise PlanError(f"the {fmt} export would not take its photos at the frames: {off.summary()}"
+                            f"{'; ' + off.notes[0] if off.notes else ''}; export it anyway with --force (force=true on the web)")
     written: list[Path] = []
     try:
-        for flight, out in jobs:
+        for (flight, out), replay in zip(jobs, replays):
             files = spec.write(flight, out, target)
             written += files
             if report is not None:
                 start = flight.takeoff_of(flight.waypoints[0].mission) if spec.per_mission else None
                 lowest = min(w.position_m[2] - flight.takeoff_of(w.mission).position_m[2] for w in flight.waypoints)
-                report += [ExportedFile(Path(f), fmt, target.aircraft, autopilot, lowest, start, settings) for f in files]
+                report += [ExportedFile(Path(f), fmt, target.aircraft, autopilot, lowest, start, settings, replay)
+                           for f in files]
     except OSError as exc:
         raise PlanError(f"cannot write {path}: {exc.strerror or exc}") from None
     return written

@@ -69,7 +69,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Literal, get_args
+from typing import TYPE_CHECKING, Literal, get_args
 
 import numpy as np
 from numpy.typing import NDArray
@@ -81,6 +81,9 @@ from ..geo import Georeference, GeoreferenceError
 from ..geometry.poses import R_from_gimbal
 from ..plan.types import Mission, Plan
 from .flight import SAME_POSITION_M, Flight, Photo, Waypoint, same_angle
+
+if TYPE_CHECKING:
+    from ..flight.simulate import Gimbal
 from .reading import DEFAULT_PITCH_DEG, DEFAULT_SPEED_M_S, bearing, differs, given_camera
 
 # MAV_CMD: navigation
@@ -471,7 +474,17 @@ def plan_from_source(src: MissionSource, georef: Georeference | None, camera: Ca
 # ---- writing a flight --------------------------------------------------------------------------
 
 MIN_TAKEOFF_ALTITUDE_M = 2.0
-ARDUPILOT_STOP_HOLD_S = 4.0  # a 180° turn at Copter's default yaw slew (60°/s) takes 3 s; then the shot
+NAV_DELAY, CONDITION_DELAY = 93, 112
+# PX4: each photo waypoint is reached within this radius (param2) and then held (param1) for the position to settle,
+# plus the yaw turn at MPC_YAWRAUTO_MAX and the gimbal's travel: the photo is taken still, on the frame
+PX4_ACCEPTANCE_M = 0.5
+PX4_SETTLE_S = 1.0
+PX4_YAW_RATE_DEG_S = 45.0
+# ArduPilot: the hold of a stop's waypoint covers the turn at ATC_SLEW_YAW, the waits, and this margin
+ARDUPILOT_STOP_HOLD_S = 1.0
+ARDUPILOT_YAW_RATE_DEG_S = 60.0
+UNKNOWN_PITCH_MOVE_DEG = 90.0  # the gimbal's travel assumed for the first pitch of a mission
+YAW_SETTLE_S = 0.5  # CONDITION_YAW is verified within 2°: the photo waits this long after it
 
 
 def resolve_autopilot(autopilot: str | None, default: str = "px4") -> str:
@@ -481,6 +494,14 @@ def resolve_autopilot(autopilot: str | None, default: str = "px4") -> str:
     if autopilot not in AUTOPILOTS:
         raise PlanError(f"unknown autopilot {autopilot!r}; expected one of {', '.join(AUTOPILOTS)}")
     return autopilot
+
+
+def _bearing(a: tuple[float, float], b: tuple[float, float]) -> float | None:
+    """The true bearing from (latitude°, longitude°) a to b, None closer than 1 m (a local flat approximation: it
+    only sizes a turn's time; ArduPilot faces its way only beyond 2 m, so a leg near that length counts)."""
+    dy = math.radians(b[0] - a[0]) * 6_371_000.0
+    dx = math.radians(b[1] - a[1]) * 6_371_000.0 * math.cos(math.radians(a[0]))
+    return None if math.hypot(dx, dy) < 1.0 else math.degrees(math.atan2(dx, dy)) % 360.0
 
 
 def stops(photos: tuple[Photo, ...]) -> list[list[Photo]]:
@@ -494,21 +515,44 @@ def stops(photos: tuple[Photo, ...]) -> list[list[Photo]]:
     return out
 
 
-def mission_items(flight: Flight, waypoints: list[Waypoint], autopilot: Autopilot = "px4") -> list[dict]:
+def _turn(a: float, b: float) -> float:
+    """The least turn from heading a to heading b (degrees, ≥ 0)."""
+    return abs((b - a + 180.0) % 360.0 - 180.0)
+
+
+def _worst_turn(yaw: float | None, travel: float | None, heading: float) -> float:
+    """The largest turn to ``heading`` the aircraft may need at a stop: from its last heading ``yaw`` (None:
+    unknown, 180°), or from anywhere on its way round to the direction of travel ``travel`` (an autopilot that faces
+    the way it flies may not have finished that turn on a short leg)."""
+    if yaw is None:
+        return 180.0
+    if travel is None:
+        return _turn(yaw, heading)
+    arc = (travel - yaw + 180.0) % 360.0 - 180.0
+    return max(_turn(yaw + arc * t, heading) for t in np.linspace(0.0, 1.0, 37))
+
+
+def mission_items(flight: Flight, waypoints: list[Waypoint], autopilot: Autopilot = "px4",
+                  gimbal: Gimbal | None = None) -> list[dict]:
     """The command sequence of one mission for ``autopilot``: dicts with ``command``, ``frame``, 7 ``params`` and
-    ``nav`` (positional); see the module docstring."""
+    ``nav`` (positional); see the module docstring. ``gimbal``: its slew rate and settle time, which set the waits
+    (default :class:`~sightplan.flight.simulate.Gimbal`)."""
+    from ..flight.simulate import Gimbal as _Gimbal
+
     autopilot = resolve_autopilot(autopilot)
+    gimbal = gimbal or _Gimbal()
     items: list[dict] = []
 
     def add(command: int, params: list[float], nav: bool = False) -> None:
         items.append({"command": command, "frame": FRAME_GLOBAL_RELATIVE_ALT if nav else FRAME_MISSION,
                       "params": [float(p) for p in params], "nav": nav})
 
-    def waypoint(wp: Waypoint, heading: float, hold_s: float = 0.0) -> None:
-        add(NAV_WAYPOINT, [hold_s, 0, 0, heading, wp.latitude_deg, wp.longitude_deg, wp.altitude_m], nav=True)
+    def waypoint(wp: Waypoint, heading: float, hold_s: float = 0.0, accept_m: float = 0.0) -> None:
+        add(NAV_WAYPOINT, [round(hold_s, 2), accept_m, 0, heading, wp.latitude_deg, wp.longitude_deg, wp.altitude_m],
+            nav=True)
 
-    def mount(photo: Photo) -> None:
-        add(DO_MOUNT_CONTROL, [photo.pitch_deg, 0, 0, 0, 0, 0, MOUNT_MODE_MAVLINK_TARGETING])
+    def mount(pitch: float) -> None:
+        add(DO_MOUNT_CONTROL, [pitch, 0, 0, 0, 0, 0, MOUNT_MODE_MAVLINK_TARGETING])
 
     first, last = waypoints[0], waypoints[-1]
     path = flight.path_of(first.mission)
@@ -517,21 +561,49 @@ def mission_items(flight: Flight, waypoints: list[Waypoint], autopilot: Autopilo
                       climb], nav=True)
     if path and climb > first.altitude_m + SAME_POSITION_M:  # level at the climb height, then down to the first
         add(NAV_WAYPOINT, [0, 0, 0, first.photos[0].heading_deg, first.latitude_deg, first.longitude_deg, climb], nav=True)
+    # the aircraft's heading and the gimbal's pitch so far, unknown at take-off: any turn may be needed, and the
+    # first photo's pitch is always sent
+    yaw, pitch, at = None, None, None
     for wp in waypoints:
         groups = stops(wp.photos)
+        travel = None if at is None else _bearing(at, (wp.latitude_deg, wp.longitude_deg))
+        at = (wp.latitude_deg, wp.longitude_deg)
         if autopilot == "ardupilot":
             waypoint(wp, groups[0][0].heading_deg)
         for group in groups:
             heading = group[0].heading_deg
+            turn = _worst_turn(yaw, travel, heading)
+            travel, yaw = None, heading
             if autopilot == "px4":
-                waypoint(wp, heading)
-            for k, photo in enumerate(group):
-                mount(photo)
-                if autopilot == "ardupilot" and k == 0:
-                    add(CONDITION_YAW, [heading, 0, 0, 0, 0, 0, 0])
+                # the gimbal turns on the way; the waypoint holds until the aircraft, its yaw and the gimbal are still
+                moved = UNKNOWN_PITCH_MOVE_DEG if pitch is None else abs(group[0].pitch_deg - pitch)
+                if moved > 0:
+                    mount(group[0].pitch_deg)
+                    pitch = group[0].pitch_deg
+                hold = PX4_SETTLE_S + turn / PX4_YAW_RATE_DEG_S + (gimbal.wait_s(moved) if moved > 0 else 0.0)
+                waypoint(wp, heading, hold, PX4_ACCEPTANCE_M)
                 add(IMAGE_START_CAPTURE, [0, 0, 1, 0, 0, 0, 0])
-            if autopilot == "ardupilot":
-                waypoint(wp, heading, ARDUPILOT_STOP_HOLD_S)
+                for photo in group[1:]:
+                    if photo.pitch_deg != pitch:
+                        mount(photo.pitch_deg)
+                        add(NAV_DELAY, [round(gimbal.wait_s(photo.pitch_deg - pitch), 2), -1, -1, -1, 0, 0, 0])
+                        pitch = photo.pitch_deg
+                    add(IMAGE_START_CAPTURE, [0, 0, 1, 0, 0, 0, 0])
+                continue
+            waits = 0.0
+            for k, photo in enumerate(group):
+                moved = UNKNOWN_PITCH_MOVE_DEG if pitch is None else abs(photo.pitch_deg - pitch)
+                mount(photo.pitch_deg)
+                pitch = photo.pitch_deg
+                if k == 0:
+                    add(CONDITION_YAW, [heading, 0, 0, 0, 0, 0, 0])
+                wait = max(gimbal.wait_s(moved) if moved > 0 else 0.0, YAW_SETTLE_S if k == 0 else 0.0)
+                if wait > 0:
+                    add(CONDITION_DELAY, [round(wait, 2), 0, 0, 0, 0, 0, 0])
+                    waits += round(wait, 2)
+                add(IMAGE_START_CAPTURE, [0, 0, 1, 0, 0, 0, 0])
+            hold = ARDUPILOT_STOP_HOLD_S + turn / ARDUPILOT_YAW_RATE_DEG_S + waits
+            waypoint(wp, heading, hold)
     if path is None:
         add(NAV_RETURN_TO_LAUNCH, [0, 0, 0, 0, 0, 0, 0])
         return items

@@ -263,7 +263,8 @@ def export_version(project_id: int, plan_id: int, number: int, session: SessionD
     try:
         spec = FORMATS[format]
         paths = export_files(data, format, folder / (stem + spec.suffix), geo, takeoff, speed_m_s=speed,
-                             mission=mission, autopilot=autopilot, aircraft=aircraft if spec.aircraft_choice else None)
+                             mission=mission, autopilot=autopilot, aircraft=aircraft if spec.aircraft_choice else None,
+                             faithful=not force)
     except BaseException:
         state.storage.remove(folder)
         raise

@@ -1,0 +1,96 @@
+"""Whether an export makes its photos where the plan was evaluated: each mission's items replayed
+(:mod:`.simulate`) and every photo compared with its frame, in order."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .simulate import DEFAULT_GIMBAL, Gimbal, Replay, local_items, simulate_items, wrap180
+
+TOLERANCE_M = 0.1  # a photo farther than this from its frame…
+TOLERANCE_DEG = 1.0  # …or turned more than this (heading or pitch) is not the frame that was evaluated
+
+
+@dataclass
+class Fidelity:
+    """The replay of one or more missions against their frames: photos expected and taken, the largest position
+    (m) and angle (°) deviation, the photos taken while the gimbal moved or settled, and the replay's notes."""
+
+    autopilot: str
+    expected: int = 0
+    taken: int = 0
+    position_m: float = 0.0
+    angle_deg: float = 0.0
+    gimbal_moving: int = 0
+    time_s: float = 0.0
+    notes: list[str] = field(default_factory=list)
+    deviations: list[tuple[float, float]] = field(default_factory=list)  # per photo: metres, degrees
+
+    @property
+    def faithful(self) -> bool:
+        return (self.taken == self.expected and self.position_m <= TOLERANCE_M and self.angle_deg <= TOLERANCE_DEG
+                and self.gimbal_moving == 0)
+
+    def add(self, other: Fidelity) -> None:
+        self.expected += other.expected
+        self.taken += other.taken
+        self.position_m = max(self.position_m, other.position_m)
+        self.angle_deg = max(self.angle_deg, other.angle_deg)
+        self.gimbal_moving += other.gimbal_moving
+        self.time_s += other.time_s
+        self.notes += other.notes
+        self.deviations += other.deviations
+
+    def summary(self) -> str:
+        """'simulated: N photos, largest deviation d m / a°' and what is wrong, for the export's line."""
+        from ..formats.mavlink import AUTOPILOT_LABELS
+
+        text = (f"simulated ({AUTOPILOT_LABELS.get(self.autopilot, self.autopilot)}): {self.taken} photos, largest "
+                f"deviation {self.position_m:.2f} m / {self.angle_deg:.1f}°")
+        if self.taken != self.expected:
+            text += f", {self.expected} expected"
+        if self.gimbal_moving:
+            text += f", {self.gimbal_moving} taken while the gimbal moved"
+        return text
+
+
+def replay_items(items: list[dict], home: tuple[float, float, float], autopilot: str, speed_m_s: float,
+                 gimbal: Gimbal = DEFAULT_GIMBAL) -> Replay:
+    """Replay the command dicts :func:`~sightplan.formats.mavlink.mission_items` writes, from ``home``."""
+    from types import SimpleNamespace
+
+    cmds = [SimpleNamespace(command=d["command"], frame=d["frame"], params=tuple(d["params"])) for d in items]
+    return simulate_items(local_items(cmds, home), autopilot, speed_m_s, gimbal)
+
+
+def flight_fidelity(flight, autopilot: str, gimbal: Gimbal = DEFAULT_GIMBAL, items_of=None) -> Fidelity:
+    """Each mission of ``flight`` (a :class:`~sightplan.formats.flight.Flight`) written as
+    :func:`~sightplan.formats.mavlink.mission_items` for ``autopilot`` (or by ``items_of(flight, waypoints)``),
+    replayed from its take-off point, every photo compared with its frame."""
+    from pyproj import Proj
+
+    from ..formats.mavlink import mission_items
+
+    total = Fidelity(autopilot)
+    for _, waypoints in flight.by_mission():
+        items = items_of(flight, waypoints) if items_of else mission_items(flight, waypoints, autopilot, gimbal)
+        home = flight.takeoff_of(waypoints[0].mission)
+        origin = (home.latitude_deg, home.longitude_deg, 0.0)
+        rep = replay_items(items, origin, autopilot, flight.speed_m_s, gimbal)
+        proj = Proj(proj="aeqd", lat_0=origin[0], lon_0=origin[1], datum="WGS84", units="m")
+        want = [(wp, ph) for wp in waypoints for ph in wp.photos]
+        one = Fidelity(autopilot, expected=len(want), taken=len(rep.photos), time_s=rep.time_s, notes=list(rep.notes))
+        for (wp, ph), got in zip(want, rep.photos):
+            e, n = proj(wp.longitude_deg, wp.latitude_deg)
+            d = float(np.linalg.norm(np.subtract(got.xyz, (e, n, wp.altitude_m))))
+            a = max(abs(wrap180(got.heading_deg - ph.heading_deg)), abs(got.pitch_deg - ph.pitch_deg))
+            one.deviations.append((d, a))
+            one.position_m, one.angle_deg = max(one.position_m, d), max(one.angle_deg, a)
+            one.gimbal_moving += not got.gimbal_still
+        total.add(one)
+    return total
+
+
+__all__ = ["TOLERANCE_DEG", "TOLERANCE_M", "Fidelity", "flight_fidelity", "replay_items"]
