@@ -304,6 +304,8 @@ def litchi_photos(path: Path, h0: float) -> tuple[list[tuple], list[dict]]:
                 pitch = param
             elif kind == 1:
                 photos.append((*at, heading, pitch))
+            elif kind == 0:  # "stay for" (ms): the gimbal settles after a change of pitch
+                assert param == 500
             else:
                 assert kind == -1
     return photos, rows

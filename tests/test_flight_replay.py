@@ -127,26 +127,28 @@ def test_every_export_takes_its_photos_at_the_frames(sites, site, tmp_path):
         takeoff = np.asarray(plan.parameters["takeoff_m"], float)
         heading, pitch, _ = gimbal_from_R(plan.R_world_camera)
         true_heading = geo.true_heading(plan.C_world, heading)
-        for autopilot in ("px4", "ardupilot"):
-            for fmt, suffix in (("qgc", ".plan"), ("wpl", ".waypoints")):
-                files = export_plan(plan, fmt, tmp_path / f"{name}_{autopilot}{suffix}", geo, takeoff,
-                                    autopilot=autopilot)
-                xyz, head, tilt = [], [], []
-                for path in files:
-                    cmds, home, _ = file_commands(path)
-                    rep = simulate_items(local_items(cmds, home), autopilot, 5.0)
-                    assert not rep.notes, (name, autopilot, path.name, rep.notes)
-                    assert all(p.gimbal_still for p in rep.photos), (name, autopilot, path.name)
-                    proj = Proj(proj="aeqd", lat_0=home[0], lon_0=home[1], datum="WGS84", units="m")
-                    for p in rep.photos:
-                        lon, lat = proj(p.xyz[0], p.xyz[1], inverse=True)
-                        xyz.append(geo.from_geodetic(lat, lon, home[2] + p.xyz[2])[0])
-                        head.append(p.heading_deg)
-                        tilt.append(p.pitch_deg)
-                assert len(xyz) == len(plan), (name, autopilot, fmt)
-                d = np.linalg.norm(np.array(xyz) - plan.C_world, axis=1)
-                a = np.maximum(np.abs((np.array(head) - true_heading + 180) % 360 - 180), np.abs(np.array(tilt) - pitch))
-                worst[(name, autopilot, fmt)] = (float(d.max()), float(a.max()))
+        # each autopilot in each container on the fixture; on the sample, each autopilot in its usual one
+        pairs = [("px4", "qgc"), ("ardupilot", "wpl")] + ([("px4", "wpl"), ("ardupilot", "qgc")] if site != "sample" else [])
+        for autopilot, fmt in pairs:
+            suffix = {"qgc": ".plan", "wpl": ".waypoints"}[fmt]
+            files = export_plan(plan, fmt, tmp_path / f"{name}_{autopilot}{suffix}", geo, takeoff,
+                                autopilot=autopilot)
+            xyz, head, tilt = [], [], []
+            for path in files:
+                cmds, home, _ = file_commands(path)
+                rep = simulate_items(local_items(cmds, home), autopilot, 5.0)
+                assert not rep.notes, (name, autopilot, path.name, rep.notes)
+                assert all(p.gimbal_still for p in rep.photos), (name, autopilot, path.name)
+                proj = Proj(proj="aeqd", lat_0=home[0], lon_0=home[1], datum="WGS84", units="m")
+                for p in rep.photos:
+                    lon, lat = proj(p.xyz[0], p.xyz[1], inverse=True)
+                    xyz.append(geo.from_geodetic(lat, lon, home[2] + p.xyz[2])[0])
+                    head.append(p.heading_deg)
+                    tilt.append(p.pitch_deg)
+            assert len(xyz) == len(plan), (name, autopilot, fmt)
+            d = np.linalg.norm(np.array(xyz) - plan.C_world, axis=1)
+            a = np.maximum(np.abs((np.array(head) - true_heading + 180) % 360 - 180), np.abs(np.array(tilt) - pitch))
+            worst[(name, autopilot, fmt)] = (float(d.max()), float(a.max()))
     # 1e-7° of latitude in a WPL/.plan file is 1.1 cm; float32 headings in MAVLink are within 0.01°
     assert all(m <= 0.1 and deg <= 1.0 for m, deg in worst.values()), worst
 
@@ -169,3 +171,65 @@ def test_the_old_px4_export_is_off_by_the_acceptance_radius(sites):
     now = flight_fidelity(flight, "px4")
     assert now.faithful and now.taken == now.expected == len(plan)
     assert "largest deviation 0.00 m / 0.0°" in now.summary()
+
+
+def test_dji_and_litchi_wait_for_the_gimbal_before_a_photo(sites, tmp_path):
+    """DJI WPML and Litchi run a waypoint's actions one after the other: after every change of pitch, a wait (a
+    ``hover`` action; a "stay for", type 0) comes before the photo."""
+    import csv
+    import zipfile
+    from xml.etree import ElementTree as ET
+
+    from geoid_support import require_geoid
+
+    scene = sites["sample"]
+    geo = Georeference.from_scene_metadata(scene.metadata)
+    plan, _ = plan_from_template("lawnmower", scene, get_camera("m3e"), {"oblique_pitch_deg": -60.0},
+                                 FlightSettings(safety_distance_m=10.0))
+    takeoff = np.asarray(plan.parameters["takeoff_m"], float)
+    require_geoid()
+    waits = 0
+    for path in export_plan(plan, "wpml", tmp_path / "l.kmz", geo, takeoff, aircraft="m3e"):
+        doc = ET.fromstring(zipfile.ZipFile(path).read("wpmz/waylines.wpml"))
+        funcs = [(a.findtext("{*}actionActuatorFunc"), a.find("{*}actionActuatorFuncParam"))
+                 for a in doc.iter("{http://www.dji.com/wpmz/1.0.2}action")]
+        pitch, settled = None, True
+        for func, prm in funcs:
+            if func == "gimbalRotate":
+                p = float(prm.findtext("{*}gimbalPitchRotateAngle"))
+                settled, pitch = settled and p == pitch, p
+            elif func == "hover":
+                assert float(prm.findtext("{*}hoverTime")) >= 0.5
+                settled, waits = True, waits + 1
+            elif func == "takePhoto":
+                assert settled, path.name
+    assert waits >= 2  # nadir and oblique legs
+    stays = 0
+    for path in export_plan(plan, "litchi", tmp_path / "l.csv", geo, takeoff):
+        pitch = None
+        for row in csv.DictReader(path.open(newline="")):
+            settled = float(row["gimbalpitchangle"]) == pitch
+            pitch = float(row["gimbalpitchangle"])
+            for k in range(1, 16):
+                kind, param = int(row[f"actiontype{k}"]), float(row[f"actionparam{k}"])
+                if kind == 5:
+                    settled, pitch = settled and param == pitch, param
+                elif kind == 0:
+                    settled, stays = param >= 500, stays + 1
+                elif kind == 1:
+                    assert settled, path.name
+    assert stays >= 2
+
+
+def test_export_says_how_its_photos_were_replayed(tmp_path):
+    from test_cli import run_cli
+
+    assert run_cli("plan", "orbit", "sample", "-o", "orbit.json", cwd=tmp_path).returncode == 0
+    for autopilot, label in (("px4", "PX4"), ("ardupilot", "ArduPilot")):
+        res = run_cli("export", "orbit.json", "--format", "qgc", "--autopilot", autopilot, "-o", f"{autopilot}.plan",
+                      cwd=tmp_path)
+        assert res.returncode == 0, res.stdout + res.stderr
+        text = " ".join(res.stdout.split())  # the console wraps long lines
+        files = text.count("wrote ")
+        assert files >= 1 and text.count(f"simulated ({label}):") == files
+        assert text.count("largest deviation 0.00 m / 0.0°") == files

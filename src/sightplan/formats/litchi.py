@@ -28,7 +28,8 @@ from .flight import Flight, Waypoint, mission_paths, number_text, same_angle
 
 MAX_ACTIONS = 15
 MAX_WAYPOINTS = 99
-TAKE_PHOTO, ROTATE_AIRCRAFT, TILT_CAMERA, NO_ACTION = 1, 4, 5, -1
+STAY_FOR, TAKE_PHOTO, ROTATE_AIRCRAFT, TILT_CAMERA, NO_ACTION = 0, 1, 4, 5, -1
+GIMBAL_SETTLE_S = 0.5  # the wait between a change of the gimbal's pitch and the photo
 HEADER = (["latitude", "longitude", "altitude(m)", "heading(deg)", "curvesize(m)", "rotationdir", "gimbalmode",
            "gimbalpitchangle"]
           + [f"action{kind}{k}" for k in range(1, MAX_ACTIONS + 1) for kind in ("type", "param")]
@@ -52,24 +53,28 @@ def litchi_aircraft(plan: Plan) -> str:
     return ", ".join(dict.fromkeys(names))
 
 
-def rows_of(waypoint: Waypoint) -> list[tuple[float, float, list[tuple[int, float]]]]:
+def rows_of(waypoint: Waypoint, pitch: float | None = None) -> list[tuple[float, float, list[tuple[int, float]]]]:
     """(heading, pitch, actions) of each Litchi row needed for one waypoint (≤ 15 actions a row): a row flies
-    to its first photo's heading and pitch; each further photo turns and tilts only where it differs."""
+    to its first photo's heading and pitch; each further photo turns and tilts only where it differs. A photo after
+    a change of the gimbal's pitch (from ``pitch``, the pitch before this waypoint; None: unknown) waits
+    :data:`GIMBAL_SETTLE_S` first (a "stay for" action): Litchi runs a row's actions one after the other."""
     rows: list[tuple[float, float, list[tuple[int, float]]]] = []
-    heading = pitch = 0.0
+    heading = 0.0
+    settle = (STAY_FOR, GIMBAL_SETTLE_S * 1000.0)
     for photo in waypoint.photos:
+        tilted = pitch is None or abs(photo.pitch_deg - pitch) > 1e-9
         if rows:
             extra: list[tuple[int, float]] = []
             if not same_angle(photo.heading_deg, heading):
                 extra.append((ROTATE_AIRCRAFT, photo.heading_deg % 360.0))
-            if abs(photo.pitch_deg - pitch) > 1e-9:
-                extra.append((TILT_CAMERA, photo.pitch_deg))
+            if tilted:
+                extra += [(TILT_CAMERA, photo.pitch_deg), settle]
             extra.append((TAKE_PHOTO, 0.0))
             if len(rows[-1][2]) + len(extra) <= MAX_ACTIONS:
                 rows[-1][2].extend(extra)
                 heading, pitch = photo.heading_deg, photo.pitch_deg
                 continue
-        rows.append((photo.heading_deg, photo.pitch_deg, [(TAKE_PHOTO, 0.0)]))
+        rows.append((photo.heading_deg, photo.pitch_deg, [settle, (TAKE_PHOTO, 0.0)] if tilted else [(TAKE_PHOTO, 0.0)]))
         heading, pitch = photo.heading_deg, photo.pitch_deg
     return rows
 
@@ -89,7 +94,11 @@ def write_litchi(flight: Flight, path: Path) -> list[Path]:
     bases = mission_paths(path, [m for m, _ in groups], several=len(groups) > 1)
     written: list[Path] = []
     for m, wps in groups:
-        rows = [_row(flight, wp, h, p, acts) for wp in wps for h, p, acts in rows_of(wp)]
+        rows, pitch = [], None
+        for wp in wps:
+            for h, p, acts in rows_of(wp, pitch):
+                rows.append(_row(flight, wp, h, p, acts))
+            pitch = wp.photos[-1].pitch_deg
         parts = [rows[k:k + MAX_WAYPOINTS] for k in range(0, len(rows), MAX_WAYPOINTS)]
         base = bases[m]
         for k, part in enumerate(parts, start=1):

@@ -573,6 +573,7 @@ def _read(source: Source, options: ReadOptions) -> Plan:
 HEIGHT_RANGE_M = (2.0, 1500.0)  # takeOffSecurityHeight (DJI: 1.2 with a remote controller) and globalRTHHeight
 RTH_MARGIN_M = 10.0
 HEADING_TOLERANCE_DEG = 0.001
+GIMBAL_SETTLE_S = 0.5  # a hover action between a gimbal turn and its photo (the replay's Gimbal.settle_s)
 
 
 class AircraftError(PlanError):
@@ -690,7 +691,9 @@ def _write_heading_param(parent: ET.Element, tag: str, heading: float | None) ->
 
 
 def _placemark(folder: ET.Element, flight: Flight, aircraft: DjiAircraft, wp: Waypoint, index: int, group_id: int,
-               template: bool) -> None:
+               template: bool, pitch: float | None = None) -> float | None:
+    """One waypoint with its actions; ``pitch``: the gimbal's pitch before it (None: unknown); returns the pitch
+    after it."""
     pm = _el(folder, "Placemark")
     _el(_el(pm, "Point"), "coordinates", f"{wp.longitude_deg:.9f},{wp.latitude_deg:.9f}")
     _el(pm, "wpml:index", index)
@@ -734,10 +737,16 @@ def _placemark(folder: ET.Element, flight: Flight, aircraft: DjiAircraft, wp: Wa
             ("gimbalPitchRotateAngle", number_text(photo.pitch_deg, 6)), ("gimbalRollRotateEnable", 0),
             ("gimbalRollRotateAngle", 0), ("gimbalYawRotateEnable", 0), ("gimbalYawRotateAngle", 0),
             ("gimbalRotateTimeEnable", 0), ("gimbalRotateTime", 0), ("payloadPositionIndex", 0)])
-        _action(group, action_id + 1, "takePhoto", [("payloadPositionIndex", 0), ("fileSuffix", _suffix(photo.name)),
-                                                    ("payloadLensIndex", aircraft.image_format),
-                                                    ("useGlobalPayloadLensIndex", 0)])
-        action_id += 2
+        action_id += 1
+        if photo.pitch_deg != pitch:  # the actions run in sequence: the gimbal turns, then settles, then the shot
+            _action(group, action_id, "hover", [("hoverTime", number_text(GIMBAL_SETTLE_S, 3))])
+            action_id += 1
+            pitch = photo.pitch_deg
+        _action(group, action_id, "takePhoto", [("payloadPositionIndex", 0), ("fileSuffix", _suffix(photo.name)),
+                                                ("payloadLensIndex", aircraft.image_format),
+                                                ("useGlobalPayloadLensIndex", 0)])
+        action_id += 1
+    return pitch
 
 
 def _template_folder(doc: ET.Element, flight: Flight, aircraft: DjiAircraft, template_id: int, wps: list[Waypoint]) -> ET.Element:
@@ -781,8 +790,9 @@ def _document(flight: Flight, aircraft: DjiAircraft, template: bool) -> bytes:
             _el(folder, "wpml:executeHeightMode", "relativeToStartPoint")
             _el(folder, "wpml:waylineId", k)
             _el(folder, "wpml:autoFlightSpeed", flight.speed_m_s)
+        pitch: float | None = None
         for index, wp in enumerate(wps):
-            _placemark(folder, flight, aircraft, wp, index, group_id, template)
+            pitch = _placemark(folder, flight, aircraft, wp, index, group_id, template, pitch)
             group_id += 1
     ET.indent(root, space="  ")
     return ET.tostring(root, encoding="utf-8", xml_declaration=True)
