@@ -233,3 +233,44 @@ def test_export_says_how_its_photos_were_replayed(tmp_path):
         files = text.count("wrote ")
         assert files >= 1 and text.count(f"simulated ({label}):") == files
         assert text.count("largest deviation 0.00 m / 0.0°") == files
+
+
+def test_evaluate_as_flown_equals_the_plan_for_a_faithful_export_and_differs_for_an_unheld_one(tmp_path):
+    """``evaluate --as-flown``: the replayed photos of a faithful export give the plan's metrics (the library's
+    evaluation of the plan itself, here); the same file with PX4's holds and radii taken out (param1 = param2 = 0)
+    takes its photos up to 2 m early, and the comparison says so."""
+    from sightplan.evaluate import EvaluationSettings, evaluate
+    from sightplan.plan.load import load_plan
+    from test_cli import run_cli
+
+    scene = load_model("sample")[0]
+    assert run_cli("plan", "orbit", "sample", "-o", "orbit.json", cwd=tmp_path).returncode == 0
+    assert run_cli("export", "orbit.json", "--format", "qgc", "--mission", "1", "-o", "m1.plan",
+                   cwd=tmp_path).returncode == 0
+    plan = load_plan(str(tmp_path / "orbit.json"))
+    first = plan.missions[0]
+    one = plan.subset(np.arange(first.start, first.stop))
+    settings = EvaluationSettings(scale=0.1, engine="embree")
+    res = run_cli("evaluate", "sample", "m1.plan", "--as-flown", "--scale", "0.1", "--engine", "embree",
+                  "--no-picture", "--out", "faithful", cwd=tmp_path)
+    assert res.returncode == 0, res.stdout + res.stderr
+    doc = json.loads((tmp_path / "faithful" / "as_flown.json").read_text())
+    assert max(f["deviation_m"] for f in doc["frames"]) <= 0.02 and max(f["deviation_deg"] for f in doc["frames"]) < 0.1
+    ref = evaluate(scene, one, settings, cache_dir=False).metrics.plan
+    assert doc["as_flown"]["VC"] == ref.VC and doc["as_flown"]["VR"] == pytest.approx(ref.VR, rel=1e-3)
+    assert doc["as_flown"]["VC"] == doc["planned"]["VC"]
+    assert doc["as_flown"]["VR"] == pytest.approx(doc["planned"]["VR"], rel=1e-3)
+    # the same mission without PX4's holds and radii
+    path = tmp_path / "m1.plan"
+    data = json.loads(path.read_text())
+    for it in data["mission"]["items"]:
+        if it["command"] == 16:
+            it["params"][0] = it["params"][1] = 0
+    (tmp_path / "unheld.plan").write_text(json.dumps(data))
+    res = run_cli("evaluate", "sample", "unheld.plan", "--as-flown", "--scale", "0.1", "--engine", "embree",
+                  "--no-picture", "--out", "unheld", cwd=tmp_path)
+    assert res.returncode == 0, res.stdout + res.stderr
+    doc = json.loads((tmp_path / "unheld" / "as_flown.json").read_text())
+    assert 1.5 < max(f["deviation_m"] for f in doc["frames"]) <= 2.1
+    assert doc["as_flown"]["R"] != doc["planned"]["R"]  # the photos are nearer or farther than the frames
+    assert "off their frames by up to" in " ".join(res.stdout.split())

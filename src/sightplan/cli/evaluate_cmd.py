@@ -5,6 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated
 
+import numpy as np
 import typer
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 from rich.table import Table
@@ -56,6 +57,60 @@ def summary_table(ev, title: str) -> Table:
     for row in rows:
         t.add_row(*row)
     return t
+
+
+def flown_plan(console, path: str, plan, scene, autopilot: str | None):
+    """The plan of a MAVLink export as its autopilot flies it (:func:`~sightplan.flight.asflown.as_flown_plan`),
+    with how far its photos fall from the file's frames."""
+    from ..flight.asflown import as_flown_plan, deviations
+    from ..formats.mavlink import resolve_autopilot
+    from ..geo import Georeference, resolve_georeference
+
+    if path is None:
+        raise SightplanError("--as-flown needs a PLAN: the exported mission to replay")
+    if autopilot is not None:
+        autopilot = resolve_autopilot(autopilot)
+    geo = resolve_georeference(plan.parameters.get("georeference"), Georeference.from_scene_metadata(scene.metadata),
+                               what="--as-flown")
+    with console.status("replaying the mission…"):
+        flown, rep = as_flown_plan(path, plan, geo, autopilot)
+    d, a = deviations(plan, flown)
+    console.print(f"as flown ({rep.autopilot}): {len(flown)} photos in {rep.time_s / 60:.1f} min; off their frames "
+                  f"by up to {d.max():.2f} m (median {np.median(d):.2f}) and {a.max():.1f}° (median "
+                  f"{np.median(a):.1f}°); {sum(not p.gimbal_still for p in rep.photos)} taken while the gimbal moved",
+                  highlight=False)
+    return flown
+
+
+PLAN_METRICS = (("VC", "VC", "%", 100.0), ("VC_bar", "V̄C", "%", 100.0), ("VR", "VR", "frames", 1.0),
+                ("R", "R", "m/px", 1.0), ("O", "O", "°", 1.0), ("T", "T", "features", 1.0))
+
+
+def comparison_table(base, flown, title: str) -> Table:
+    """The plan metrics of two evaluations side by side, with the difference."""
+    t = Table("metric", "planned", "as flown", "difference", "unit", title=title, title_justify="left")
+    for name, label, unit, scale in PLAN_METRICS:
+        a, b = getattr(base.metrics.plan, name), getattr(flown.metrics.plan, name)
+        diff = None if a is None or b is None else scale * (b - a)
+        t.add_row(label, cell(None if a is None else scale * a, ".4g"),
+                  cell(None if b is None else scale * b, ".4g"), cell(diff, "+.4g"), unit)
+    return t
+
+
+def write_comparison(base, flown, planned, flown_plan, path: Path) -> Path:
+    """as_flown.json: both evaluations' plan metrics and each frame's deviation (m, °)."""
+    import json
+
+    from ..flight.asflown import deviations
+
+    d, a = deviations(planned, flown_plan)
+    doc = {"planned": {k: getattr(base.metrics.plan, k) for k, _, _, _ in PLAN_METRICS},
+           "as_flown": {k: getattr(flown.metrics.plan, k) for k, _, _, _ in PLAN_METRICS},
+           "replay": flown_plan.parameters.get("as_flown"),
+           "frames": [{"name": str(n), "deviation_m": round(float(x), 4), "deviation_deg": round(float(y), 3)}
+                      for n, x, y in zip(planned.frame_names, d, a)]}
+    path.write_text(json.dumps(doc, indent=1, default=lambda v: None), encoding="utf-8")
+    return path
 
 
 def _check_report_options(html: Path | None, gltf: Path | None, colour_by: str,
@@ -133,6 +188,11 @@ def evaluate(
     cluster: Annotated[str | None, typer.Option(
         help="Cast on a dask cluster: a scheduler address (tcp://host:8786) or local:N for N local worker processes")] = None,
     batch_frames: Annotated[int, typer.Option(help="With --cluster: frames per task")] = 64,
+    as_flown: Annotated[bool, typer.Option(
+        "--as-flown", help="PLAN is a MAVLink export (.plan, .waypoints): replay it under its autopilot's rules and "
+                           "evaluate the photos where they will be taken, beside the file's own frames")] = False,
+    autopilot: Annotated[str | None, typer.Option(
+        help="With --as-flown: px4 or ardupilot (default: the .plan's firmwareType; ArduPilot for WPL)")] = None,
 ) -> None:
     """Evaluate a capture plan against a model: VC, V̄C, VR, R, O, T, per element and per frame."""
     from ..evaluate import EvaluationSettings
@@ -169,6 +229,12 @@ def evaluate(
         plan_label = plan
         warn_if_far(console, scene, the_plan)
         print_warnings(console, the_plan.parameters.get("warnings", []))
+    planned = None
+    if as_flown:
+        planned, the_plan = the_plan, flown_plan(console, plan, the_plan, scene, autopilot)
+        plan_label = f"{plan} as flown"
+    elif autopilot is not None:
+        raise SightplanError("--autopilot is for --as-flown")
     if save_plan is not None:
         from ..plan.format import write_plan
 
@@ -220,4 +286,8 @@ def evaluate(
                                        colour_by=colour, bounds=colour_bounds)
     console.print(summary_table(ev, f"{Path(str(model)).name} × {plan_label} — engine {ev.engine}, "
                                     f"{ev.n_features:,} features, {ev.cache_hits} frames from cache"))
+    if planned is not None:
+        base = run_evaluation(scene, planned, settings, features=feature_set, cache_dir=None if cache else False)
+        console.print(comparison_table(base, ev, f"the file's frames and the photos as flown ({plan})"))
+        paths["as_flown"] = write_comparison(base, ev, planned, the_plan, Path(out) / "as_flown.json")
     console.print("wrote " + ", ".join(str(p) for p in paths.values()))

@@ -1,0 +1,71 @@
+"""The plan as it will be flown: a MAVLink export (QGroundControl ``.plan``, ``QGC WPL 110``) replayed under its
+autopilot's rules (:mod:`.simulate`), each photo's pose becoming a frame (:func:`as_flown_plan`), so that it can be
+evaluated beside the frames the file names (``sightplan evaluate MODEL EXPORT --as-flown``).
+
+DJI WPML and Litchi run a waypoint's actions in order after stopping on it; their photos are the file's frames."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+from pyproj import Proj
+
+from ..errors import PlanError
+from ..geo import Georeference
+from ..geometry.poses import R_from_gimbal, gimbal_from_R
+from ..plan.types import Plan
+from .simulate import DEFAULT_GIMBAL, Gimbal, Replay
+
+MAVLINK_SUFFIXES = (".plan", ".waypoints", ".txt", ".mission")
+
+
+def replay_file(path: str | Path, autopilot: str | None = None, gimbal: Gimbal = DEFAULT_GIMBAL
+                ) -> tuple[Replay, tuple[float, float, float]]:
+    """The file replayed, and its home (latitude°, longitude°, height in the file's datum)."""
+    from ..formats.qgc import parse_qgc_plan
+    from ..formats.wpl import parse_wpl
+    from .simulate import simulate_file
+
+    path = Path(path)
+    src = parse_qgc_plan(path) if path.suffix.lower() == ".plan" else parse_wpl(path)
+    if src.home is None:
+        raise PlanError(f"{path.name} has no home position: nothing to replay it from")
+    return simulate_file(path, autopilot, gimbal), src.home
+
+
+def as_flown_plan(path: str | Path, plan: Plan, georef: Georeference, autopilot: str | None = None,
+                  gimbal: Gimbal = DEFAULT_GIMBAL) -> tuple[Plan, Replay]:
+    """``plan`` (the file read as frames, :func:`~sightplan.plan.load.load_plan`) with every frame moved to where
+    the replay of ``path`` takes its photo: position, heading and gimbal pitch (roll 0). The photos must match the
+    frames one for one, in order; a replay that takes more or fewer is refused, naming both counts."""
+    path = Path(path)
+    if path.suffix.lower() not in MAVLINK_SUFFIXES:
+        raise PlanError(f"--as-flown replays MAVLink missions (.plan, .waypoints); {path.name} is not one. DJI WPML "
+                        "and Litchi missions take their photos on their waypoints: evaluate the file as it is")
+    rep, home = replay_file(path, autopilot, gimbal)
+    if len(rep.photos) != len(plan):
+        why = f" ({rep.notes[0]})" if rep.notes else ""
+        raise PlanError(f"the replay of {path.name} takes {len(rep.photos)} photos, the file names {len(plan)} "
+                        f"frames{why}: they cannot be compared frame by frame")
+    proj = Proj(proj="aeqd", lat_0=home[0], lon_0=home[1], datum="WGS84", units="m")
+    xyz = np.array([p.xyz for p in rep.photos], float)
+    lon, lat = proj(xyz[:, 0], xyz[:, 1], inverse=True)
+    C = georef.from_geodetic(lat, lon, home[2] + xyz[:, 2])
+    heading = georef.model_heading(C, np.array([p.heading_deg for p in rep.photos]))
+    pitch = np.array([p.pitch_deg for p in rep.photos])
+    R = R_from_gimbal(heading, pitch)
+    flown = replace(plan, C_world=C, R_world_camera=R,
+                    parameters={**plan.parameters, "as_flown": {"file": path.name, "autopilot": rep.autopilot,
+                                                               "flight_time_s": round(rep.time_s, 1)}})
+    return flown, rep
+
+
+def deviations(plan: Plan, flown: Plan) -> tuple[np.ndarray, np.ndarray]:
+    """(n,) metres and (n,) degrees (the larger of the heading's and the pitch's) between each frame and its photo."""
+    d = np.linalg.norm(flown.C_world - plan.C_world, axis=1)
+    h0, p0, _ = gimbal_from_R(plan.R_world_camera)
+    h1, p1, _ = gimbal_from_R(flown.R_world_camera)
+    a = np.maximum(np.abs((h1 - h0 + 180.0) % 360.0 - 180.0), np.abs(p1 - p0))
+    return d, a
