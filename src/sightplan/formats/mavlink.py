@@ -44,15 +44,25 @@ runs of consecutive photos with the same heading. What differs (``autopilot``):
 - ``px4`` (``firmwareType`` 12): the heading is the yaw of ``MAV_CMD_NAV_WAYPOINT`` (16, param4, a true
   heading): one waypoint per stop, all at the same position, each followed by its photos. PX4
   refuses ``MAV_CMD_CONDITION_YAW`` in a mission (``mavlink_mission.cpp``,
-  ``parse_mavlink_mission_item``), and takes non-positional commands in frame 2 only.
+  ``parse_mavlink_mission_item``), and takes non-positional commands in frame 2 only. PX4 counts a
+  waypoint reached on entering its acceptance radius and runs the photo after it in the same cycle
+  (``MissionBlock::is_mission_item_reached``), so each stop is ``DO_MOUNT_CONTROL`` (before the waypoint:
+  the gimbal turns on the way), ``NAV_WAYPOINT`` with acceptance radius :data:`PX4_ACCEPTANCE_M` (param2)
+  and a hold (param1) of :data:`PX4_SETTLE_S` plus the turn at :data:`PX4_YAW_RATE_DEG_S` plus the
+  gimbal's travel and settling, then ``IMAGE_START_CAPTURE``; a further photo with another pitch is
+  ``DO_MOUNT_CONTROL``, ``MAV_CMD_NAV_DELAY`` (93: the gimbal's wait), ``IMAGE_START_CAPTURE``.
 - ``ardupilot`` (``firmwareType`` 3): Copter keeps only the hold time (param1) of a waypoint and
   drops its yaw, so the heading is a ``MAV_CMD_CONDITION_YAW`` (115: param1 the true heading, param2 0
   = default turn rate, param3 0 = the shortest turn, param4 0 = absolute). ArduPilot starts the first
   command after a waypoint together with the next positional item, and every waypoint it starts
   resets the yaw to its ``WP_YAW_BEHAVIOR``; so after the arrival waypoint each stop is
-  ``DO_MOUNT_CONTROL``, ``CONDITION_YAW``, ``IMAGE_START_CAPTURE`` (then mount and capture for more
-  photos with that heading) followed by a waypoint at the same position that holds
-  :data:`ARDUPILOT_STOP_HOLD_S` seconds: the aircraft turns and shoots during that hold, in place.
+  ``DO_MOUNT_CONTROL``, ``CONDITION_YAW``, ``MAV_CMD_CONDITION_DELAY`` (112: :data:`YAW_SETTLE_S`, or the
+  gimbal's wait when longer), ``IMAGE_START_CAPTURE`` (then mount, delay and capture for more photos with
+  that heading) followed by a waypoint at the same position that holds long enough for the turn, the
+  waits and :data:`ARDUPILOT_STOP_HOLD_S` more: the commands it leaves unfinished would be dropped.
+
+The waits follow :class:`~sightplan.flight.simulate.Gimbal` (slew rate and settling time); every export is
+replayed under its autopilot's rules (:mod:`sightplan.flight`) before it is written.
 
 A mission is the whole flight the checks passed (:mod:`sightplan.plan.trajectory`): ``MAV_CMD_NAV_TAKEOFF`` (22)
 at the take-off point to the climb height (the first waypoint's altitude, at least 2 m, or the transit height when
@@ -520,6 +530,11 @@ def _turn(a: float, b: float) -> float:
     return abs((b - a + 180.0) % 360.0 - 180.0)
 
 
+def _up(seconds: float) -> float:
+    """A wait written to the hundredth of a second, rounded up: never shorter than the time it covers."""
+    return math.ceil(round(seconds * 100.0, 6)) / 100.0
+
+
 def _worst_turn(yaw: float | None, travel: float | None, heading: float) -> float:
     """The largest turn to ``heading`` the aircraft may need at a stop: from its last heading ``yaw`` (None:
     unknown, 180°), or from anywhere on its way round to the direction of travel ``travel`` (an autopilot that faces
@@ -548,7 +563,7 @@ def mission_items(flight: Flight, waypoints: list[Waypoint], autopilot: Autopilo
                       "params": [float(p) for p in params], "nav": nav})
 
     def waypoint(wp: Waypoint, heading: float, hold_s: float = 0.0, accept_m: float = 0.0) -> None:
-        add(NAV_WAYPOINT, [round(hold_s, 2), accept_m, 0, heading, wp.latitude_deg, wp.longitude_deg, wp.altitude_m],
+        add(NAV_WAYPOINT, [_up(hold_s), accept_m, 0, heading, wp.latitude_deg, wp.longitude_deg, wp.altitude_m],
             nav=True)
 
     def mount(pitch: float) -> None:
@@ -586,7 +601,7 @@ def mission_items(flight: Flight, waypoints: list[Waypoint], autopilot: Autopilo
                 for photo in group[1:]:
                     if photo.pitch_deg != pitch:
                         mount(photo.pitch_deg)
-                        add(NAV_DELAY, [round(gimbal.wait_s(photo.pitch_deg - pitch), 2), -1, -1, -1, 0, 0, 0])
+                        add(NAV_DELAY, [_up(gimbal.wait_s(photo.pitch_deg - pitch)), -1, -1, -1, 0, 0, 0])
                         pitch = photo.pitch_deg
                     add(IMAGE_START_CAPTURE, [0, 0, 1, 0, 0, 0, 0])
                 continue
@@ -599,8 +614,8 @@ def mission_items(flight: Flight, waypoints: list[Waypoint], autopilot: Autopilo
                     add(CONDITION_YAW, [heading, 0, 0, 0, 0, 0, 0])
                 wait = max(gimbal.wait_s(moved) if moved > 0 else 0.0, YAW_SETTLE_S if k == 0 else 0.0)
                 if wait > 0:
-                    add(CONDITION_DELAY, [round(wait, 2), 0, 0, 0, 0, 0, 0])
-                    waits += round(wait, 2)
+                    add(CONDITION_DELAY, [_up(wait), 0, 0, 0, 0, 0, 0])
+                    waits += _up(wait)
                 add(IMAGE_START_CAPTURE, [0, 0, 1, 0, 0, 0, 0])
             hold = ARDUPILOT_STOP_HOLD_S + turn / ARDUPILOT_YAW_RATE_DEG_S + waits
             waypoint(wp, heading, hold)
