@@ -415,7 +415,8 @@ def test_detect_format_by_name_and_first_line(tmp_path):
 
 
 def test_relative_heights_take_off_from_the_models_ground(tmp_path):
-    """An app's home altitude (488 m here) is not the model's datum: with ground_z, heights above home start there."""
+    """An app's home altitude (488 m here) against a model at a nominal elevation of 0 is not in the model's datum:
+    with ground_z, heights above home start there, and a warning says why."""
 
     def item(cmd, params, frame=3):
         return {"type": "SimpleItem", "command": cmd, "frame": frame, "params": params, "autoContinue": True}
@@ -432,5 +433,83 @@ def test_relative_heights_take_off_from_the_models_ground(tmp_path):
     plan = load_plan(path, camera="p4p", georef=geo, ground_z=-1.0)
     # 0.0001° of latitude north of the origin is 11.1 m; 30 m above a take-off on the ground at z = −1
     np.testing.assert_allclose(plan.C_world[0], [0.0, 11.1, 29.0], atol=0.05)
+    assert plan.parameters["home"]["from"] == "ground"
+    assert any("489.0 m above the model's ground (z -1.00 m): not in the model's vertical datum" in w
+               for w in plan.parameters["warnings"])
     plain = load_plan(path, camera="p4p", georef=geo)
     assert plain.C_world[0, 2] == pytest.approx(518.0, abs=0.05)  # the app's home altitude taken literally
+
+
+# -- the take-off reference a file carries ---------------------------------------------------------------------
+
+SITE = Georeference.from_origin(47.0, 8.0, 400.0)  # a model whose height 0 is 400 m above sea level
+
+
+def reference_plan(tmp_path, home, name: str = "home.plan"):
+    """A QGroundControl plan with ``home`` as its plannedHomePosition and one photo 20 m above it, 11.1 m north."""
+    def item(cmd, params, frame=3):
+        return {"type": "SimpleItem", "command": cmd, "frame": frame, "params": params, "autoContinue": True}
+
+    doc = {"fileType": "Plan", "version": 1, "mission": {"version": 2, "plannedHomePosition": home, "items": [
+        item(16, [0, 0, 0, 0.0, 47.0001, 8.0, 20]), item(205, [-30, 0, 0, 0, 0, 0, 2], frame=2),
+        item(2000, [0, 0, 1, 0, 0, 0, 0], frame=2)]}}
+    path = tmp_path / name
+    path.write_text(json.dumps(doc))
+    return path
+
+
+@pytest.mark.parametrize("height, z0, source, warning", [
+    (401.2, 1.2, "file", None),  # a take-off 1.2 m above the site's ground: the file's, as it gives it
+    (430.0, 30.0, "file", "30.0 m above the model's ground (z 0.00 m): used as the file gives it"),
+    (888.0, 0.0, "ground", "488.0 m above the model's ground (z 0.00 m): not in the model's vertical datum"),
+    (None, 0.0, "ground", "planned home position has no height"),
+])
+def test_the_files_home_is_the_take_off_unless_unusable(tmp_path, height, z0, source, warning):
+    path = reference_plan(tmp_path, [47.0, 8.0, height])
+    plan = load_plan(path, camera="m3e", georef=SITE, ground_z=0.0)
+    np.testing.assert_allclose(plan.C_world[0], [0.0, 11.12, z0 + 20.0], atol=0.01)
+    np.testing.assert_allclose(plan.parameters["takeoff_m"], [0.0, 0.0, z0], atol=0.01)
+    assert plan.parameters["home"]["from"] == source
+    said = [w for w in plan.parameters["warnings"] if "home" in w]
+    assert (said == []) if warning is None else any(warning in w for w in said), said
+
+
+def test_a_home_kilometres_away_and_a_take_off_height_given(tmp_path):
+    far = reference_plan(tmp_path, [47.05, 8.0, 401.2], "far.plan")  # 5.6 km north of the model
+    plan = load_plan(far, camera="m3e", georef=SITE, ground_z=-0.5)
+    assert any("lies 5.6 km from the model's origin: not the site's take-off point" in w
+               for w in plan.parameters["warnings"])
+    assert plan.parameters["home"]["from"] == "ground"
+    assert plan.parameters["takeoff_m"][2] == pytest.approx(-0.5, abs=0.01)
+    without_ground = load_plan(far, camera="m3e", georef=SITE)  # nothing to put in its place: kept, with a warning
+    assert without_ground.parameters["home"]["from"] == "file"
+    assert any("check the file and the model's georeference" in w for w in without_ground.parameters["warnings"])
+    given = load_plan(reference_plan(tmp_path, [47.0, 8.0, 401.2]), camera="m3e", georef=SITE, ground_z=0.0,
+                      takeoff_z=3.0)  # the user's take-off height replaces the file's
+    np.testing.assert_allclose(given.C_world[0, 2], 23.0, atol=0.01)
+    assert given.parameters["home"]["from"] == "given"
+    assert any("replaces the QGroundControl planned home position's, +1.80 m from it" in w
+               for w in given.parameters["warnings"])
+
+
+@pytest.mark.parametrize("home, message", [
+    ([95.0, 8.0, 400.0], r"home.plan: 'plannedHomePosition': latitude 95.0 / longitude 8.0 out of range"),
+    ([None, 8.0, 400.0], r"home.plan: 'plannedHomePosition': its latitude and longitude are not finite numbers"),
+])
+def test_a_home_out_of_range_is_one_clear_error(tmp_path, home, message):
+    with pytest.raises(PlanError, match=message) as info:
+        load_plan(reference_plan(tmp_path, home), camera="m3e", georef=SITE, ground_z=0.0)
+    assert "\n" not in str(info.value)
+
+
+def test_wpl_home_line_is_the_take_off(tmp_path):
+    path = tmp_path / "m.waypoints"
+    lines = ["QGC WPL 110", "0\t1\t0\t16\t0\t0\t0\t0\t47.0\t8.0\t{h}\t1", "1\t0\t3\t16\t0\t0\t0\t0\t47.0001\t8.0\t20\t1"]
+    path.write_text("\n".join(lines).format(h="402.5") + "\n")
+    plan = load_plan(path, camera="m3e", georef=SITE, ground_z=0.0)  # no photo command: a frame at the waypoint
+    np.testing.assert_allclose(plan.C_world[0], [0.0, 11.12, 22.5], atol=0.01)
+    assert plan.parameters["home"]["from"] == "file"
+    path.write_text("\n".join(lines).format(h="nan") + "\n")
+    plan = load_plan(path, camera="m3e", georef=SITE, ground_z=0.0)
+    np.testing.assert_allclose(plan.C_world[0], [0.0, 11.12, 20.0], atol=0.01)
+    assert any("home position (line 0) has no height" in w for w in plan.parameters["warnings"])
