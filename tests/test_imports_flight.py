@@ -11,6 +11,7 @@ from __future__ import annotations
 import json
 import math
 import zipfile
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -513,3 +514,88 @@ def test_wpl_home_line_is_the_take_off(tmp_path):
     plan = load_plan(path, camera="m3e", georef=SITE, ground_z=0.0)
     np.testing.assert_allclose(plan.C_world[0], [0.0, 11.12, 20.0], atol=0.01)
     assert any("home position (line 0) has no height" in w for w in plan.parameters["warnings"])
+
+
+# -- DJI Pilot 2 waypoint missions without photo actions, and bare template.kml / waylines.wpml ---------------------
+
+PILOT2 = Path(__file__).parent / "fixtures" / "dji_pilot2_waypoints"
+# the fixture's waypoints: longitude, latitude, height above take-off, heading, gimbal pitch (as DJI Pilot 2 wrote them)
+PILOT2_WAYPOINTS = [(5.8698, 51.8379, 20, -30, -30), (5.8702, 51.8379, 25, 60, -45), (5.8702, 51.83815, 25, 150, -60),
+                    (5.8698, 51.83815, 30, -120, -90)]
+HOUSE_SITE = Georeference.from_origin(51.838, 5.87, 10.0)  # the basement house's IfcSite (site_fixture)
+
+
+def pilot2_kmz(tmp_path) -> Path:
+    path = tmp_path / "pilot2.kmz"
+    with zipfile.ZipFile(path, "w") as z:
+        for name in ("template.kml", "waylines.wpml"):
+            z.write(PILOT2 / "wpmz" / name, f"wpmz/{name}")
+    return path
+
+
+def test_dji_pilot2_mission_without_photo_actions_has_a_frame_per_waypoint(tmp_path):
+    """Four waypoints with a heading and a gimbal pitch each and no action group: a frame at each, with its heading and
+    pitch; heights above the take-off reference point, whose ellipsoidal height becomes the model's datum."""
+    require_geoid()
+    from sightplan.geoid import to_orthometric
+
+    plan = load_plan(pilot2_kmz(tmp_path), georef=HOUSE_SITE, ground_z=-0.15)
+    assert len(plan) == 4 and plan.camera_of(0).name.startswith("DJI Mavic 3 Enterprise")  # payload 66
+    assert any("no photo action" in w and "a frame is made at every waypoint" in w for w in plan.parameters["warnings"])
+    ref_h = float(to_orthometric(51.8378, 5.8697, 54.011)[0])  # takeOffRefPoint 51.8378,5.8697,54.011 (ellipsoidal)
+    lon, lat, rel, heading, pitch = (np.array(v, float) for v in zip(*PILOT2_WAYPOINTS))
+    np.testing.assert_allclose(plan.C_world, HOUSE_SITE.from_geodetic(lat, lon, ref_h + rel), atol=0.01)
+    assert plan.parameters["home"]["from"] == "file"
+    assert plan.parameters["takeoff_m"][2] == pytest.approx(ref_h - 10.0, abs=0.01)  # 0.2 m above the terrain
+    assert max(angle_diff(a, b % 360) for a, b in zip(true_headings(plan), heading)) < 0.01
+    np.testing.assert_allclose(pitches(plan), pitch, atol=0.01)
+    assert not any("nadir" in w for w in plan.parameters["warnings"])
+
+
+def test_dji_pilot2_files_read_bare(tmp_path):
+    """The template.kml and the waylines.wpml, each alone: the same frames (the waylines file has no take-off
+    reference, so its heights start from the model's ground)."""
+    require_geoid()
+    whole = load_plan(pilot2_kmz(tmp_path), georef=HOUSE_SITE, ground_z=-0.15)
+    assert detect_format(PILOT2 / "wpmz" / "template.kml") == detect_format(PILOT2 / "wpmz" / "waylines.wpml") == "wpml"
+    template = load_plan(PILOT2 / "wpmz" / "template.kml", georef=HOUSE_SITE, ground_z=-0.15)
+    np.testing.assert_allclose(template.C_world, whole.C_world, atol=1e-6)
+    np.testing.assert_allclose(template.R_world_camera, whole.R_world_camera, atol=1e-9)
+    waylines = load_plan(PILOT2 / "wpmz" / "waylines.wpml", georef=HOUSE_SITE, ground_z=-0.15)
+    assert waylines.parameters["home"]["from"] == "ground"
+    assert any("no take-off reference point" in w for w in waylines.parameters["warnings"])
+    np.testing.assert_allclose(waylines.C_world[:, 2] - waylines.parameters["takeoff_m"][2],
+                               [w[2] for w in PILOT2_WAYPOINTS], atol=0.01)
+    np.testing.assert_allclose(pitches(waylines), [w[4] for w in PILOT2_WAYPOINTS], atol=0.01)
+
+
+def test_dji_gimbal_pitch_mode_manual_leaves_the_pitch_unknown(tmp_path):
+    text = (PILOT2 / "wpmz" / "template.kml").read_text().replace("usePointSetting", "manual")
+    path = tmp_path / "template.kml"
+    path.write_text(text)
+    plan = load_plan(path, georef=HOUSE_SITE, ground_z=-0.15, camera="m3e")
+    np.testing.assert_allclose(pitches(plan), -90.0)
+    assert any("no gimbal pitch before 4 photo(s): -90° (nadir) assumed" in w for w in plan.parameters["warnings"])
+
+
+def test_a_bare_waypoint_template_exported_by_sightplan_reads_back(tmp_path):
+    require_geoid()
+    georef, _ = GEOREFS["projected"]
+    plan = facade_plan()
+    (path,) = export_plan(plan, "wpml", tmp_path / "facade.kmz", georef, TAKEOFF, mission=1)
+    plan = plan.subset(np.arange(plan.missions[1].start, plan.missions[1].stop))
+    bare = tmp_path / "template.kml"
+    with zipfile.ZipFile(path) as z:
+        bare.write_bytes(z.read("wpmz/template.kml"))
+    back = load_plan(bare, georef=georef, ground_z=5.0)  # the file's take-off reference wins over the ground
+    np.testing.assert_allclose(back.C_world, plan.C_world, atol=0.01)
+    np.testing.assert_allclose(back.parameters["takeoff_m"], TAKEOFF, atol=0.01)
+
+
+def test_a_kml_that_is_not_dji_is_refused_by_name(tmp_path):
+    georef, _ = GEOREFS["topocentric"]
+    (path,) = export_plan(facade_plan(), "kml", tmp_path / "map.kml", georef, TAKEOFF)  # sightplan's own map
+    assert detect_format(path) == "wpml"
+    with pytest.raises(PlanError, match=r"^map.kml: a KML document without DJI WPML elements \(wpml:…\): not a DJI "
+                                        r"mission"):
+        load_plan(path, camera="m3e")
