@@ -8,6 +8,7 @@ plan read back to the same centres, headings and pitches.
 
 from __future__ import annotations
 
+import csv
 import json
 import math
 import zipfile
@@ -599,3 +600,69 @@ def test_a_kml_that_is_not_dji_is_refused_by_name(tmp_path):
     with pytest.raises(PlanError, match=r"^map.kml: a KML document without DJI WPML elements \(wpml:…\): not a DJI "
                                         r"mission"):
         load_plan(path, camera="m3e")
+
+
+# -- Litchi mission CSV --------------------------------------------------------------------------------------------
+
+
+def litchi_csv(path: Path, rows: list[dict]) -> Path:
+    """A Litchi mission CSV with Litchi's full header; each row's cells default to "no action", altitude mode 0."""
+    from test_exports import LITCHI_HEADER
+
+    defaults = {k: "0" for k in LITCHI_HEADER} | {f"actiontype{k}": "-1" for k in range(1, 16)} | {
+        "photo_timeinterval": "-1", "photo_distinterval": "-1"}
+    with path.open("w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=LITCHI_HEADER, lineterminator="\n")
+        w.writeheader()
+        for row in rows:
+            w.writerow(defaults | {k: str(v) for k, v in row.items()})
+    return path
+
+
+def test_litchi_mission_read_above_the_models_ground(tmp_path):
+    """Photos where the actions take them (rotate 4 and tilt 5 before photo 1), every 5 m of a distance interval, and
+    toward a point of interest; altitudes above the model's ground, as Litchi has no take-off point."""
+    poi = {"gimbalmode": 1, "poi_latitude": 47.00005, "poi_longitude": 8.0, "poi_altitude(m)": 0}
+    path = litchi_csv(tmp_path / "mission.csv", [
+        {"latitude": 47.0, "longitude": 8.0, "altitude(m)": 20, "heading(deg)": 90, "gimbalmode": 2,
+         "gimbalpitchangle": -30, "actiontype1": 1, "actiontype2": 4, "actionparam2": 180, "actiontype3": 5,
+         "actionparam3": -60, "actiontype4": 1},
+        {"latitude": 47.0001, "longitude": 8.0, "altitude(m)": 25, "heading(deg)": 0, "photo_distinterval": 5},
+        {"latitude": 47.0001, "longitude": 8.00015, "altitude(m)": 25, "heading(deg)": 270, "actiontype1": 1, **poi},
+    ])
+    assert detect_format(path) == "litchi"
+    plan = load_plan(path, camera="m3e", georef=SITE, ground_z=0.5)
+    assert plan.parameters["source"]["format"] == "litchi" and plan.parameters["home"]["from"] == "ground"
+    assert any("has no take-off point: its altitudes are read above the model's ground (z 0.50 m)" in w
+               for w in plan.parameters["warnings"])
+    wp = SITE.from_geodetic([47.0, 47.0001, 47.0001], [8.0, 8.0, 8.00015], [400.5 + 20, 400.5 + 25, 400.5 + 25])
+    leg = wp[2] - wp[1]
+    at = [wp[0], wp[0], wp[1] + 5 / np.linalg.norm(leg) * leg, wp[1] + 10 / np.linalg.norm(leg) * leg, wp[2]]  # 11.4 m
+    np.testing.assert_allclose(plan.C_world, at, atol=0.01)
+    np.testing.assert_allclose(plan.waypoints, wp, atol=0.01)
+    q = SITE.from_geodetic(47.00005, 8.0, 400.5)[0]
+    toward = math.degrees(math.atan2(q[2] - wp[2][2], math.hypot(*(q[:2] - wp[2][:2]))))
+    np.testing.assert_allclose(pitches(plan), [-30, -60, -60, -60, toward], atol=0.01)
+    assert max(angle_diff(a, b) for a, b in zip(true_headings(plan), [90, 180, 0, 0, 270])) < 0.01
+    assert len(set(plan.frame_names)) == len(plan)
+
+
+def test_litchi_mission_without_photos_and_its_errors(tmp_path):
+    rows = [{"latitude": 47.0, "longitude": 8.0, "altitude(m)": 20, "heading(deg)": 45},
+            {"latitude": 47.0001, "longitude": 8.0, "altitude(m)": 30, "heading(deg)": 135}]
+    path = litchi_csv(tmp_path / "bare.csv", rows)
+    plan = load_plan(path, camera="m3e", georef=SITE)  # no ground given: above the model's height 0, with a warning
+    np.testing.assert_allclose(plan.C_world[:, 2], [20.0, 30.0], atol=0.01)
+    np.testing.assert_allclose(pitches(plan), -90.0)  # gimbalmode 0 throughout: the pitch is not known
+    warnings = plan.parameters["warnings"]
+    assert any("no photo action (actiontype 1) nor photo interval: a frame is made at every waypoint" in w
+               for w in warnings)
+    assert any("above the model's height 0" in w for w in warnings) and any("nadir" in w for w in warnings)
+    with pytest.raises(PlanError, match="bare.csv: a Litchi mission names no camera"):
+        load_plan(path)
+    litchi_csv(path, [rows[0] | {"latitude": 91}])
+    with pytest.raises(PlanError, match=r"bare.csv, line 2: latitude 91.0 / longitude 8.0 out of range"):
+        load_plan(path, camera="m3e")
+    poses = tmp_path / "poses.csv"
+    poses.write_text("name,x,y,z,heading_deg,pitch_deg\na,0,0,1,0,0\n")
+    assert detect_format(poses) == "csv"
