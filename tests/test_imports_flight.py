@@ -1,9 +1,11 @@
-"""Imports of flight-app missions: QGroundControl .plan, QGC WPL 110 and DJI WPML .kmz.
+"""Imports of flight-app missions: QGroundControl .plan, QGC WPL 110, DJI WPML (.kmz, or a bare template.kml or
+waylines.wpml) and Litchi CSV.
 
 Real QGroundControl and Mission Planner files (../shared/data/plans, skipped when absent) are
 counted independently of the importer: with plain ``json`` (and geodesic distances from pyproj's
 Geod for the distance-triggered survey), and with pymavlink for the WPL file. Exports of a known
-plan read back to the same centres, headings and pitches.
+plan read back to the same centres, headings and pitches; so do plans made on the bundled sample and
+on the basement house, read back as ``check`` reads them, from the take-off point each file records.
 """
 
 from __future__ import annotations
@@ -666,3 +668,117 @@ def test_litchi_mission_without_photos_and_its_errors(tmp_path):
     poses = tmp_path / "poses.csv"
     poses.write_text("name,x,y,z,heading_deg,pitch_deg\na,0,0,1,0,0\n")
     assert detect_format(poses) == "csv"
+
+
+# -- round trips through every flight app, as `check` and `evaluate` read them back -------------------------------
+
+ROUND_TRIP_FORMATS = [("qgc", {"autopilot": "px4"}, ".plan"), ("qgc", {"autopilot": "ardupilot"}, ".plan"),
+                      ("wpl", {}, ".waypoints"), ("wpml", {"aircraft": "m3e"}, ".kmz"), ("litchi", {}, ".csv")]
+
+
+@pytest.fixture(scope="module")
+def site_plans(tmp_path_factory):
+    """For the bundled sample and the basement house (terrain top −0.15, basement −3.3, georeferenced): the model
+    argument, the scene and a plan per template (facade, orbit, lawnmower), as `sightplan plan` makes them."""
+    from sightplan.camera.catalogue import get_camera
+    from sightplan.cli.flight import default_flight_settings
+    from sightplan.model.load import load_model
+    from sightplan.plan.templates.registry import TEMPLATES, plan_from_template
+    from site_fixture import write_basement_house
+
+    house = write_basement_house(tmp_path_factory.mktemp("site") / "house.ifc")
+    out = {}
+    for model in ("sample", str(house)):
+        scene, _ = load_model(model)
+        settings = default_flight_settings(False, None, None, None, None, 120.0, drone_safety_m=5.0, min_height=None,
+                                           position_error=None, scene=scene)
+        plans = {name: plan_from_template(name, scene, get_camera("m3e"), TEMPLATES[name].make({}), settings)[0]
+                 for name in ("facade", "orbit", "lawnmower")}
+        out["sample" if model == "sample" else "house"] = (model, scene, plans)
+    return out
+
+
+def read_back(paths, scene) -> list:
+    """The files read as `check` and `evaluate` read them: placed with the model's georeference and its ground."""
+    from sightplan.plan.load import scene_placement
+
+    return [load_plan(p, camera="m3e", **scene_placement(scene)) for p in paths]
+
+
+@pytest.mark.parametrize("site", ["sample", "house"])
+def test_exports_read_back_where_they_were_planned(tmp_path, site_plans, site):
+    """Every frame of an export comes back where the plan has it, heights included (to 1 cm), headings and pitches
+    too, from the take-off point each file records (QGroundControl, WPL, DJI WPML); a Litchi CSV, which has none,
+    from the model's ground under its first waypoint, which is where these plans take off."""
+    from sightplan.plan.ground import ground_of
+
+    require_geoid()  # DJI's take-off reference height is ellipsoidal
+    model, scene, plans = site_plans[site]
+    georef = Georeference.from_scene_metadata(scene.metadata)
+    ground = ground_of(scene).level_m
+    for name, plan in plans.items():
+        takeoff = np.asarray(plan.parameters["takeoff_m"], float)
+        assert takeoff[2] == pytest.approx(ground, abs=1e-6)  # these sites' take-off: on the ground
+        h0, p0, _ = gimbal_from_R(plan.R_world_camera)
+        for fmt, kw, suffix in ROUND_TRIP_FORMATS:
+            paths = export_plan(plan, fmt, tmp_path / f"{site}_{name}_{fmt}{kw.get('autopilot', '')}{suffix}", georef,
+                                takeoff, **kw)
+            back = read_back(paths, scene)
+            C = np.vstack([b.C_world for b in back])
+            assert C.shape == plan.C_world.shape, (name, fmt)
+            worst = np.abs(C - plan.C_world).max()
+            assert worst < 0.01, (name, fmt, kw, worst)
+            h1, p1, _ = (np.concatenate(v) for v in zip(*(gimbal_from_R(b.R_world_camera) for b in back)))
+            assert max(angle_diff(a, b) for a, b in zip(h0, h1)) < 0.01, (name, fmt)
+            np.testing.assert_allclose(p1, p0, atol=0.01)
+            for b in back:
+                start = b.parameters["takeoff_m"]
+                assert start[2] == pytest.approx(takeoff[2], abs=0.01), (name, fmt)
+                assert b.parameters["home"]["from"] == ("ground" if fmt == "litchi" else "file")
+
+
+def test_a_raised_take_off_comes_back_from_the_file_not_the_ground(tmp_path, site_plans):
+    """A take-off 1.6 m above the site's ground (a pilot on a platform): the files that carry their take-off point
+    come back exactly; a Litchi CSV, which carries none, comes back 1.6 m lower, from the site's ground."""
+    require_geoid()
+    _, scene, plans = site_plans["house"]
+    georef = Georeference.from_scene_metadata(scene.metadata)
+    plan = plans["facade"]
+    takeoff = np.asarray(plan.parameters["takeoff_m"], float) + [0.0, 0.0, 1.6]
+    for fmt, kw, suffix in ROUND_TRIP_FORMATS:
+        paths = export_plan(plan, fmt, tmp_path / f"raised_{fmt}{kw.get('autopilot', '')}{suffix}", georef, takeoff,
+                            per_mission_takeoff=False, **kw)
+        back = read_back(paths, scene)
+        C = np.vstack([b.C_world for b in back])
+        drop = 1.6 if fmt == "litchi" else 0.0
+        np.testing.assert_allclose(C, plan.C_world - [0.0, 0.0, drop], atol=0.01, err_msg=fmt)
+        if fmt != "litchi":
+            np.testing.assert_allclose(back[0].parameters["takeoff_m"], takeoff, atol=0.01)
+
+
+@pytest.mark.parametrize("site", ["sample", "house"])
+def test_check_of_an_export_finds_no_height_violation(tmp_path, site_plans, site):
+    """`sightplan check EXPORT MODEL` on each app's file of a facade plan (the lowest waypoints, 0.5 m above the
+    minimum height at the worst of the vertical error): no waypoint, leg, flight out or home too low."""
+    from test_cli import run_cli
+
+    require_geoid()
+    model, scene, plans = site_plans[site]
+    georef = Georeference.from_scene_metadata(scene.metadata)
+    plan = plans["facade"]
+    for fmt, kw, suffix in ROUND_TRIP_FORMATS:
+        first = export_plan(plan, fmt, tmp_path / f"{fmt}{kw.get('autopilot', '')}{suffix}", georef,
+                            plan.parameters["takeoff_m"], **kw)[0]
+        report = tmp_path / f"{first.stem}.json"
+        res = run_cli("check", str(first), model, "--camera", "m3e", "--json", str(report), cwd=tmp_path)
+        assert "Traceback" not in res.stdout + res.stderr
+        data = json.loads(report.read_text())
+        assert all(m["height_ok"] is not False for m in data["missions"]), (fmt, data["violations"])
+        assert not [v for v in data["violations"] if "above the ground" in v], fmt
+    # taking off 1.6 m above the ground: read from the ground, the lowest waypoints would come 1.6 m too low
+    raised = np.asarray(plan.parameters["takeoff_m"], float) + [0.0, 0.0, 1.6]
+    first = export_plan(plan, "qgc", tmp_path / "raised.plan", georef, raised, per_mission_takeoff=False)[0]
+    res = run_cli("check", str(first), model, "--camera", "m3e", "--json", str(tmp_path / "raised.json"), cwd=tmp_path)
+    data = json.loads((tmp_path / "raised.json").read_text())
+    assert not [v for v in data["violations"] if "above the ground" in v], data["violations"]
+    assert min(w["height_above_ground_m"] for w in data["waypoints"]) > 2.0
