@@ -71,7 +71,7 @@ def test_the_option_types_are_the_registrys():
     assert get_args(registry.ExportFormat) == registry.EXPORT_FORMATS == tuple(f.name for f in registry.WRITERS)
     listed = ("qgc", "wpl", "wpml", "litchi", "kml", "geojson")  # the CLI's order, kept by the records' ``order``
     assert tuple(n for n in registry.EXPORT_FORMATS if n in listed) == listed
-    assert tuple(n for n in registry.PLAN_FORMATS if n in listed) == ("qgc", "wpl", "wpml")
+    assert tuple(n for n in registry.PLAN_FORMATS if n in listed) == ("qgc", "wpl", "wpml", "litchi")
     assert registry.PLAN_FORMATS[:4] == ("sightplan", "opensfm", "csv", "colmap")
     assert get_args(PlanFormat) == registry.PLAN_FORMATS == tuple(f.name for f in registry.READERS)
     assert EXTENSIONS == {f.name: f.suffix for f in registry.WRITERS}
@@ -82,7 +82,7 @@ READ_AND_WRITTEN = [f.name for f in registry.WRITERS if f.read is not None]
 
 
 def test_the_formats_read_and_written():
-    assert {"qgc", "wpl", "wpml"} <= set(READ_AND_WRITTEN)
+    assert {"qgc", "wpl", "wpml", "litchi"} <= set(READ_AND_WRITTEN)
 
 
 @pytest.mark.parametrize("fmt", READ_AND_WRITTEN)

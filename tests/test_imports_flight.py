@@ -1,16 +1,20 @@
-"""Imports of flight-app missions: QGroundControl .plan, QGC WPL 110 and DJI WPML .kmz.
+"""Imports of flight-app missions: QGroundControl .plan, QGC WPL 110, DJI WPML (.kmz, or a bare template.kml or
+waylines.wpml) and Litchi CSV.
 
 Real QGroundControl and Mission Planner files (../shared/data/plans, skipped when absent) are
 counted independently of the importer: with plain ``json`` (and geodesic distances from pyproj's
 Geod for the distance-triggered survey), and with pymavlink for the WPL file. Exports of a known
-plan read back to the same centres, headings and pitches.
+plan read back to the same centres, headings and pitches; so do plans made on the bundled sample and
+on the basement house, read back as ``check`` reads them, from the take-off point each file records.
 """
 
 from __future__ import annotations
 
+import csv
 import json
 import math
 import zipfile
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -415,7 +419,8 @@ def test_detect_format_by_name_and_first_line(tmp_path):
 
 
 def test_relative_heights_take_off_from_the_models_ground(tmp_path):
-    """An app's home altitude (488 m here) is not the model's datum: with ground_z, heights above home start there."""
+    """An app's home altitude (488 m here) against a model at a nominal elevation of 0 is not in the model's datum:
+    with ground_z, heights above home start there, and a warning says why."""
 
     def item(cmd, params, frame=3):
         return {"type": "SimpleItem", "command": cmd, "frame": frame, "params": params, "autoContinue": True}
@@ -432,5 +437,348 @@ def test_relative_heights_take_off_from_the_models_ground(tmp_path):
     plan = load_plan(path, camera="p4p", georef=geo, ground_z=-1.0)
     # 0.0001° of latitude north of the origin is 11.1 m; 30 m above a take-off on the ground at z = −1
     np.testing.assert_allclose(plan.C_world[0], [0.0, 11.1, 29.0], atol=0.05)
+    assert plan.parameters["home"]["from"] == "ground"
+    assert any("489.0 m above the model's ground (z -1.00 m): not in the model's vertical datum" in w
+               for w in plan.parameters["warnings"])
     plain = load_plan(path, camera="p4p", georef=geo)
     assert plain.C_world[0, 2] == pytest.approx(518.0, abs=0.05)  # the app's home altitude taken literally
+
+
+# -- the take-off reference a file carries ---------------------------------------------------------------------
+
+SITE = Georeference.from_origin(47.0, 8.0, 400.0)  # a model whose height 0 is 400 m above sea level
+
+
+def reference_plan(tmp_path, home, name: str = "home.plan"):
+    """A QGroundControl plan with ``home`` as its plannedHomePosition and one photo 20 m above it, 11.1 m north."""
+    def item(cmd, params, frame=3):
+        return {"type": "SimpleItem", "command": cmd, "frame": frame, "params": params, "autoContinue": True}
+
+    doc = {"fileType": "Plan", "version": 1, "mission": {"version": 2, "plannedHomePosition": home, "items": [
+        item(16, [0, 0, 0, 0.0, 47.0001, 8.0, 20]), item(205, [-30, 0, 0, 0, 0, 0, 2], frame=2),
+        item(2000, [0, 0, 1, 0, 0, 0, 0], frame=2)]}}
+    path = tmp_path / name
+    path.write_text(json.dumps(doc))
+    return path
+
+
+@pytest.mark.parametrize("height, z0, source, warning", [
+    (401.2, 1.2, "file", None),  # a take-off 1.2 m above the site's ground: the file's, as it gives it
+    (430.0, 30.0, "file", "30.0 m above the model's ground (z 0.00 m): used as the file gives it"),
+    (888.0, 0.0, "ground", "488.0 m above the model's ground (z 0.00 m): not in the model's vertical datum"),
+    (None, 0.0, "ground", "planned home position has no height"),
+])
+def test_the_files_home_is_the_take_off_unless_unusable(tmp_path, height, z0, source, warning):
+    path = reference_plan(tmp_path, [47.0, 8.0, height])
+    plan = load_plan(path, camera="m3e", georef=SITE, ground_z=0.0)
+    np.testing.assert_allclose(plan.C_world[0], [0.0, 11.12, z0 + 20.0], atol=0.01)
+    np.testing.assert_allclose(plan.parameters["takeoff_m"], [0.0, 0.0, z0], atol=0.01)
+    assert plan.parameters["home"]["from"] == source
+    said = [w for w in plan.parameters["warnings"] if "home" in w]
+    assert (said == []) if warning is None else any(warning in w for w in said), said
+
+
+def test_a_home_kilometres_away_and_a_take_off_height_given(tmp_path):
+    far = reference_plan(tmp_path, [47.05, 8.0, 401.2], "far.plan")  # 5.6 km north of the model
+    plan = load_plan(far, camera="m3e", georef=SITE, ground_z=-0.5)
+    assert any("lies 5.6 km from the model's origin: not the site's take-off point" in w
+               for w in plan.parameters["warnings"])
+    assert plan.parameters["home"]["from"] == "ground"
+    assert plan.parameters["takeoff_m"][2] == pytest.approx(-0.5, abs=0.01)
+    without_ground = load_plan(far, camera="m3e", georef=SITE)  # nothing to put in its place: kept, with a warning
+    assert without_ground.parameters["home"]["from"] == "file"
+    assert any("check the file and the model's georeference" in w for w in without_ground.parameters["warnings"])
+    given = load_plan(reference_plan(tmp_path, [47.0, 8.0, 401.2]), camera="m3e", georef=SITE, ground_z=0.0,
+                      takeoff_z=3.0)  # the user's take-off height replaces the file's
+    np.testing.assert_allclose(given.C_world[0, 2], 23.0, atol=0.01)
+    assert given.parameters["home"]["from"] == "given"
+    assert any("replaces the QGroundControl planned home position's, +1.80 m from it" in w
+               for w in given.parameters["warnings"])
+
+
+@pytest.mark.parametrize("home, message", [
+    ([95.0, 8.0, 400.0], r"home.plan: 'plannedHomePosition': latitude 95.0 / longitude 8.0 out of range"),
+    ([None, 8.0, 400.0], r"home.plan: 'plannedHomePosition': its latitude and longitude are not finite numbers"),
+])
+def test_a_home_out_of_range_is_one_clear_error(tmp_path, home, message):
+    with pytest.raises(PlanError, match=message) as info:
+        load_plan(reference_plan(tmp_path, home), camera="m3e", georef=SITE, ground_z=0.0)
+    assert "\n" not in str(info.value)
+
+
+def test_wpl_home_line_is_the_take_off(tmp_path):
+    path = tmp_path / "m.waypoints"
+    lines = ["QGC WPL 110", "0\t1\t0\t16\t0\t0\t0\t0\t47.0\t8.0\t{h}\t1", "1\t0\t3\t16\t0\t0\t0\t0\t47.0001\t8.0\t20\t1"]
+    path.write_text("\n".join(lines).format(h="402.5") + "\n")
+    plan = load_plan(path, camera="m3e", georef=SITE, ground_z=0.0)  # no photo command: a frame at the waypoint
+    np.testing.assert_allclose(plan.C_world[0], [0.0, 11.12, 22.5], atol=0.01)
+    assert plan.parameters["home"]["from"] == "file"
+    path.write_text("\n".join(lines).format(h="nan") + "\n")
+    plan = load_plan(path, camera="m3e", georef=SITE, ground_z=0.0)
+    np.testing.assert_allclose(plan.C_world[0], [0.0, 11.12, 20.0], atol=0.01)
+    assert any("home position (line 0) has no height" in w for w in plan.parameters["warnings"])
+
+
+# -- DJI Pilot 2 waypoint missions without photo actions, and bare template.kml / waylines.wpml ---------------------
+
+PILOT2 = Path(__file__).parent / "fixtures" / "dji_pilot2_waypoints"
+# the fixture's waypoints: longitude, latitude, height above take-off, heading, gimbal pitch (as DJI Pilot 2 wrote them)
+PILOT2_WAYPOINTS = [(5.8698, 51.8379, 20, -30, -30), (5.8702, 51.8379, 25, 60, -45), (5.8702, 51.83815, 25, 150, -60),
+                    (5.8698, 51.83815, 30, -120, -90)]
+HOUSE_SITE = Georeference.from_origin(51.838, 5.87, 10.0)  # the basement house's IfcSite (site_fixture)
+
+
+def pilot2_kmz(tmp_path) -> Path:
+    path = tmp_path / "pilot2.kmz"
+    with zipfile.ZipFile(path, "w") as z:
+        for name in ("template.kml", "waylines.wpml"):
+            z.write(PILOT2 / "wpmz" / name, f"wpmz/{name}")
+    return path
+
+
+def test_dji_pilot2_mission_without_photo_actions_has_a_frame_per_waypoint(tmp_path):
+    """Four waypoints with a heading and a gimbal pitch each and no action group: a frame at each, with its heading and
+    pitch; heights above the take-off reference point, whose ellipsoidal height becomes the model's datum."""
+    require_geoid()
+    from sightplan.geoid import to_orthometric
+
+    plan = load_plan(pilot2_kmz(tmp_path), georef=HOUSE_SITE, ground_z=-0.15)
+    assert len(plan) == 4 and plan.camera_of(0).name.startswith("DJI Mavic 3 Enterprise")  # payload 66
+    assert any("no photo action" in w and "a frame is made at every waypoint" in w for w in plan.parameters["warnings"])
+    ref_h = float(to_orthometric(51.8378, 5.8697, 54.011)[0])  # takeOffRefPoint 51.8378,5.8697,54.011 (ellipsoidal)
+    lon, lat, rel, heading, pitch = (np.array(v, float) for v in zip(*PILOT2_WAYPOINTS))
+    np.testing.assert_allclose(plan.C_world, HOUSE_SITE.from_geodetic(lat, lon, ref_h + rel), atol=0.01)
+    assert plan.parameters["home"]["from"] == "file"
+    assert plan.parameters["takeoff_m"][2] == pytest.approx(ref_h - 10.0, abs=0.01)  # 0.2 m above the terrain
+    assert max(angle_diff(a, b % 360) for a, b in zip(true_headings(plan), heading)) < 0.01
+    np.testing.assert_allclose(pitches(plan), pitch, atol=0.01)
+    assert not any("nadir" in w for w in plan.parameters["warnings"])
+
+
+def test_dji_pilot2_files_read_bare(tmp_path):
+    """The template.kml and the waylines.wpml, each alone: the same frames (the waylines file has no take-off
+    reference, so its heights start from the model's ground)."""
+    require_geoid()
+    whole = load_plan(pilot2_kmz(tmp_path), georef=HOUSE_SITE, ground_z=-0.15)
+    assert detect_format(PILOT2 / "wpmz" / "template.kml") == detect_format(PILOT2 / "wpmz" / "waylines.wpml") == "wpml"
+    template = load_plan(PILOT2 / "wpmz" / "template.kml", georef=HOUSE_SITE, ground_z=-0.15)
+    np.testing.assert_allclose(template.C_world, whole.C_world, atol=1e-6)
+    np.testing.assert_allclose(template.R_world_camera, whole.R_world_camera, atol=1e-9)
+    waylines = load_plan(PILOT2 / "wpmz" / "waylines.wpml", georef=HOUSE_SITE, ground_z=-0.15)
+    assert waylines.parameters["home"]["from"] == "ground"
+    assert any("no take-off reference point" in w for w in waylines.parameters["warnings"])
+    np.testing.assert_allclose(waylines.C_world[:, 2] - waylines.parameters["takeoff_m"][2],
+                               [w[2] for w in PILOT2_WAYPOINTS], atol=0.01)
+    np.testing.assert_allclose(pitches(waylines), [w[4] for w in PILOT2_WAYPOINTS], atol=0.01)
+
+
+def test_dji_gimbal_pitch_mode_manual_leaves_the_pitch_unknown(tmp_path):
+    text = (PILOT2 / "wpmz" / "template.kml").read_text().replace("usePointSetting", "manual")
+    path = tmp_path / "template.kml"
+    path.write_text(text)
+    plan = load_plan(path, georef=HOUSE_SITE, ground_z=-0.15, camera="m3e")
+    np.testing.assert_allclose(pitches(plan), -90.0)
+    assert any("no gimbal pitch before 4 photo(s): -90° (nadir) assumed" in w for w in plan.parameters["warnings"])
+
+
+def test_a_bare_waypoint_template_exported_by_sightplan_reads_back(tmp_path):
+    require_geoid()
+    georef, _ = GEOREFS["projected"]
+    plan = facade_plan()
+    (path,) = export_plan(plan, "wpml", tmp_path / "facade.kmz", georef, TAKEOFF, mission=1)
+    plan = plan.subset(np.arange(plan.missions[1].start, plan.missions[1].stop))
+    bare = tmp_path / "template.kml"
+    with zipfile.ZipFile(path) as z:
+        bare.write_bytes(z.read("wpmz/template.kml"))
+    back = load_plan(bare, georef=georef, ground_z=5.0)  # the file's take-off reference wins over the ground
+    np.testing.assert_allclose(back.C_world, plan.C_world, atol=0.01)
+    np.testing.assert_allclose(back.parameters["takeoff_m"], TAKEOFF, atol=0.01)
+
+
+def test_a_kml_that_is_not_dji_is_refused_by_name(tmp_path):
+    georef, _ = GEOREFS["topocentric"]
+    (path,) = export_plan(facade_plan(), "kml", tmp_path / "map.kml", georef, TAKEOFF)  # sightplan's own map
+    assert detect_format(path) == "wpml"
+    with pytest.raises(PlanError, match=r"^map.kml: a KML document without DJI WPML elements \(wpml:…\): not a DJI "
+                                        r"mission"):
+        load_plan(path, camera="m3e")
+
+
+# -- Litchi mission CSV --------------------------------------------------------------------------------------------
+
+
+def litchi_csv(path: Path, rows: list[dict]) -> Path:
+    """A Litchi mission CSV with Litchi's full header; each row's cells default to "no action", altitude mode 0."""
+    from test_exports import LITCHI_HEADER
+
+    defaults = {k: "0" for k in LITCHI_HEADER} | {f"actiontype{k}": "-1" for k in range(1, 16)} | {
+        "photo_timeinterval": "-1", "photo_distinterval": "-1"}
+    with path.open("w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=LITCHI_HEADER, lineterminator="\n")
+        w.writeheader()
+        for row in rows:
+            w.writerow(defaults | {k: str(v) for k, v in row.items()})
+    return path
+
+
+def test_litchi_mission_read_above_the_models_ground(tmp_path):
+    """Photos where the actions take them (rotate 4 and tilt 5 before photo 1), every 5 m of a distance interval, and
+    toward a point of interest; altitudes above the model's ground, as Litchi has no take-off point."""
+    poi = {"gimbalmode": 1, "poi_latitude": 47.00005, "poi_longitude": 8.0, "poi_altitude(m)": 0}
+    path = litchi_csv(tmp_path / "mission.csv", [
+        {"latitude": 47.0, "longitude": 8.0, "altitude(m)": 20, "heading(deg)": 90, "gimbalmode": 2,
+         "gimbalpitchangle": -30, "actiontype1": 1, "actiontype2": 4, "actionparam2": 180, "actiontype3": 5,
+         "actionparam3": -60, "actiontype4": 1},
+        {"latitude": 47.0001, "longitude": 8.0, "altitude(m)": 25, "heading(deg)": 0, "photo_distinterval": 5},
+        {"latitude": 47.0001, "longitude": 8.00015, "altitude(m)": 25, "heading(deg)": 270, "actiontype1": 1, **poi},
+    ])
+    assert detect_format(path) == "litchi"
+    plan = load_plan(path, camera="m3e", georef=SITE, ground_z=0.5)
+    assert plan.parameters["source"]["format"] == "litchi" and plan.parameters["home"]["from"] == "ground"
+    assert any("has no take-off point: its altitudes are read above the model's ground (z 0.50 m)" in w
+               for w in plan.parameters["warnings"])
+    wp = SITE.from_geodetic([47.0, 47.0001, 47.0001], [8.0, 8.0, 8.00015], [400.5 + 20, 400.5 + 25, 400.5 + 25])
+    leg = wp[2] - wp[1]
+    at = [wp[0], wp[0], wp[1] + 5 / np.linalg.norm(leg) * leg, wp[1] + 10 / np.linalg.norm(leg) * leg, wp[2]]  # 11.4 m
+    np.testing.assert_allclose(plan.C_world, at, atol=0.01)
+    np.testing.assert_allclose(plan.waypoints, wp, atol=0.01)
+    q = SITE.from_geodetic(47.00005, 8.0, 400.5)[0]
+    toward = math.degrees(math.atan2(q[2] - wp[2][2], math.hypot(*(q[:2] - wp[2][:2]))))
+    np.testing.assert_allclose(pitches(plan), [-30, -60, -60, -60, toward], atol=0.01)
+    assert max(angle_diff(a, b) for a, b in zip(true_headings(plan), [90, 180, 0, 0, 270])) < 0.01
+    assert len(set(plan.frame_names)) == len(plan)
+
+
+def test_litchi_mission_without_photos_and_its_errors(tmp_path):
+    rows = [{"latitude": 47.0, "longitude": 8.0, "altitude(m)": 20, "heading(deg)": 45},
+            {"latitude": 47.0001, "longitude": 8.0, "altitude(m)": 30, "heading(deg)": 135}]
+    path = litchi_csv(tmp_path / "bare.csv", rows)
+    plan = load_plan(path, camera="m3e", georef=SITE)  # no ground given: above the model's height 0, with a warning
+    np.testing.assert_allclose(plan.C_world[:, 2], [20.0, 30.0], atol=0.01)
+    np.testing.assert_allclose(pitches(plan), -90.0)  # gimbalmode 0 throughout: the pitch is not known
+    warnings = plan.parameters["warnings"]
+    assert any("no photo action (actiontype 1) nor photo interval: a frame is made at every waypoint" in w
+               for w in warnings)
+    assert any("above the model's height 0" in w for w in warnings) and any("nadir" in w for w in warnings)
+    with pytest.raises(PlanError, match="bare.csv: a Litchi mission names no camera"):
+        load_plan(path)
+    litchi_csv(path, [rows[0] | {"latitude": 91}])
+    with pytest.raises(PlanError, match=r"bare.csv, line 2: latitude 91.0 / longitude 8.0 out of range"):
+        load_plan(path, camera="m3e")
+    poses = tmp_path / "poses.csv"
+    poses.write_text("name,x,y,z,heading_deg,pitch_deg\na,0,0,1,0,0\n")
+    assert detect_format(poses) == "csv"
+
+
+# -- round trips through every flight app, as `check` and `evaluate` read them back -------------------------------
+
+ROUND_TRIP_FORMATS = [("qgc", {"autopilot": "px4"}, ".plan"), ("qgc", {"autopilot": "ardupilot"}, ".plan"),
+                      ("wpl", {}, ".waypoints"), ("wpml", {"aircraft": "m3e"}, ".kmz"), ("litchi", {}, ".csv")]
+
+
+@pytest.fixture(scope="module")
+def site_plans(tmp_path_factory):
+    """For the bundled sample and the basement house (terrain top −0.15, basement −3.3, georeferenced): the model
+    argument, the scene and a plan per template (facade, orbit, lawnmower), as `sightplan plan` makes them."""
+    from sightplan.camera.catalogue import get_camera
+    from sightplan.cli.flight import default_flight_settings
+    from sightplan.model.load import load_model
+    from sightplan.plan.templates.registry import TEMPLATES, plan_from_template
+    from site_fixture import write_basement_house
+
+    house = write_basement_house(tmp_path_factory.mktemp("site") / "house.ifc")
+    out = {}
+    for model in ("sample", str(house)):
+        scene, _ = load_model(model)
+        settings = default_flight_settings(False, None, None, None, None, 120.0, drone_safety_m=5.0, min_height=None,
+                                           position_error=None, scene=scene)
+        plans = {name: plan_from_template(name, scene, get_camera("m3e"), TEMPLATES[name].make({}), settings)[0]
+                 for name in ("facade", "orbit", "lawnmower")}
+        out["sample" if model == "sample" else "house"] = (model, scene, plans)
+    return out
+
+
+def read_back(paths, scene) -> list:
+    """The files read as `check` and `evaluate` read them: placed with the model's georeference and its ground."""
+    from sightplan.plan.load import scene_placement
+
+    return [load_plan(p, camera="m3e", **scene_placement(scene)) for p in paths]
+
+
+@pytest.mark.parametrize("site", ["sample", "house"])
+def test_exports_read_back_where_they_were_planned(tmp_path, site_plans, site):
+    """Every frame of an export comes back where the plan has it, heights included (to 1 cm), headings and pitches
+    too, from the take-off point each file records (QGroundControl, WPL, DJI WPML); a Litchi CSV, which has none,
+    from the model's ground under its first waypoint, which is where these plans take off."""
+    from sightplan.plan.ground import ground_of
+
+    require_geoid()  # DJI's take-off reference height is ellipsoidal
+    model, scene, plans = site_plans[site]
+    georef = Georeference.from_scene_metadata(scene.metadata)
+    ground = ground_of(scene).level_m
+    for name, plan in plans.items():
+        takeoff = np.asarray(plan.parameters["takeoff_m"], float)
+        assert takeoff[2] == pytest.approx(ground, abs=1e-6)  # these sites' take-off: on the ground
+        h0, p0, _ = gimbal_from_R(plan.R_world_camera)
+        for fmt, kw, suffix in ROUND_TRIP_FORMATS:
+            paths = export_plan(plan, fmt, tmp_path / f"{site}_{name}_{fmt}{kw.get('autopilot', '')}{suffix}", georef,
+                                takeoff, **kw)
+            back = read_back(paths, scene)
+            C = np.vstack([b.C_world for b in back])
+            assert C.shape == plan.C_world.shape, (name, fmt)
+            worst = np.abs(C - plan.C_world).max()
+            assert worst < 0.01, (name, fmt, kw, worst)
+            h1, p1, _ = (np.concatenate(v) for v in zip(*(gimbal_from_R(b.R_world_camera) for b in back)))
+            assert max(angle_diff(a, b) for a, b in zip(h0, h1)) < 0.01, (name, fmt)
+            np.testing.assert_allclose(p1, p0, atol=0.01)
+            for b in back:
+                start = b.parameters["takeoff_m"]
+                assert start[2] == pytest.approx(takeoff[2], abs=0.01), (name, fmt)
+                assert b.parameters["home"]["from"] == ("ground" if fmt == "litchi" else "file")
+
+
+def test_a_raised_take_off_comes_back_from_the_file_not_the_ground(tmp_path, site_plans):
+    """A take-off 1.6 m above the site's ground (a pilot on a platform): the files that carry their take-off point
+    come back exactly; a Litchi CSV, which carries none, comes back 1.6 m lower, from the site's ground."""
+    require_geoid()
+    _, scene, plans = site_plans["house"]
+    georef = Georeference.from_scene_metadata(scene.metadata)
+    plan = plans["facade"]
+    takeoff = np.asarray(plan.parameters["takeoff_m"], float) + [0.0, 0.0, 1.6]
+    for fmt, kw, suffix in ROUND_TRIP_FORMATS:
+        paths = export_plan(plan, fmt, tmp_path / f"raised_{fmt}{kw.get('autopilot', '')}{suffix}", georef, takeoff,
+                            per_mission_takeoff=False, **kw)
+        back = read_back(paths, scene)
+        C = np.vstack([b.C_world for b in back])
+        drop = 1.6 if fmt == "litchi" else 0.0
+        np.testing.assert_allclose(C, plan.C_world - [0.0, 0.0, drop], atol=0.01, err_msg=fmt)
+        if fmt != "litchi":
+            np.testing.assert_allclose(back[0].parameters["takeoff_m"], takeoff, atol=0.01)
+
+
+@pytest.mark.parametrize("site", ["sample", "house"])
+def test_check_of_an_export_finds_no_height_violation(tmp_path, site_plans, site):
+    """`sightplan check EXPORT MODEL` on each app's file of a facade plan (the lowest waypoints, 0.5 m above the
+    minimum height at the worst of the vertical error): no waypoint, leg, flight out or home too low."""
+    from test_cli import run_cli
+
+    require_geoid()
+    model, scene, plans = site_plans[site]
+    georef = Georeference.from_scene_metadata(scene.metadata)
+    plan = plans["facade"]
+    for fmt, kw, suffix in ROUND_TRIP_FORMATS:
+        first = export_plan(plan, fmt, tmp_path / f"{fmt}{kw.get('autopilot', '')}{suffix}", georef,
+                            plan.parameters["takeoff_m"], **kw)[0]
+        report = tmp_path / f"{first.stem}.json"
+        res = run_cli("check", str(first), model, "--camera", "m3e", "--json", str(report), cwd=tmp_path)
+        assert "Traceback" not in res.stdout + res.stderr
+        data = json.loads(report.read_text())
+        assert all(m["height_ok"] is not False for m in data["missions"]), (fmt, data["violations"])
+        assert not [v for v in data["violations"] if "above the ground" in v], fmt
+    # taking off 1.6 m above the ground: read from the ground, the lowest waypoints would come 1.6 m too low
+    raised = np.asarray(plan.parameters["takeoff_m"], float) + [0.0, 0.0, 1.6]
+    first = export_plan(plan, "qgc", tmp_path / "raised.plan", georef, raised, per_mission_takeoff=False)[0]
+    res = run_cli("check", str(first), model, "--camera", "m3e", "--json", str(tmp_path / "raised.json"), cwd=tmp_path)
+    data = json.loads((tmp_path / "raised.json").read_text())
+    assert not [v for v in data["violations"] if "above the ground" in v], data["violations"]
+    assert min(w["height_above_ground_m"] for w in data["waypoints"]) > 2.0

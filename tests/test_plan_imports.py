@@ -16,7 +16,7 @@ from sightplan.errors import PlanError
 from sightplan.formats.colmap import read_colmap
 from sightplan.formats.csv import read_csv_plan
 from sightplan.formats.opensfm import read_opensfm
-from sightplan.plan.load import apply_similarity, load_plan
+from sightplan.plan.load import apply_similarity, detect_format, load_plan
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "shared" / "data" / "poses" / "reconstruction_example.json"
 
@@ -497,6 +497,26 @@ def test_dji_area_template_alone_is_refused_by_name(tmp_path, kind, geometry, me
         load_plan(path, camera="m3e")
     assert "no Point coordinates" not in str(info.value)
     assert str(info.value).startswith("survey.kmz, wpmz/template.kml: ")
+
+
+@pytest.mark.parametrize("kind, geometry, message", [
+    ("mapping3d", "polygon", r"a DJI mapping3d \(area\) template: .*export the waylines from DJI Pilot 2.*"
+                             r"`sightplan plan lawnmower` \(--oblique-pitch"),
+    ("mapping2d", "polygon", r"a DJI mapping2d \(area\) template: .*`sightplan plan lawnmower`"),
+    ("mapping", "polygon", r"a DJI mapping \(area\) template: "),
+    ("mappingStrip", "line", r"a DJI mappingStrip \(strip\) template: .*export the waylines from DJI Pilot 2"),
+    (None, "polygon", r"a DJI area template \(a Polygon instead of waypoints\)"),
+])
+@pytest.mark.parametrize("name", ["template.kml", "survey.kml"])
+def test_dji_area_template_bare_is_refused_by_name_too(tmp_path, kind, geometry, message, name):
+    """A template.kml not zipped in a .kmz (or any .kml with DJI's elements) is told by its content and refused with
+    the message the zipped one gets, never "cannot tell the format"."""
+    path = tmp_path / name
+    path.write_text(_area_template(kind, geometry))
+    assert detect_format(path) == "wpml"
+    with pytest.raises(PlanError, match=message) as info:
+        load_plan(path, camera="m3e")
+    assert str(info.value).startswith(f"{name}: ") and "\n" not in str(info.value)
 
 
 def test_dji_area_template_with_its_waylines_reads_the_generated_waypoints(tmp_path):

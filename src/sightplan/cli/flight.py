@@ -27,7 +27,8 @@ PositionErrorOpt = Annotated[str | None, typer.Option(
                              "worst. Default: the aircraft's (gnss; rtk for the -rtk presets), none for a walked route")]
 GroundZOpt = Annotated[float | None, typer.Option(
     "--ground-z", help="Height of the site's ground in the model frame (m), instead of the terrain or the building's "
-                       "outside ground level that sightplan finds")]
+                       "outside ground level that sightplan finds; a flight-app mission takes off there too, not at "
+                       "its file's home")]
 
 
 def parse_point(text: str, what: str):

@@ -70,12 +70,11 @@ def load_with_progress(console: Console, model: str, cache: bool, mesh_elements:
 
 
 def georef_kwargs(scene) -> dict:
-    """A flight-app mission (latitude/longitude) is placed with the model's georeference, taking off from the site's
-    ground (:func:`~sightplan.plan.ground.ground_of`)."""
-    from ..geo import Georeference
-    from ..plan.ground import ground_of
+    """A flight-app mission (latitude/longitude) is placed with the model's georeference, taking off from its file's
+    reference, else from the site's ground (:func:`~sightplan.plan.load.scene_placement`)."""
+    from ..plan.load import scene_placement
 
-    return {"georef": Georeference.from_scene_metadata(scene.metadata), "ground_z": ground_of(scene).level_m}
+    return scene_placement(scene)
 
 
 def print_warnings(console: Console, warnings) -> None:

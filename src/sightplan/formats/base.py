@@ -21,12 +21,14 @@ class ReadOptions:
     """What :func:`~sightplan.plan.load.load_plan` passes every reader.
 
     camera: the camera of frames the file names none for (CSV rows, flight-app missions); georef: where a file in
-    latitude/longitude lies in the model frame; ground_z: the model-frame height of the ground a flight-app mission
-    takes off from."""
+    latitude/longitude lies in the model frame; ground_z: the model-frame height of the site's ground, where a
+    flight-app mission takes off when its file has no usable take-off reference; takeoff_z: a model-frame take-off
+    height the user gives, which replaces the file's reference (:func:`~.reading.place_takeoff`)."""
 
     camera: Camera | str | dict | None = None
     georef: Georeference | None = None
     ground_z: float | None = None
+    takeoff_z: float | None = None
 
 
 class Source:

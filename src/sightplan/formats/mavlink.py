@@ -10,6 +10,9 @@ Reading: the mission's commands are flown in order and a frame is made wherever 
   (20) and ``NAV_LAND`` (21) end the flight. Heights by MAVLink frame: 0/5 absolute (used as the
   georeference's heights), 3/6 above the home position, 10/11 (above terrain) taken as above home
   with a warning. A QGroundControl plan's home is its ``plannedHomePosition``; a WPL file's is line 0.
+  The home is the take-off point: at the height the file gives, in the georeference's datum, unless a
+  take-off height is given or the file's is unusable (:func:`~.reading.place_takeoff`: then the model's
+  ground ``ground_z``); without a home, under the first waypoint on that ground.
 - photos: ``IMAGE_START_CAPTURE`` (2000: one image, or a time-lapse of param3 images every param2 s,
   placed every speed × interval metres), ``DO_DIGICAM_CONTROL`` (203 with param5 = 1) and
   ``DO_SET_CAM_TRIGG_DIST`` (206: a frame every param1 metres along the legs flown until it is set to
@@ -91,10 +94,10 @@ from ..geo import Georeference, GeoreferenceError
 from ..geometry.poses import R_from_gimbal
 from ..plan.types import Mission, Plan
 from .flight import SAME_POSITION_M, Flight, Photo, Waypoint, same_angle
+from .reading import DEFAULT_PITCH_DEG, DEFAULT_SPEED_M_S, bearing, differs, given_camera, place_takeoff
 
 if TYPE_CHECKING:
     from ..flight.simulate import Gimbal
-from .reading import DEFAULT_PITCH_DEG, DEFAULT_SPEED_M_S, bearing, differs, given_camera
 
 # MAV_CMD: navigation
 NAV_WAYPOINT, NAV_LOITER_UNLIM, NAV_LOITER_TURNS, NAV_LOITER_TIME = 16, 17, 18, 19
@@ -160,6 +163,20 @@ class _Frame:
     heading: float  # model heading
     pitch: float
     name: str
+
+
+def home_position(values, where: str) -> tuple[float, float, float] | None:
+    """A file's home (latitude, longitude, height; NaN for a height the file leaves out), None where it gives none
+    (latitude and longitude 0); a PlanError starting with ``where`` for a latitude or longitude that is not a finite
+    number in range."""
+    lat, lon, h = (float(v) for v in values)
+    if not (math.isfinite(lat) and math.isfinite(lon)):
+        raise PlanError(f"{where}: its latitude and longitude are not finite numbers")
+    if lat == 0 and lon == 0:
+        return None
+    if not (-90 <= lat <= 90 and -180 <= lon <= 360):
+        raise PlanError(f"{where}: latitude {lat} / longitude {lon} out of range")
+    return lat, lon, h
 
 
 def _positions(src: MissionSource, georef: Georeference, home: tuple[float, float, float]) -> dict[int, NDArray]:
@@ -433,32 +450,42 @@ def _recorded(block: dict, n: int, camera, src: MissionSource) -> tuple[dict | N
 
 
 def plan_from_source(src: MissionSource, georef: Georeference | None, camera: Camera | str | dict | None,
-                     ground_z: float | None = None) -> Plan:
-    """Fly a parsed mission and build the plan (frames, waypoints, georeference, take-off point, warnings)."""
+                     ground_z: float | None = None, takeoff_z: float | None = None) -> Plan:
+    """Fly a parsed mission and build the plan (frames, waypoints, georeference, take-off point, warnings).
+
+    The take-off point is the file's home (:func:`~.reading.place_takeoff`: its height as the file gives it, unless
+    ``takeoff_z`` replaces it or it is unusable; then the model's ground ``ground_z``)."""
     home = src.home
+    what = "QGroundControl planned home position" if src.fmt == "qgc" else "home position (line 0)"
     if home is None:
         first = next((c for c in src.commands if c.command in WAYPOINTS and all(map(math.isfinite, c.params[4:6]))), None)
         if first is None:
             raise PlanError(f"{src.path.name}: the mission has no waypoint")
-        home = (first.params[4], first.params[5], 0.0)
-        src.warnings.append("the mission has no home position: heights above home are taken from the first waypoint's "
-                            "latitude/longitude at height 0")
+        home = (first.params[4], first.params[5], math.nan)
+        src.warnings.append("the mission has no home position: heights above home start from "
+                            f"{'the model ground' if ground_z is not None else 'height 0'} under the first waypoint")
+    elif not math.isfinite(home[2]):
+        src.warnings.append(f"the {what} has no height: heights above home start from "
+                            f"{'the model ground' if ground_z is not None else 'height 0'}")
     block = src.sightplan
+    model = georef is not None
     if georef is None and isinstance(block.get("georeference"), dict):
         try:
             georef = Georeference.from_dict(block["georeference"])
         except GeoreferenceError as exc:
             raise PlanError(f"{src.path.name}: the sightplan georeference: {exc}") from None
-    if georef is None:
-        georef = Georeference.from_origin(home[0], home[1], home[2], 0.0,
-                                          source=f"{'QGroundControl planned home' if src.fmt == 'qgc' else 'home'} position "
-                                                 f"of {src.path.name}")
+        model = True
+    file_h = home[2] if math.isfinite(home[2]) else None
     try:
-        if ground_z is not None:  # take off from the model's ground: heights above home are measured from there
-            home = (home[0], home[1], georef.height_at(home[0], home[1], ground_z, home[2]))
-        home_xyz = georef.from_geodetic(home[0], home[1], home[2])[0]
+        if georef is None:
+            georef = Georeference.from_origin(home[0], home[1], file_h or 0.0, 0.0,
+                                              source=f"{'QGroundControl planned home' if src.fmt == 'qgc' else 'home'} "
+                                                     f"position of {src.path.name}")
+        takeoff = place_takeoff(georef, home[0], home[1], file_h, model=model, ground_z=ground_z, takeoff_z=takeoff_z,
+                                what=what, warnings=src.warnings)
     except GeoreferenceError as exc:
         raise PlanError(f"{src.path.name}: home position: {exc}") from None
+    home, home_xyz = (takeoff.latitude_deg, takeoff.longitude_deg, takeoff.height_m), takeoff.xyz
     frames, waypoints = fly(src, georef, home_xyz, home)
     if not frames:
         raise PlanError(f"{src.path.name}: the mission takes no photo")
@@ -473,8 +500,7 @@ def plan_from_source(src: MissionSource, georef: Georeference | None, camera: Ca
     C = np.array([f.position for f in frames])
     R = R_from_gimbal([f.heading for f in frames], [f.pitch for f in frames], 0.0)
     params = {"source": {"format": src.fmt, "path": str(src.path)}, "georeference": georef.to_dict(),
-              "takeoff_m": [float(v) for v in home_xyz],
-              "home": {"latitude_deg": home[0], "longitude_deg": home[1], "height_m": home[2]},
+              "takeoff_m": [float(v) for v in home_xyz], "home": takeoff.to_dict(),
               "warnings": src.warnings}
     return Plan.build(cameras, R, C, frame_camera=frame_camera, frame_names=names,
                       missions=(Mission(src.path.stem, 0, len(frames)),),

@@ -1,7 +1,8 @@
 """QGroundControl ``.plan`` missions (JSON: ``fileType`` "Plan", version 1; mission version 2), read and written as
 :mod:`.mavlink` reads and writes a mission's commands.
 
-Read: a plan's home is its ``plannedHomePosition``. QGroundControl complex items: Survey and CorridorScan
+Read: a plan's home is its ``plannedHomePosition``, the take-off point its relative heights start from (see
+:mod:`.mavlink`). QGroundControl complex items: Survey and CorridorScan
 are read from their expanded ``TransectStyleComplexItem.Items`` (or ``Items``); a StructureScan (which
 QGroundControl saves without items) is expanded as QGroundControl does: its polygon, made clockwise, offset outward by the
 camera's distance to the surface; ``Layers`` loops around it at heights from ``StructureHeight`` (or
@@ -42,6 +43,7 @@ from .mavlink import (
     Autopilot,
     Command,
     MissionSource,
+    home_position,
     mission_items,
     plan_from_source,
     resolve_autopilot,
@@ -183,9 +185,7 @@ def parse_qgc_plan(path: Path) -> MissionSource:
     if not (isinstance(home_raw, list) and len(home_raw) >= 3):
         raise PlanError(f"{path.name}: 'plannedHomePosition' must be [latitude, longitude, altitude]")
     home = tuple(_float(v, f"{path.name}, plannedHomePosition") for v in home_raw[:3])
-    if not all(math.isfinite(v) for v in home):
-        raise PlanError(f"{path.name}: 'plannedHomePosition' is not three finite numbers")
-    src = MissionSource(path, [], home if any(home[:2]) else None)
+    src = MissionSource(path, [], home_position(home, f"{path.name}: 'plannedHomePosition'"))
     if isinstance(data.get("sightplan"), dict):
         src.sightplan = data["sightplan"]
     speed = mission.get("hoverSpeed") if mission.get("vehicleType", 2) not in (1,) else mission.get("cruiseSpeed")
@@ -211,14 +211,15 @@ def parse_qgc_plan(path: Path) -> MissionSource:
 
 
 def read_qgc_plan(path: str | Path, georef: Georeference | None = None, camera: Camera | str | dict | None = None,
-                  ground_z: float | None = None) -> Plan:
-    """A plan from a QGroundControl ``.plan`` mission; see the module docstring (``ground_z``:
+                  ground_z: float | None = None, takeoff_z: float | None = None) -> Plan:
+    """A plan from a QGroundControl ``.plan`` mission; see the module docstring (``ground_z``, ``takeoff_z``:
     :func:`~sightplan.plan.load.load_plan`)."""
-    return plan_from_source(parse_qgc_plan(Path(path)), georef, camera, ground_z)
+    return plan_from_source(parse_qgc_plan(Path(path)), georef, camera, ground_z, takeoff_z)
 
 
 def _read(source: Source, options: ReadOptions) -> Plan:
-    return read_qgc_plan(source.path, georef=options.georef, camera=options.camera, ground_z=options.ground_z)
+    return read_qgc_plan(source.path, georef=options.georef, camera=options.camera, ground_z=options.ground_z,
+                         takeoff_z=options.takeoff_z)
 
 
 # ---- writing -----------------------------------------------------------------------------------

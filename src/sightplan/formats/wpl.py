@@ -1,5 +1,6 @@
 """``QGC WPL 110`` waypoint files (Mission Planner ``.waypoints``, read by QGroundControl and MAVProxy), read and
-written as :mod:`.mavlink` reads and writes a mission's commands; line 0 is the home position.
+written as :mod:`.mavlink` reads and writes a mission's commands; line 0 is the home position, the take-off point the
+relative heights start from.
 
 First line ``QGC WPL 110``; then one tab-separated line per item: ``seq current frame command p1 p2 p3
 p4 lat lon alt autocontinue``. Line 0 is the home (take-off) position, ``current`` 1, frame 0
@@ -12,7 +13,6 @@ several (``stem_m01.waypoints``…).
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 
 from ..camera.models import Camera
@@ -27,6 +27,7 @@ from .mavlink import (
     Autopilot,
     Command,
     MissionSource,
+    home_position,
     mission_items,
     plan_from_source,
     resolve_autopilot,
@@ -68,22 +69,21 @@ def parse_wpl(path: Path) -> MissionSource:
         except ValueError:
             raise PlanError(f"{where}: {line.strip()[:60]!r} has a value that is not a number") from None
         if seq == 0 and src.home is None and not src.commands:
-            if not all(math.isfinite(v) for v in params[4:7]):
-                raise PlanError(f"{where}: the home position is not finite")
-            src.home = (params[4], params[5], params[6]) if any(params[4:6]) else None
+            src.home = home_position(params[4:7], f"{where}: the home position")
             continue
         src.commands.append(Command(command, frame, params, where, seq))
     return src
 
 
 def read_wpl(path: str | Path, georef: Georeference | None = None, camera: Camera | str | dict | None = None,
-             ground_z: float | None = None) -> Plan:
+             ground_z: float | None = None, takeoff_z: float | None = None) -> Plan:
     """A plan from a ``QGC WPL 110`` waypoint file (Mission Planner ``.waypoints``); see the module docstring."""
-    return plan_from_source(parse_wpl(Path(path)), georef, camera, ground_z)
+    return plan_from_source(parse_wpl(Path(path)), georef, camera, ground_z, takeoff_z)
 
 
 def _read(source: Source, options: ReadOptions) -> Plan:
-    return read_wpl(source.path, georef=options.georef, camera=options.camera, ground_z=options.ground_z)
+    return read_wpl(source.path, georef=options.georef, camera=options.camera, ground_z=options.ground_z,
+                    takeoff_z=options.takeoff_z)
 
 
 # ---- writing -----------------------------------------------------------------------------------

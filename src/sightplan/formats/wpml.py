@@ -1,40 +1,51 @@
-"""DJI WPML missions, a ``.kmz`` (zip) holding ``wpmz/template.kml`` and ``wpmz/waylines.wpml``: read and written,
-with DJI's namespaces and the aircraft and payloads sightplan writes for and reads (:data:`AIRCRAFT`).
+"""DJI WPML missions, a ``.kmz`` (zip) holding ``wpmz/template.kml`` and ``wpmz/waylines.wpml`` (or either file
+bare): read and written, with DJI's namespaces and the aircraft and payloads sightplan writes for and reads
+(:data:`AIRCRAFT`).
 
-Reading: ``wpmz/waylines.wpml`` (else ``wpmz/template.kml``). Both are KML documents with DJI's ``wpml``
-elements (any ``http://www.dji.com/wpmz/…`` version). Each ``Folder`` (wayline) becomes one
+Reading: ``wpmz/waylines.wpml`` (else ``wpmz/template.kml``) of a ``.kmz``, or a bare ``template.kml``
+(``.kml``) or ``waylines.wpml`` (``.wpml``; a KML document is a waylines file when it has ``waylineId`` or
+``executeHeight``). Both are KML documents with DJI's ``wpml`` elements (any ``http://www.dji.com/wpmz/…``
+version); a KML without them is refused. Each ``Folder`` (wayline) becomes one
 :class:`~sightplan.plan.types.Mission`; its ``Placemark`` waypoints, in ``index`` order, are flown as follows:
 
 - position: ``Point`` coordinates "lon,lat"; height ``executeHeight`` (waylines; the Folder's
   ``executeHeightMode``: relativeToStartPoint, or WGS84 ellipsoidal heights) or
   ``height``/``globalHeight`` (template, ``waylineCoordinateSysParam/heightMode``: relativeToStartPoint,
   or EGM96 heights above sea level). Heights relative to the start point are added to the take-off
-  point's height: the template's ``takeOffRefPoint`` ("lat,lon,height", the height ellipsoidal),
-  else the model's height 0 under the first waypoint (with a warning). Ellipsoidal heights become
-  heights above sea level, the georeference's datum, by subtracting the EGM96 geoid undulation
-  (:mod:`sightplan.geoid`; without the geoid grid they are read as they are, with a warning).
+  point's height: the ``takeOffRefPoint`` ("lat,lon,height", the height WGS84 ellipsoidal) placed with
+  the georeference (:func:`~.reading.place_takeoff`), else the model's ground ``ground_z`` under the
+  first waypoint (else its height 0; with a warning). Ellipsoidal heights become heights above sea
+  level, the georeference's datum, by subtracting the EGM96 geoid undulation (:mod:`sightplan.geoid`;
+  without the geoid grid the reference height gives way to ``ground_z``, and other heights are read
+  as they are, with a warning).
 - aircraft heading on arrival: ``waypointHeadingParam`` (or the Folder's global one):
   ``waypointHeadingAngle`` (smoothTransition, fixed, manually), toward the next waypoint
   (followWayline) or toward ``waypointPoiPoint`` (towardPOI).
+- gimbal pitch on arrival: the waypoint's ``waypointGimbalHeadingParam/waypointGimbalPitchAngle``
+  (waylines) or ``gimbalPitchAngle`` (template) where the wayline's ``gimbalPitchMode`` (its own, else its
+  template Folder's) is usePointSetting, or no mode is given and the mission has no photo action;
+  otherwise the first such value is only the pitch to start with, and in manual mode none is used.
 - actions (``actionGroup`` with trigger reachPoint, in order): ``rotateYaw`` sets the heading
   (``aircraftHeading``); ``gimbalRotate`` the pitch (``gimbalPitchRotateAngle``) and a gimbal yaw
   (absolute from north, or relative to the aircraft); each ``takePhoto`` makes one frame, as do
   ``orientedShoot``/``accurateShoot`` with their own heading and pitch. Groups triggered by
   multipleDistance/multipleTiming take a photo every param metres (or seconds at the wayline's
   ``autoFlightSpeed``) from their first to their last waypoint, in flight order. The gimbal pitch is
-  kept from one waypoint to the next; before any is set, ``waypointGimbalPitchAngle`` or
-  ``gimbalPitchAngle``, else −90° (with a warning).
+  kept from one waypoint to the next; before any is set, −90° (with a warning).
+- a mission without any photo action (a DJI Pilot 2 waypoint mission of headings and gimbal pitches
+  only) has a frame at every waypoint, after its actions, with the heading and pitch there (and says so
+  in ``plan.parameters["warnings"]``).
 
 DJI's area templates (``templateType`` mapping2d, mapping3d — the oblique, five-wayline survey —
 and mappingStrip) hold in ``template.kml`` the survey polygon (or strip line) and its overlaps, not
 waypoints: DJI Pilot 2 generates the flight into ``waylines.wpml``. With ``waylines.wpml`` in the
 ``.kmz`` those generated waylines are read as above (the template type is kept in
-``plan.parameters["source"]["template_type"]``); a template alone is refused with a message naming
-its type.
+``plan.parameters["source"]["template_type"]``); a template alone, zipped or bare, is refused with a
+message naming its type. A bare template of type waypoint is read as its waypoints.
 
-A frame's name is its ``takePhoto`` ``fileSuffix`` when the file gives one. Without a georeference
-the model frame is topocentric at the take-off point (model +Y north), stored in
-``plan.parameters["georeference"]`` with ``plan.parameters["takeoff_m"]``. The camera is the
+A frame's name is its ``takePhoto`` ``fileSuffix`` when the file gives one. The take-off point is
+``plan.parameters["takeoff_m"]``. Without a georeference the model frame is topocentric at the take-off point
+(model +Y north), stored in ``plan.parameters["georeference"]``. The camera is the
 payload's (``payloadEnumValue`` 66 Mavic 3E, 42 H20, 50 P1) when the catalogue has it, else ``camera``.
 
 Writing: both files, KML 2.2 documents (namespace ``http://www.opengis.net/kml/2.2``) with DJI's elements in
@@ -95,7 +106,7 @@ from ..plan.types import Mission, Plan
 from .base import FlightFormat, ReadOptions, Source, Target
 from .flight import Flight, Waypoint, number_text, same_angle, wrap180
 from .kml import KML_NS
-from .reading import DEFAULT_PITCH_DEG, DEFAULT_SPEED_M_S, bearing, differs, given_camera
+from .reading import DEFAULT_PITCH_DEG, DEFAULT_SPEED_M_S, bearing, differs, given_camera, place_takeoff
 
 WPML_NS = "http://www.dji.com/wpmz/1.0.2"
 SPEED_RANGE_M_S = (1.0, 15.0)  # autoFlightSpeed, waypointSpeed and globalTransitionalSpeed
@@ -134,7 +145,7 @@ BUILT_IN_CAMERAS: dict[tuple[int, int], str] = {(a.drone, a.sub): a.cameras[0] f
 
 # ---- reading -----------------------------------------------------------------------------------
 
-AREA_TEMPLATES = {"mapping2d": "area", "mapping3d": "area", "mappingStrip": "strip"}
+AREA_TEMPLATES = {"mapping": "area", "mapping2d": "area", "mapping3d": "area", "mappingStrip": "strip"}
 ABSOLUTE_HEIGHT_MODES = {"WGS84", "EGM96"}
 
 
@@ -206,28 +217,75 @@ class _Photo:
 MAX_ENTRY_BYTES = 64 * 1024 * 1024  # a mission's KML/WPML is kilobytes; more is not a mission file
 
 
+def _kml_document(data: bytes, where: str) -> ET.Element:
+    """The ``Document`` of a KML/WPML file's bytes; a PlanError starting with ``where`` when it is not one."""
+    try:
+        root = ET.fromstring(data)
+    except ET.ParseError as exc:
+        raise PlanError(f"{where}: not valid XML ({exc})") from None
+    doc = _kid(root, "Document") if _local(root.tag) == "kml" else None
+    if doc is None:
+        raise PlanError(f"{where}: not a KML document (<kml><Document>…)")
+    return doc
+
+
 def _parse(z: zipfile.ZipFile, name: str, path: Path) -> ET.Element:
     if z.getinfo(name).file_size > MAX_ENTRY_BYTES:
         raise PlanError(f"{path.name}, {name}: {z.getinfo(name).file_size / 1e6:.0f} MB unpacked, too large for a "
                         "mission file")
+    return _kml_document(z.read(name), f"{path.name}, {name}")
+
+
+def _is_dji(doc: ET.Element) -> bool:
+    """Whether a KML document has DJI's ``wpml`` elements (any ``http://www.dji.com/wpmz/…`` version)."""
+    return any(el.tag.startswith("{http://www.dji.com/wpmz") for el in doc.iter())
+
+
+def _is_waylines(doc: ET.Element) -> bool:
+    """Whether a DJI document is a ``waylines.wpml`` (waylines to execute), not a ``template.kml``."""
+    return any(_local(el.tag) in ("waylineId", "executeHeightMode", "executeHeight") for el in doc.iter())
+
+
+def _sources(path: Path) -> tuple[ET.Element | None, ET.Element | None, str, str]:
+    """(template.kml's Document, waylines.wpml's Document, each one's name in messages) of a ``.kmz``, or of a bare
+    ``template.kml`` or ``waylines.wpml`` (any DJI KML document: a template unless it holds waylines)."""
+    if path.suffix.lower() == ".kmz" or zipfile.is_zipfile(path):
+        try:
+            z = zipfile.ZipFile(path)
+        except zipfile.BadZipFile:
+            raise PlanError(f"{path.name} is not a KMZ (zip) file") from None
+        except OSError as exc:
+            raise PlanError(f"cannot read {path}: {exc.strerror or exc}") from None
+        with z:
+            names = z.namelist()
+            waylines = next((n for n in names if n.lower().endswith("wpmz/waylines.wpml")), None)
+            template = next((n for n in names if n.lower().endswith("wpmz/template.kml")), None)
+            if waylines is None and template is None:
+                raise PlanError(f"{path.name}: no wpmz/waylines.wpml or wpmz/template.kml inside: not a DJI WPML mission")
+            return (_parse(z, template, path) if template else None, _parse(z, waylines, path) if waylines else None,
+                    f"{path.name}, {template}", f"{path.name}, {waylines}")
     try:
-        root = ET.fromstring(z.read(name))
-    except ET.ParseError as exc:
-        raise PlanError(f"{path.name}, {name}: not valid XML ({exc})") from None
-    doc = _kid(root, "Document") if _local(root.tag) == "kml" else None
-    if doc is None:
-        raise PlanError(f"{path.name}, {name}: not a KML document (<kml><Document>…)")
-    return doc
+        size = path.stat().st_size
+        if size > MAX_ENTRY_BYTES:
+            raise PlanError(f"{path.name}: {size / 1e6:.0f} MB, too large for a mission file")
+        doc = _kml_document(path.read_bytes(), path.name)
+    except OSError as exc:
+        raise PlanError(f"cannot read {path}: {exc.strerror or exc}") from None
+    if not _is_dji(doc):
+        raise PlanError(f"{path.name}: a KML document without DJI WPML elements (wpml:…): not a DJI mission; sightplan "
+                        "reads a .kml or .wpml only as DJI's template.kml or waylines.wpml")
+    if _is_waylines(doc):
+        return None, doc, path.name, path.name
+    return doc, None, path.name, path.name
 
 
 def _template_type(doc: ET.Element | None) -> str | None:
-    """The template type of a template.kml (``waypoint``, ``mapping2d``, …): the first Folder's
-    ``templateType``, else ``"polygon"``/``"line"`` when a Placemark holds an area instead of a Point."""
+    """The template type of a template.kml (``waypoint``, ``mapping2d``, …): its first ``templateType`` (a
+    Folder's), else ``"polygon"``/``"line"`` when a Placemark holds an area instead of a Point."""
     folders = _kids(doc, "Folder")
-    for folder in folders:
-        kind = _text(folder, "templateType")
-        if kind:
-            return kind
+    for el in ([] if doc is None else doc.iter()):
+        if _local(el.tag) == "templateType" and el.text and el.text.strip():
+            return el.text.strip()
     for folder in folders:
         for pm in _kids(folder, "Placemark"):
             if _kid(pm, "Point") is None:
@@ -238,7 +296,7 @@ def _template_type(doc: ET.Element | None) -> str | None:
     return None
 
 
-def _refuse_area_template(kind: str, path: Path, name: str) -> None:
+def _refuse_area_template(kind: str, where: str) -> None:
     """A template.kml without waylines that describes an area (or strip), not waypoints: one clear error."""
     if kind in AREA_TEMPLATES:
         what = f"a DJI {kind} ({AREA_TEMPLATES[kind]}) template"
@@ -250,7 +308,7 @@ def _refuse_area_template(kind: str, path: Path, name: str) -> None:
     if kind != "mappingStrip" and kind != "line":
         how += ", or plan it with `sightplan plan lawnmower`" + (" (--oblique-pitch for the oblique passes)"
                                                                   if kind == "mapping3d" else "")
-    raise PlanError(f"{path.name}, {name}: {what}: it holds the survey area, not the flight; {how}")
+    raise PlanError(f"{where}: {what}: it holds the survey area, not the flight; {how}")
 
 
 def _undulation(lat: list[float], lon: list[float], warnings: list[str]) -> NDArray:
@@ -377,9 +435,34 @@ def _arrival_heading(wp: _Waypoint, folder: ET.Element, P: NDArray, n: int, geor
     return None, _along(P, n) or 0.0
 
 
+PHOTO_ACTIONS = ("takePhoto", "orientedShoot", "accurateShoot")
+
+
+def _takes_photos(folders: list[ET.Element]) -> bool:
+    """Whether any action group of the waylines takes a photo."""
+    return any(_text(a, "actionActuatorFunc") in PHOTO_ACTIONS for f in folders for g in _groups(f)
+               for a in _kids(g, "action"))
+
+
+def _pitch_mode(template_doc: ET.Element | None, folder: ET.Element, template_id: float | None) -> str | None:
+    """The ``gimbalPitchMode`` of a wayline: its own, else its template Folder's (same ``templateId``, else the
+    first), else None."""
+    mode = _text(folder, "gimbalPitchMode")
+    if mode:
+        return mode
+    folders = _kids(template_doc, "Folder")
+    same = [f for f in folders if template_id is not None and _text(f, "templateId") == number_text(template_id)]
+    for f in same + folders:
+        if _text(f, "gimbalPitchMode"):
+            return _text(f, "gimbalPitchMode")
+    return None
+
+
 def _fly_wayline(wayline: int, folder: ET.Element, wps: list[_Waypoint], P: NDArray, georef: Georeference,
-                 gimbal: _Gimbal, is_template: bool, where: str) -> list[_Photo]:
-    """The photos one wayline takes (see the module docstring)."""
+                 gimbal: _Gimbal, is_template: bool, where: str, *, shooting: bool = True,
+                 pitch_mode: str | None = None) -> list[_Photo]:
+    """The photos one wayline takes (see the module docstring); ``shooting``: whether the mission has a photo
+    action (without one, a photo at every waypoint); ``pitch_mode``: the wayline's ``gimbalPitchMode``."""
     speed = _num(folder, "autoFlightSpeed", where) or DEFAULT_SPEED_M_S
     reach: dict[int, list[ET.Element]] = {}
     spans: list[dict] = []
@@ -405,8 +488,9 @@ def _fly_wayline(wayline: int, folder: ET.Element, wps: list[_Waypoint], P: NDAr
         gp = _num(_kid(wp.pm, "waypointGimbalHeadingParam"), "waypointGimbalPitchAngle", wp.where)
         if gp is None and is_template:
             gp = _num(wp.pm, "gimbalPitchAngle", wp.where)
-        if gp is not None and gimbal.pitch is None:
-            gimbal.pitch = gp
+        per_point = pitch_mode == "usePointSetting" or (pitch_mode is None and not shooting)
+        if gp is not None and pitch_mode != "manual" and (per_point or gimbal.pitch is None):
+            gimbal.pitch = gp  # the waypoint's own pitch (usePointSetting), else the first as the one to start with
         gimbal_abs: float | None = None
         gimbal_rel = 0.0
         count = 0
@@ -443,6 +527,12 @@ def _fly_wayline(wayline: int, folder: ET.Element, wps: list[_Waypoint], P: NDAr
                 suffix = _text(prm, "fileSuffix")
                 photos.append(_Photo(wayline, P[n], h_true, h_model, float(np.clip(p, -90, 90)),
                                      suffix or f"w{wayline}_wp{wp.index:03d}_{count}"))
+        if not shooting:  # no photo action in the mission: a photo at every waypoint, as it arrives and turns
+            h_true = gimbal_abs if gimbal_abs is not None else (
+                None if heading_true is None else (heading_true + gimbal_rel) % 360.0)
+            h_model = None if h_true is not None else ((heading_model or 0.0) + gimbal_rel) % 360.0
+            photos.append(_Photo(wayline, P[n], h_true, h_model, float(np.clip(gimbal.current(), -90, 90)),
+                                 f"w{wayline}_wp{wp.index:03d}"))
         if n + 1 < len(wps):  # the leg to the next waypoint: photos of the distance or time triggers over it
             leg = P[n + 1] - P[n]
             length = float(np.linalg.norm(leg))
@@ -458,58 +548,74 @@ def _fly_wayline(wayline: int, folder: ET.Element, wps: list[_Waypoint], P: NDAr
     return photos
 
 
-def read_wpml(path: str | Path, georef: Georeference | None = None, camera: Camera | str | dict | None = None,
-              ground_z: float | None = None) -> Plan:
-    """A plan from a DJI WPML ``.kmz`` mission; see the module docstring (``ground_z``: see
-    :func:`~sightplan.plan.load.load_plan`: the take-off point is put on the model's ground)."""
-    path = Path(path)
+def _reference(ref_text: str | None, where: str, warnings: list[str], ground_z: float | None
+               ) -> tuple[float, float, float | None] | None:
+    """The take-off reference point ``takeOffRefPoint`` "lat,lon,h" as (latitude, longitude, height above sea level
+    or None), or None where the file gives none (or "0,0"). DJI's height is WGS84 ellipsoidal: it becomes a
+    sea-level height with the EGM96 geoid; without the geoid grid, the height is dropped for the model's ground
+    ``ground_z`` when there is one, else read as it is (each with a warning)."""
+    from ..geoid import INSTALL_HINT, GeoidError, undulation
+
+    ref = _numbers(ref_text, 2, "takeOffRefPoint", where)
+    if ref is None or (ref[0] == 0 and ref[1] == 0):
+        return None
+    lat, lon = ref[0], ref[1]
+    if not (-90 <= lat <= 90 and -180 <= lon <= 180):
+        raise PlanError(f"{where}: takeOffRefPoint latitude {lat} / longitude {lon} out of range (it is 'latitude,"
+                        "longitude,height')")
+    h = ref[2] if len(ref) > 2 and math.isfinite(ref[2]) else None
+    if h is None:
+        warnings.append("the take-off reference point (takeOffRefPoint) has no height")
+        return lat, lon, None
     try:
-        z = zipfile.ZipFile(path)
-    except zipfile.BadZipFile:
-        raise PlanError(f"{path.name} is not a KMZ (zip) file") from None
-    except OSError as exc:
-        raise PlanError(f"cannot read {path}: {exc.strerror or exc}") from None
-    with z:
-        names = z.namelist()
-        waylines = next((n for n in names if n.lower().endswith("wpmz/waylines.wpml")), None)
-        template_name = next((n for n in names if n.lower().endswith("wpmz/template.kml")), None)
-        if waylines is None and template_name is None:
-            raise PlanError(f"{path.name}: no wpmz/waylines.wpml or wpmz/template.kml inside: not a DJI WPML mission")
-        template_doc = _parse(z, template_name, path) if template_name else None
-        doc = template_doc if waylines is None else _parse(z, waylines, path)
-    is_template = waylines is None
+        return lat, lon, float(h - undulation([lat], [lon])[0])
+    except GeoidError:
+        if ground_z is not None:
+            warnings.append("the take-off reference height (takeOffRefPoint) is WGS84 ellipsoidal and the geoid is "
+                            f"missing: heights above take-off start from the model's ground; {INSTALL_HINT}")
+            return lat, lon, None
+        warnings.append(f"WGS84 ellipsoidal heights read as heights above sea level, without the geoid: {INSTALL_HINT}")
+        return lat, lon, float(h)
+
+
+def read_wpml(path: str | Path, georef: Georeference | None = None, camera: Camera | str | dict | None = None,
+              ground_z: float | None = None, takeoff_z: float | None = None) -> Plan:
+    """A plan from a DJI WPML mission: a ``.kmz``, or a bare ``template.kml`` or ``waylines.wpml``; see the module
+    docstring (``ground_z``, ``takeoff_z``: see :func:`~sightplan.plan.load.load_plan`)."""
+    path = Path(path)
+    template_doc, waylines_doc, template_name, waylines_name = _sources(path)
+    is_template = waylines_doc is None
+    doc = template_doc if is_template else waylines_doc
+    assert doc is not None
     template_type = _template_type(template_doc)
     if is_template and template_type is not None:
-        _refuse_area_template(template_type, path, str(template_name))
-    where = f"{path.name}, {waylines or template_name}"
+        _refuse_area_template(template_type, template_name)
+    where = template_name if is_template else waylines_name
     warnings: list[str] = []
     config = _kid(doc, "missionConfig")
     ref_text = _text(config, "takeOffRefPoint") or _text(_kid(template_doc, "missionConfig"), "takeOffRefPoint")
-    ref = _numbers(ref_text, 2, "takeOffRefPoint", where)
     folders = [(f, _waypoints(f, is_template, f"{where}, Folder {k + 1}")) for k, f in enumerate(_kids(doc, "Folder"))]
     folders = [(f, wps) for f, wps in folders if wps]
     if not folders:
         raise PlanError(f"{where}: no wayline (Folder) with waypoints (Placemark)")
     first = folders[0][1][0]
     any_relative = any(wp.relative for _, wps in folders for wp in wps)
-    if ref is not None:
-        t_lat, t_lon = ref[0], ref[1]
-        t_h = ref[2] if len(ref) > 2 else None
-        if t_h is not None:  # DJI: the take-off reference height is ellipsoidal
-            t_h = float(t_h - _undulation([t_lat], [t_lon], warnings)[0])
-    else:
+    ref = _reference(ref_text, where, warnings, ground_z if any_relative else None)
+    if ref is None:
         t_lat, t_lon, t_h = first.lat, first.lon, None
+        if any_relative and takeoff_z is None:
+            warnings.append("the mission has no take-off reference point (takeOffRefPoint): heights above the start "
+                            f"point start from {'the model ground' if ground_z is not None else 'height 0'} under the "
+                            "first waypoint")
+    else:
+        t_lat, t_lon, t_h = ref
+    model = georef is not None
     try:
         if georef is None:
             georef = Georeference.from_origin(t_lat, t_lon, t_h or 0.0, 0.0, source=f"take-off point of {path.name}")
-        if ground_z is not None:
-            t_h = georef.height_at(t_lat, t_lon, ground_z, t_h or 0.0)
-        if t_h is None:
-            t_h = georef.height_at(t_lat, t_lon, 0.0)
-            if any_relative:
-                warnings.append("the mission has no take-off reference point (takeOffRefPoint): heights above the start "
-                                "point are taken from the model's height 0 under the first waypoint")
-        takeoff_xyz = georef.from_geodetic(t_lat, t_lon, t_h)[0]
+        takeoff = place_takeoff(georef, t_lat, t_lon, t_h, model=model, ground_z=ground_z, takeoff_z=takeoff_z,
+                                what="take-off reference point (takeOffRefPoint)", warnings=warnings)
+        t_h = takeoff.height_m
         all_wps = [wp for _, wps in folders for wp in wps]
         absolute = np.array([w.height for w in all_wps], float)
         ell = np.array([w.ellipsoidal for w in all_wps])
@@ -526,6 +632,10 @@ def read_wpml(path: str | Path, georef: Georeference | None = None, camera: Came
     missions: list[tuple[str, int, int]] = []
     waypoints_xyz: list[NDArray] = []
     gimbal = _Gimbal()
+    shooting = _takes_photos([f for f, _ in folders])
+    if not shooting:
+        warnings.append("the mission has no photo action (takePhoto, orientedShoot, accurateShoot): a frame is made "
+                        "at every waypoint, with its heading and gimbal pitch")
     n_wp = 0
     for k, (folder, wps) in enumerate(folders):
         wayline = int(_num(folder, "waylineId", where, _num(folder, "templateId", where, float(k))) or 0)
@@ -533,7 +643,9 @@ def read_wpml(path: str | Path, georef: Georeference | None = None, camera: Came
         n_wp += len(wps)
         waypoints_xyz.extend(P)
         start = len(photos)
-        photos.extend(_fly_wayline(wayline, folder, wps, P, georef, gimbal, is_template, where))
+        mode = _pitch_mode(template_doc, folder, _num(folder, "templateId", where))
+        photos.extend(_fly_wayline(wayline, folder, wps, P, georef, gimbal, is_template, where, shooting=shooting,
+                                   pitch_mode=mode))
         if len(photos) > start:
             missions.append((f"wayline {wayline}", start, len(photos)))
     if not photos:
@@ -556,16 +668,16 @@ def read_wpml(path: str | Path, georef: Georeference | None = None, camera: Came
     source = {"format": "wpml", "path": str(path)}
     if template_type is not None:
         source["template_type"] = template_type
-    params = {"source": source, "georeference": georef.to_dict(),
-              "takeoff_m": [float(v) for v in takeoff_xyz],
-              "home": {"latitude_deg": t_lat, "longitude_deg": t_lon, "height_m": t_h}, "warnings": warnings}
+    params = {"source": source, "georeference": georef.to_dict(), "takeoff_m": [float(v) for v in takeoff.xyz],
+              "home": takeoff.to_dict(), "warnings": warnings}
     return Plan.build({cid: cam}, R, C, frame_names=[re.sub(r"\s+", "_", n) for n in names],
                       missions=tuple(Mission(*m) for m in missions), waypoints=np.array(waypoints_xyz).reshape(-1, 3),
                       parameters=params)
 
 
 def _read(source: Source, options: ReadOptions) -> Plan:
-    return read_wpml(source.path, georef=options.georef, camera=options.camera, ground_z=options.ground_z)
+    return read_wpml(source.path, georef=options.georef, camera=options.camera, ground_z=options.ground_z,
+                     takeoff_z=options.takeoff_z)
 
 
 # ---- writing -----------------------------------------------------------------------------------
@@ -822,7 +934,8 @@ def _write(flight: Flight, path: Path, target: Target) -> list[Path]:
     return write_wpml(flight, path, target.vehicle)
 
 
-FORMAT = FlightFormat(name="wpml", label="DJI WPML", order=30, read=_read, suffixes=(".kmz",), uses_camera=True,
+FORMAT = FlightFormat(name="wpml", label="DJI WPML", order=30, read=_read, suffixes=(".kmz", ".kml", ".wpml"),
+                      uses_camera=True,
                       write=_write, suffix=".kmz", media_type="application/vnd.google-earth.kmz", prepare=_prepare,
                       aircraft_choice=True, per_mission=True, pitch_range=(-90.0, 30.0), help="DJI Pilot 2 .kmz",
                       settings=("heights are above the actual take-off point (relativeToStartPoint)",))

@@ -3,11 +3,12 @@
 Formats (the :data:`PlanFormat` names, shared with the CLI and the web API) are the readers of
 :mod:`sightplan.formats`, one module each, found by :mod:`sightplan.formats.registry`: sightplan's JSON
 plan, OpenSfM and COLMAP reconstructions, pose tables and flight-app missions (QGroundControl, QGC WPL,
-DJI WPML).
+DJI WPML, Litchi).
 
 The format of a file is told by its suffix (:func:`detect_format`); where several formats claim one,
 by its content: a ``.json`` file is a sightplan plan or an OpenSfM reconstruction, a ``.txt`` file whose
-first line is ``QGC WPL 110`` is a waypoint file and any other ``.txt`` a COLMAP text model.
+first line is ``QGC WPL 110`` is a waypoint file and any other ``.txt`` a COLMAP text model, a ``.csv`` with
+Litchi's header a Litchi mission and any other a pose table.
 """
 
 from __future__ import annotations
@@ -28,7 +29,8 @@ from ..formats.registry import FILE_SUFFIXES, PLAN_FORMATS, READERS, PlanFormat,
 from ..geo import Georeference
 from .types import Plan
 
-__all__ = ["PLAN_FORMATS", "PlanFormat", "apply_similarity", "detect_format", "load_plan", "read_transform"]
+__all__ = ["PLAN_FORMATS", "PlanFormat", "apply_similarity", "detect_format", "load_plan", "read_transform",
+           "scene_placement"]
 
 
 def apply_similarity(plan: Plan, T_model_source: ArrayLike) -> Plan:
@@ -118,6 +120,17 @@ def detect_format(path: str | Path) -> PlanFormat:
     return sniffed(Source(path)).name
 
 
+def scene_placement(scene) -> dict:
+    """The ``georef``, ``ground_z`` and ``takeoff_z`` of :func:`load_plan` for a flight-app mission checked against
+    ``scene``: the model's georeference and the site's ground (:func:`~sightplan.plan.ground.ground_of`), which is the
+    take-off height too when the user gave it (``--ground-z``, the web form's ground z)."""
+    from .ground import ground_of
+
+    ground = ground_of(scene)
+    return {"georef": Georeference.from_scene_metadata(scene.metadata), "ground_z": ground.level_m,
+            "takeoff_z": ground.level_m if ground.source == "user" else None}
+
+
 def load_plan(
     path: str | Path,
     *,
@@ -126,19 +139,24 @@ def load_plan(
     transform: ArrayLike | str | Path | None = None,
     georef: Georeference | None = None,
     ground_z: float | None = None,
+    takeoff_z: float | None = None,
 ) -> Plan:
     """A Plan from any supported file or folder.
 
-    camera: the camera of CSV rows without one, and of flight-app missions (qgc, wpl, wpml)
+    camera: the camera of CSV rows without one, and of flight-app missions (qgc, wpl, wpml, litchi)
     that name no camera the catalogue knows (the formats whose reader ``uses_camera``); for the
     other formats it replaces every camera of the file (recorded in ``plan.parameters["warnings"]``). Catalogue name, spec dict
     (:func:`parse_camera_spec`) or camera model.
     georef: for flight-app missions (latitude/longitude), the georeference that places them in
-    the model frame; without one they get a topocentric frame at their home point.
-    ground_z: for flight-app missions, the model-frame height of the ground the aircraft takes
-    off from (e.g. the model's base). Heights above the take-off point are then measured from
-    it, not from the file's home altitude: an app's home altitude is a rough terrain value in
-    some datum, and a model's elevation is often only nominal.
+    the model frame; without one they get a topocentric frame at their take-off point.
+    Flight-app missions take off from the file's own reference (QGroundControl's ``plannedHomePosition``, a WPL
+    file's line 0, DJI's ``takeOffRefPoint``): its heights above take-off start there, at the height the file gives
+    in the georeference's datum (:func:`~sightplan.formats.reading.place_takeoff`). It becomes
+    ``plan.parameters["takeoff_m"]``; ``plan.parameters["home"]["from"]`` says where its height came from.
+    ground_z: the model-frame height of the site's ground: the take-off height of a mission whose file has no usable
+    reference (none, as in Litchi; no height; a frame of its own; more than 100 m from this ground; more than 5 km
+    from the model's origin: each said in ``plan.parameters["warnings"]``).
+    takeoff_z: a model-frame take-off height the user gives: it replaces the file's reference height.
     transform: optional (4, 4) similarity (or a JSON file of one, :func:`read_transform`) from the file's frame to the model frame
     (:func:`apply_similarity`).
     """
@@ -148,7 +166,7 @@ def load_plan(
         raise PlanError(f"no such file or folder: {path}")
     source = Source(path)
     spec = spec or sniffed(source)
-    plan = spec.read(source, ReadOptions(camera=camera, georef=georef, ground_z=ground_z))
+    plan = spec.read(source, ReadOptions(camera=camera, georef=georef, ground_z=ground_z, takeoff_z=takeoff_z))
     if camera is not None and not spec.uses_camera:
         cam = parse_camera_spec(camera)
         cid = cam.name or "camera"

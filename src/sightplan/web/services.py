@@ -178,15 +178,10 @@ def template_plan(scene: Scene, body: TemplatePlanBase) -> Plan:
 
 def read_uploaded_plan(path: Path, camera: str | None, scene: Scene | None) -> Plan:
     """A plan from an uploaded file in any format ``load_plan`` reads; flight-app missions are placed with the
-    model's georeference."""
-    from ..plan.load import load_plan
+    model's georeference, from their file's take-off reference (:func:`~sightplan.plan.load.scene_placement`)."""
+    from ..plan.load import load_plan, scene_placement
 
-    kwargs: dict[str, Any] = {}
-    if scene is not None:
-        from ..geo import Georeference
-        from ..plan.ground import ground_of
-
-        kwargs = {"georef": Georeference.from_scene_metadata(scene.metadata), "ground_z": ground_of(scene).level_m}
+    kwargs: dict[str, Any] = scene_placement(scene) if scene is not None else {}
     plan = load_plan(path, camera=camera or None, **kwargs)
     return with_site(plan, scene) if scene is not None else plan
 
