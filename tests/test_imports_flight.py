@@ -782,3 +782,15 @@ def test_check_of_an_export_finds_no_height_violation(tmp_path, site_plans, site
     data = json.loads((tmp_path / "raised.json").read_text())
     assert not [v for v in data["violations"] if "above the ground" in v], data["violations"]
     assert min(w["height_above_ground_m"] for w in data["waypoints"]) > 2.0
+
+
+def test_an_imported_missions_pilot_stands_at_its_take_off(tmp_path):
+    """A flight-app mission's line of sight is measured from where the file takes off (1.5 m up), not from a corner
+    of the region: a mission exported from its own ground station reads back with that station."""
+    georef, _ = GEOREFS["projected"]
+    plan = facade_plan()
+    for fmt, suffix in (("wpl", ".waypoints"), ("litchi", ".csv")):
+        (path, *_) = export_plan(plan, fmt, tmp_path / f"f{suffix}", georef, TAKEOFF)
+        back = load_plan(path, camera="p4p", georef=georef, ground_z=float(TAKEOFF[2]))
+        takeoff = np.asarray(back.parameters["takeoff_m"], float)
+        assert all(m.ground_station == pytest.approx(tuple(takeoff + [0, 0, 1.5])) for m in back.missions), fmt

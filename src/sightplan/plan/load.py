@@ -174,8 +174,23 @@ def load_plan(
                     f"camera {cid!r} given: replaces the file's camera(s) {', '.join(map(repr, plan.cameras))}"]
         plan = replace(plan, cameras={cid: cam}, frame_camera=np.full(len(plan), cid, dtype=object),
                        parameters={**plan.parameters, "warnings": warnings})
+    if spec.name in FLIGHT_APPS and plan.parameters.get("takeoff_m") is not None:
+        plan = _pilot_at_takeoff(plan)
     if transform is not None:
         if isinstance(transform, str | Path):
             transform = read_transform(transform)
         plan = apply_similarity(plan, transform)
     return plan
+
+
+FLIGHT_APPS = ("qgc", "wpl", "wpml", "litchi")  # missions read from a flight app take off where the file says
+
+
+def _pilot_at_takeoff(plan: Plan) -> Plan:
+    """A flight-app mission's pilot stands at its take-off point (1.5 m up, as a pilot station): the line-of-sight
+    and battery checks measure from there, not from a corner of the region."""
+    from .checks.feasibility import GROUND_STATION_HEIGHT_M
+
+    station = tuple(float(v) for v in np.asarray(plan.parameters["takeoff_m"], float) + [0, 0, GROUND_STATION_HEIGHT_M])
+    missions = tuple(m if m.ground_station is not None else replace(m, ground_station=station) for m in plan.missions)
+    return replace(plan, missions=missions)
