@@ -274,3 +274,24 @@ def test_evaluate_as_flown_equals_the_plan_for_a_faithful_export_and_differs_for
     assert 1.5 < max(f["deviation_m"] for f in doc["frames"]) <= 2.1
     assert doc["as_flown"]["R"] != doc["planned"]["R"]  # the photos are nearer or farther than the frames
     assert "off their frames by up to" in " ".join(res.stdout.split())
+
+
+def test_a_slower_gimbal_gets_longer_waits_and_still_shoots_still(sites, tmp_path):
+    from test_cli import assert_clean_error, run_cli
+
+    scene = sites["sample"]
+    geo = Georeference.from_scene_metadata(scene.metadata)
+    plan, _ = plan_from_template("lawnmower", scene, get_camera("p4p"), {"oblique_pitch_deg": -60.0},
+                                 FlightSettings(safety_distance_m=10.0))
+    slow = Gimbal(rate_deg_s=10.0, settle_s=1.0)
+    report = []
+    (path, *_) = export_plan(plan, "qgc", tmp_path / "slow.plan", geo, np.asarray(plan.parameters["takeoff_m"]),
+                             report=report, gimbal=slow)
+    assert all(r.simulated.faithful for r in report)
+    # replayed with that gimbal, every photo is still; with the default (faster) gimbal the waits are no shorter
+    cmds, home, _ = file_commands(path)
+    rep = simulate_items(local_items(cmds, home), "px4", 5.0, slow)
+    assert rep.photos and all(p.gimbal_still for p in rep.photos)
+    holds = [c.params[0] for c in cmds if c.command == 16 and c.params[0] > 0]
+    assert max(holds) >= 1.0 + 90.0 / 10.0 + 1.0  # the first pitch of a mission: 90° at 10°/s, then 1 s to settle
+    assert_clean_error(run_cli("export", "x.json", "--format", "qgc", "--gimbal", "0,1", cwd=tmp_path), "--gimbal")

@@ -12,7 +12,7 @@ from ..formats.registry import FORMATS, ExportFormat, export_choices, writers_wi
 from .base import app, console
 from .camera_opts import CAMERA_FORMS, FocalOpt, cli_camera
 from .errors import friendly_errors
-from .flight import parse_point
+from .flight import parse_gimbal, parse_point
 
 MIN_ALTITUDE_M = 2.0
 
@@ -59,6 +59,9 @@ def export_command(
     focal_mm: FocalOpt = None,
     cache: Annotated[bool, typer.Option(help="Reuse the model cache")] = True,
     force: Annotated[bool, typer.Option(help="Export a plan that fails its flight checks (they are printed)")] = False,
+    gimbal: Annotated[str | None, typer.Option(
+        help="The gimbal's pitch slew rate and settling time, 'DEG_PER_S,SECONDS' (default 30,0.5): they size the "
+             "waits between a change of pitch and the photo, and the replay of MAVLink files")] = None,
 ) -> None:
     """Export a plan to a flight app (QGroundControl, Mission Planner, DJI Pilot 2, Litchi) or to KML/GeoJSON."""
     from ..export import file_summary
@@ -67,6 +70,7 @@ def export_command(
     from ..plan.load import load_plan
     from .loading import load_with_progress
 
+    the_gimbal = parse_gimbal(gimbal)  # refused before anything is read
     plan = load_plan(plan_file, camera=cli_camera(camera, focal_mm))
     scene = load_with_progress(console, model, cache)[0] if model else None
     user = None
@@ -100,7 +104,8 @@ def export_command(
     written: list = []
     paths = export_files(plan, fmt, out, geo, takeoff_m, speed_m_s=speed, mission=mission, mission_label="--mission",
                          autopilot=autopilot, aircraft=aircraft if spec.aircraft_choice else None,
-                         per_mission_takeoff=takeoff is None, report=written, faithful=not force)
+                         per_mission_takeoff=takeoff is None, report=written, faithful=not force,
+                         gimbal=the_gimbal)
     console.print(f"georeference: {geo.describe()}", highlight=False)
     low = [f for f in written if f.lowest_altitude_m < MIN_ALTITUDE_M - 1e-6]
     if low:

@@ -92,6 +92,25 @@ def parse_stations(texts: list[str] | None, scene=None, georeference=None):
     return out
 
 
+def parse_gimbal(text: str | None):
+    """--gimbal 'RATE,SETTLE' → :class:`~sightplan.flight.simulate.Gimbal` (None: the default)."""
+    import math
+
+    from ..errors import PlanError
+    from ..flight.simulate import Gimbal
+
+    if text is None:
+        return None
+    try:
+        rate, settle = (float(v) for v in text.split(","))
+    except ValueError:
+        rate = settle = math.nan
+    if not (math.isfinite(rate) and math.isfinite(settle) and 0 < rate <= 1000 and 0 <= settle <= 60):
+        raise PlanError(f"--gimbal {text!r} must be 'DEG_PER_S,SECONDS': a slew rate above 0 (°/s) and a settling "
+                        "time of 0 to 60 s, e.g. 30,0.5")
+    return Gimbal(rate_deg_s=rate, settle_s=settle)
+
+
 def aircraft_from_option(name: str):
     """An Aircraft (or Rover) preset, or one read from a JSON file; None for 'none'."""
     from ..errors import PlanError

@@ -29,6 +29,7 @@ from ..plan.types import Plan
 
 if TYPE_CHECKING:
     from ..flight.fidelity import Fidelity
+    from ..flight.simulate import Gimbal
 
 EXTENSIONS = {f.name: f.suffix for f in WRITERS}
 
@@ -73,7 +74,8 @@ class ExportedFile:
 def export_plan(plan: Plan, fmt: ExportFormat, path: str | Path, georef: Georeference, takeoff_m: ArrayLike,
                 speed_m_s: float = 5.0, mission: int | None = None, autopilot: Autopilot | None = None,
                 aircraft: str | None = None, per_mission_takeoff: bool = True,
-                report: list[ExportedFile] | None = None, faithful: bool = True) -> list[Path]:
+                report: list[ExportedFile] | None = None, faithful: bool = True, gimbal: Gimbal | None = None
+                ) -> list[Path]:
     """Write ``plan`` for a flight app or a map; returns the files written.
 
     georef: where the model frame lies on the Earth. takeoff_m: (3,) model-frame take-off (home)
@@ -91,7 +93,8 @@ def export_plan(plan: Plan, fmt: ExportFormat, path: str | Path, georef: Georefe
     report: a list to which an :class:`ExportedFile` is appended per file written.
     faithful: for ``qgc`` and ``wpl``, every mission is first replayed under its autopilot's rules
     (:mod:`sightplan.flight`); a photo more than 0.1 m or 1° from its frame, or taken while the gimbal moves,
-    refuses the export (a PlanError naming it) unless ``faithful`` is False.
+    refuses the export (a PlanError naming it) unless ``faithful`` is False. gimbal: its slew rate and settling
+    time (:class:`~sightplan.flight.simulate.Gimbal`), which size every format's waits after a change of pitch.
     Raises :class:`~sightplan.errors.PlanError` naming the frames a drone cannot take in that
     format (gimbal pitch out of range, a rolled camera), and for ``wpml`` an aircraft, speed or pitch
     DJI cannot fly (:class:`~sightplan.formats.wpml.AircraftError`).
@@ -103,7 +106,7 @@ def export_plan(plan: Plan, fmt: ExportFormat, path: str | Path, georef: Georefe
     if not path.parent.is_dir():
         raise PlanError(f"cannot write {path}: the folder {path.parent} does not exist")
     target = spec.prepare(plan, aircraft, speed_m_s) if spec.prepare is not None else Target()
-    target = replace(target, autopilot=autopilot if spec.autopilot else None)
+    target = replace(target, autopilot=autopilot if spec.autopilot else None, gimbal=gimbal)
     pitch_range = target.pitch_range or spec.pitch_range
     settings = spec.settings + ((target.note,) if target.note else ())
 
@@ -122,8 +125,9 @@ def export_plan(plan: Plan, fmt: ExportFormat, path: str | Path, georef: Georefe
     replays: list[Fidelity | None] = [None] * len(jobs)
     if spec.autopilot:
         from ..flight.fidelity import flight_fidelity
+        from ..flight.simulate import DEFAULT_GIMBAL
 
-        replays = [flight_fidelity(flight, autopilot) for flight, _ in jobs]
+        replays = [flight_fidelity(flight, autopilot, gimbal or DEFAULT_GIMBAL) for flight, _ in jobs]
         off = next((r for r in replays if not r.faithful), None)
         if off is not None and faithful:
             raise PlanError(f"the {fmt} export would not take its photos at the frames: {off.summary()}"

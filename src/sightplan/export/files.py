@@ -36,7 +36,7 @@ def takeoff_point(plan: Plan, scene: Scene | None, *, hint: str) -> NDArray[np.f
 def export_files(plan: Plan, fmt: ExportFormat, path: str | Path, georef: Georeference, takeoff_m: NDArray,
                  *, speed_m_s: float = 5.0, mission: int | None = None, mission_label: str = "mission",
                  autopilot: Autopilot | None = None, aircraft: str | None = None, per_mission_takeoff: bool = True,
-                 report: list[ExportedFile] | None = None, faithful: bool = True) -> list[Path]:
+                 report: list[ExportedFile] | None = None, faithful: bool = True, gimbal=None) -> list[Path]:
     """:func:`export_plan` with ``mission`` numbered from 1 (None: all), refused with a PlanError naming it as
     ``mission_label`` when the plan has no such mission. ``autopilot``: for ``qgc`` and ``wpl``; ``aircraft``: for
     ``wpml``; ``per_mission_takeoff`` (each mission from its own ground station) and ``report``: see :func:`export_plan`."""
@@ -44,4 +44,4 @@ def export_files(plan: Plan, fmt: ExportFormat, path: str | Path, georef: Georef
         raise PlanError(f"{mission_label} {mission}: the plan has {len(plan.missions)} mission(s), numbered from 1")
     return export_plan(plan, fmt, path, georef, takeoff_m, speed_m_s=speed_m_s,
                        mission=None if mission is None else mission - 1, autopilot=autopilot, aircraft=aircraft,
-                       per_mission_takeoff=per_mission_takeoff, report=report, faithful=faithful)
+                       per_mission_takeoff=per_mission_takeoff, report=report, faithful=faithful, gimbal=gimbal)

@@ -74,6 +74,7 @@ class Target:
     vehicle: Any = None
     pitch_range: tuple[float, float] | None = None
     note: str | None = None
+    gimbal: Any = None  # the gimbal's slew rate and settling time (sightplan.flight.Gimbal) the waits are sized for
 
 
 @dataclass(frozen=True)

@@ -76,14 +76,15 @@ def litchi_aircraft(plan: Plan) -> str:
     return ", ".join(dict.fromkeys(names))
 
 
-def rows_of(waypoint: Waypoint, pitch: float | None = None) -> list[tuple[float, float, list[tuple[int, float]]]]:
+def rows_of(waypoint: Waypoint, pitch: float | None = None, settle_s: float = 0.5
+            ) -> list[tuple[float, float, list[tuple[int, float]]]]:
     """(heading, pitch, actions) of each Litchi row needed for one waypoint (≤ 15 actions a row): a row flies
     to its first photo's heading and pitch; each further photo turns and tilts only where it differs. A photo after
     a change of the gimbal's pitch (from ``pitch``, the pitch before this waypoint; None: unknown) waits
-    :data:`GIMBAL_SETTLE_S` first (a "stay for" action): Litchi runs a row's actions one after the other."""
+    ``settle_s`` first (a "stay for" action): Litchi runs a row's actions one after the other."""
     rows: list[tuple[float, float, list[tuple[int, float]]]] = []
     heading = 0.0
-    settle = (STAY_FOR, GIMBAL_SETTLE_S * 1000.0)
+    settle = (STAY_FOR, round(settle_s * 1000.0))
     for photo in waypoint.photos:
         tilted = pitch is None or abs(photo.pitch_deg - pitch) > 1e-9
         if rows:
@@ -112,14 +113,14 @@ def _row(flight: Flight, wp: Waypoint, heading: float, pitch: float, actions: li
     return cells
 
 
-def write_litchi(flight: Flight, path: Path) -> list[Path]:
+def write_litchi(flight: Flight, path: Path, settle_s: float = GIMBAL_SETTLE_S) -> list[Path]:
     groups = flight.by_mission()
     bases = mission_paths(path, [m for m, _ in groups], several=len(groups) > 1)
     written: list[Path] = []
     for m, wps in groups:
         rows, pitch = [], None
         for wp in wps:
-            for h, p, acts in rows_of(wp, pitch):
+            for h, p, acts in rows_of(wp, pitch, settle_s):
                 rows.append(_row(flight, wp, h, p, acts))
             pitch = wp.photos[-1].pitch_deg
         parts = [rows[k:k + MAX_WAYPOINTS] for k in range(0, len(rows), MAX_WAYPOINTS)]
@@ -308,7 +309,7 @@ def _prepare(plan: Plan, aircraft: str | None, speed_m_s: float) -> Target:
 
 
 def _write(flight: Flight, path: Path, target: Target) -> list[Path]:
-    return write_litchi(flight, path)
+    return write_litchi(flight, path, GIMBAL_SETTLE_S if target.gimbal is None else target.gimbal.settle_s)
 
 
 FORMAT = FlightFormat(name="litchi", label="Litchi", order=40, read=_read, suffixes=(".csv",), sniff=sniff,

@@ -225,14 +225,14 @@ def _read(source: Source, options: ReadOptions) -> Plan:
 # ---- writing -----------------------------------------------------------------------------------
 
 
-def plan_document(flight: Flight, waypoints: list[Waypoint], autopilot: Autopilot = "px4") -> dict:
-    """The ``.plan`` JSON object of one mission for ``autopilot``."""
+def plan_document(flight: Flight, waypoints: list[Waypoint], autopilot: Autopilot = "px4", gimbal=None) -> dict:
+    """The ``.plan`` JSON object of one mission for ``autopilot`` (waits sized for ``gimbal``)."""
     autopilot = resolve_autopilot(autopilot, DEFAULT_AUTOPILOT)
     plan = flight.plan
     frames = [p.frame for wp in waypoints for p in wp.photos]
     cams = sorted({str(plan.frame_camera[i]) for i in frames})
     items = []
-    for k, it in enumerate(mission_items(flight, waypoints, autopilot), start=1):
+    for k, it in enumerate(mission_items(flight, waypoints, autopilot, gimbal), start=1):
         item = {"autoContinue": True, "command": it["command"], "doJumpId": k, "frame": it["frame"],
                 "params": it["params"], "type": "SimpleItem"}
         if it["nav"]:
@@ -261,15 +261,15 @@ def plan_document(flight: Flight, waypoints: list[Waypoint], autopilot: Autopilo
     }
 
 
-def write_qgc(flight: Flight, path: Path, autopilot: Autopilot | None = None) -> list[Path]:
+def write_qgc(flight: Flight, path: Path, autopilot: Autopilot | None = None, gimbal=None) -> list[Path]:
     """One ``.plan`` per mission for ``autopilot`` (default :data:`DEFAULT_AUTOPILOT`: PX4)."""
     autopilot = resolve_autopilot(autopilot, DEFAULT_AUTOPILOT)
-    return write_missions(flight, path,
-                          lambda wps: json.dumps(plan_document(flight, wps, autopilot), indent=2, allow_nan=False))
+    return write_missions(flight, path, lambda wps: json.dumps(plan_document(flight, wps, autopilot, gimbal), indent=2,
+                                                               allow_nan=False))
 
 
 def _write(flight: Flight, path: Path, target: Target) -> list[Path]:
-    return write_qgc(flight, path, target.autopilot)
+    return write_qgc(flight, path, target.autopilot, target.gimbal)
 
 
 FORMAT = FlightFormat(name="qgc", label="QGroundControl", order=10, read=_read, suffixes=(".plan",), uses_camera=True,

@@ -94,25 +94,25 @@ def _line(seq: int, current: int, frame: int, command: int, params: list[float])
     return "\t".join([str(seq), str(current), str(frame), str(command), *p, "1"])
 
 
-def wpl_text(flight: Flight, waypoints, autopilot: Autopilot | None = None) -> str:
+def wpl_text(flight: Flight, waypoints, autopilot: Autopilot | None = None, gimbal=None) -> str:
     """The file of one mission for ``autopilot`` (default ArduPilot)."""
     autopilot = resolve_autopilot(autopilot, DEFAULT_AUTOPILOT)
     lines = ["QGC WPL 110",
              _line(0, 1, FRAME_GLOBAL, NAV_WAYPOINT,
                    [0, 0, 0, 0, flight.takeoff_latitude_deg, flight.takeoff_longitude_deg, flight.takeoff_height_m])]
-    for seq, it in enumerate(mission_items(flight, waypoints, autopilot), start=1):
+    for seq, it in enumerate(mission_items(flight, waypoints, autopilot, gimbal), start=1):
         lines.append(_line(seq, 0, it["frame"], it["command"], it["params"]))
     return "\n".join(lines) + "\n"
 
 
-def write_wpl(flight: Flight, path: Path, autopilot: Autopilot | None = None) -> list[Path]:
+def write_wpl(flight: Flight, path: Path, autopilot: Autopilot | None = None, gimbal=None) -> list[Path]:
     """One ``.waypoints`` file per mission for ``autopilot`` (default ArduPilot)."""
     autopilot = resolve_autopilot(autopilot, DEFAULT_AUTOPILOT)
-    return write_missions(flight, path, lambda wps: wpl_text(flight, wps, autopilot))
+    return write_missions(flight, path, lambda wps: wpl_text(flight, wps, autopilot, gimbal))
 
 
 def _write(flight: Flight, path: Path, target: Target) -> list[Path]:
-    return write_wpl(flight, path, target.autopilot)
+    return write_wpl(flight, path, target.autopilot, target.gimbal)
 
 
 FORMAT = FlightFormat(name="wpl", label="QGC WPL", order=20, read=_read, suffixes=(".waypoints", ".txt"), sniff=sniff,

@@ -803,7 +803,7 @@ def _write_heading_param(parent: ET.Element, tag: str, heading: float | None) ->
 
 
 def _placemark(folder: ET.Element, flight: Flight, aircraft: DjiAircraft, wp: Waypoint, index: int, group_id: int,
-               template: bool, pitch: float | None = None) -> float | None:
+               template: bool, pitch: float | None = None, settle_s: float = GIMBAL_SETTLE_S) -> float | None:
     """One waypoint with its actions; ``pitch``: the gimbal's pitch before it (None: unknown); returns the pitch
     after it."""
     pm = _el(folder, "Placemark")
@@ -851,7 +851,7 @@ def _placemark(folder: ET.Element, flight: Flight, aircraft: DjiAircraft, wp: Wa
             ("gimbalRotateTimeEnable", 0), ("gimbalRotateTime", 0), ("payloadPositionIndex", 0)])
         action_id += 1
         if photo.pitch_deg != pitch:  # the actions run in sequence: the gimbal turns, then settles, then the shot
-            _action(group, action_id, "hover", [("hoverTime", number_text(GIMBAL_SETTLE_S, 3))])
+            _action(group, action_id, "hover", [("hoverTime", number_text(settle_s, 3))])
             action_id += 1
             pitch = photo.pitch_deg
         _action(group, action_id, "takePhoto", [("payloadPositionIndex", 0), ("fileSuffix", _suffix(photo.name)),
@@ -881,7 +881,7 @@ def _template_folder(doc: ET.Element, flight: Flight, aircraft: DjiAircraft, tem
     return folder
 
 
-def _document(flight: Flight, aircraft: DjiAircraft, template: bool) -> bytes:
+def _document(flight: Flight, aircraft: DjiAircraft, template: bool, settle_s: float = GIMBAL_SETTLE_S) -> bytes:
     ET.register_namespace("", KML_NS)
     ET.register_namespace("wpml", WPML_NS)
     root = ET.Element(f"{{{KML_NS}}}kml")
@@ -904,20 +904,21 @@ def _document(flight: Flight, aircraft: DjiAircraft, template: bool) -> bytes:
             _el(folder, "wpml:autoFlightSpeed", flight.speed_m_s)
         pitch: float | None = None
         for index, wp in enumerate(wps):
-            pitch = _placemark(folder, flight, aircraft, wp, index, group_id, template, pitch)
+            pitch = _placemark(folder, flight, aircraft, wp, index, group_id, template, pitch, settle_s)
             group_id += 1
     ET.indent(root, space="  ")
     return ET.tostring(root, encoding="utf-8", xml_declaration=True)
 
 
-def write_wpml(flight: Flight, path: Path, aircraft: DjiAircraft | str | None = None) -> list[Path]:
+def write_wpml(flight: Flight, path: Path, aircraft: DjiAircraft | str | None = None,
+               settle_s: float = GIMBAL_SETTLE_S) -> list[Path]:
     """Write ``flight`` (every mission a wayline; :func:`~sightplan.export.export_plan` gives each mission its own file)
     for ``aircraft`` (a :class:`DjiAircraft`, a key of :data:`AIRCRAFT`, or None: the plan camera's)."""
     if not isinstance(aircraft, DjiAircraft):
         aircraft = resolve_aircraft(flight.plan, aircraft)[0]
     check_speed(aircraft, flight.speed_m_s)
-    template = _document(flight, aircraft, template=True)
-    waylines = _document(flight, aircraft, template=False)
+    template = _document(flight, aircraft, template=True, settle_s=settle_s)
+    waylines = _document(flight, aircraft, template=False, settle_s=settle_s)
     with zipfile.ZipFile(path, "w", compression=zipfile.ZIP_DEFLATED) as z:
         z.writestr("wpmz/template.kml", template)
         z.writestr("wpmz/waylines.wpml", waylines)
@@ -931,7 +932,8 @@ def _prepare(plan: Plan, aircraft: str | None, speed_m_s: float) -> Target:
 
 
 def _write(flight: Flight, path: Path, target: Target) -> list[Path]:
-    return write_wpml(flight, path, target.vehicle)
+    return write_wpml(flight, path, target.vehicle,
+                      GIMBAL_SETTLE_S if target.gimbal is None else target.gimbal.settle_s)
 
 
 FORMAT = FlightFormat(name="wpml", label="DJI WPML", order=30, read=_read, suffixes=(".kmz", ".kml", ".wpml"),
