@@ -295,3 +295,30 @@ def test_a_slower_gimbal_gets_longer_waits_and_still_shoots_still(sites, tmp_pat
     holds = [c.params[0] for c in cmds if c.command == 16 and c.params[0] > 0]
     assert max(holds) >= 1.0 + 90.0 / 10.0 + 1.0  # the first pitch of a mission: 90° at 10°/s, then 1 s to settle
     assert_clean_error(run_cli("export", "x.json", "--format", "qgc", "--gimbal", "0,1", cwd=tmp_path), "--gimbal")
+
+
+def test_a_mission_the_replay_flies_longer_than_a_battery_is_refused(sites, tmp_path):
+    from sightplan.errors import PlanError
+
+    scene = sites["sample"]
+    geo = Georeference.from_scene_metadata(scene.metadata)
+    plan, _ = plan_from_template("orbit", scene, get_camera("p4p"), {}, FlightSettings(safety_distance_m=10.0))
+    takeoff = np.asarray(plan.parameters["takeoff_m"])
+    report = []
+    export_plan(plan, "qgc", tmp_path / "ok.plan", geo, takeoff, report=report)
+    longest = max(t for r in report for t in r.simulated.mission_times_s)
+    assert 30 < longest < 600 and "min take-off to landing" in report[0].summary()
+    # the same plan, checked for an aircraft whose usable time is a minute less than the longest replayed mission
+    checks = plan.parameters["checks"]
+    craft = {**checks["settings"]["aircraft"], "flight_time_s": (longest - 60) / 0.75, "reserve": 0.25}
+    short = replace_parameters(plan, {"checks": {**checks, "settings": {**checks["settings"], "aircraft": craft}}})
+    with pytest.raises(PlanError, match="usable minutes"):
+        export_plan(short, "qgc", tmp_path / "short.plan", geo, takeoff)
+    assert not list(tmp_path.glob("short*"))  # refused before anything is written
+    assert export_plan(short, "qgc", tmp_path / "short.plan", geo, takeoff, faithful=False)
+
+
+def replace_parameters(plan, extra: dict):
+    from dataclasses import replace
+
+    return replace(plan, parameters={**plan.parameters, **extra})

@@ -132,6 +132,10 @@ def export_plan(plan: Plan, fmt: ExportFormat, path: str | Path, georef: Georefe
         if off is not None and faithful:
             raise PlanError(f"the {fmt} export would not take its photos at the frames: {off.summary()}"
                             f"{'; ' + off.notes[0] if off.notes else ''}; export it anyway with --force (force=true on the web)")
+        long = _longer_than_a_battery(plan, [f for f, _ in jobs], replays, speed_m_s)
+        if long and faithful:
+            raise PlanError(f"{long}; split the plan into shorter missions, fly faster (--speed), or export it "
+                            "anyway with --force (force=true on the web)")
     written: list[Path] = []
     try:
         for (flight, out), replay in zip(jobs, replays):
@@ -145,6 +149,28 @@ def export_plan(plan: Plan, fmt: ExportFormat, path: str | Path, georef: Georefe
     except OSError as exc:
         raise PlanError(f"cannot write {path}: {exc.strerror or exc}") from None
     return written
+
+
+def _longer_than_a_battery(plan: Plan, flights: list[Flight], replays: list, speed_m_s: float) -> str | None:
+    """Why a replayed mission (take-off to landing, at the export's speed and with its stops) outlasts the usable
+    time of the aircraft the plan was checked for; None when each fits, or when the plan names no aircraft."""
+    from ..plan.checks.battery import Aircraft
+    from ..plan.checks.gate import CHECKS_KEY, recorded_settings
+
+    if CHECKS_KEY not in plan.parameters:
+        return None
+    craft = recorded_settings(plan).aircraft
+    if not isinstance(craft, Aircraft):
+        return None
+    for flight, replay in zip(flights, replays):
+        for (m, _), t in zip(flight.by_mission(), replay.mission_times_s):
+            if t > craft.usable_s:
+                name = flight.missions[m].name
+                return (f"mission {name!r} flies {t / 60:.1f} min in the replay ({replay.autopilot}, "
+                        f"{speed_m_s:g} m/s, take-off to landing with every stop), more than the {craft.name}'s "
+                        f"{craft.usable_s / 60:.1f} usable minutes ({craft.flight_time_s / 60:.0f} min less the "
+                        f"{craft.reserve:.0%} reserve)")
+    return None
 
 
 __all__ = ["EXPORT_FORMATS", "EXTENSIONS", "AircraftError", "Autopilot", "ExportFormat", "ExportedFile", "export_plan",

@@ -34,6 +34,9 @@ class ArduCopter:
     yaw_done_deg: float = 2.0  # ModeAuto::verify_yaw
     accel_m_s2: float = 2.5  # WPNAV_ACCEL
     look_ahead_m: float = 2.0  # closer than this, WP_YAW_BEHAVIOR holds the yaw
+    descent_m_s: float = 1.5  # WPNAV_SPEED_DN, down to…
+    land_alt_low_m: float = 10.0  # …LAND_ALT_LOW, then…
+    land_speed_m_s: float = 0.5  # …LAND_SPEED to the ground
 
 
 DEFAULTS = ArduCopter()
@@ -48,7 +51,9 @@ def replay(items: list[Item], speed_m_s: float, gimbal: Gimbal, prm: ArduCopter 
         it, p = items[j], items[j].params
         queue = list(range(prev + 1, j))
         prev = j
-        if it.command in (mav.NAV_RETURN_TO_LAUNCH, mav.NAV_LAND):
+        if it.command in (mav.NAV_RETURN_TO_LAUNCH, mav.NAV_LAND):  # home (RTL), or there; landing
+            veh.land((0.0, 0.0, 0.0) if it.command == mav.NAV_RETURN_TO_LAUNCH else it.xyz,
+                     ((prm.land_alt_low_m, prm.descent_m_s), (0.0, prm.land_speed_m_s)))
             break
         state = {"q": 0, "started": None, "reached": None, "fixed_yaw": False}
         target = np.array(it.xyz) if math.isfinite(it.xyz[0]) else veh.p.copy()

@@ -27,6 +27,7 @@ class Fidelity:
     time_s: float = 0.0
     notes: list[str] = field(default_factory=list)
     deviations: list[tuple[float, float]] = field(default_factory=list)  # per photo: metres, degrees
+    mission_times_s: list[float] = field(default_factory=list)  # per mission: take-off to landing, as replayed
 
     @property
     def faithful(self) -> bool:
@@ -42,13 +43,15 @@ class Fidelity:
         self.time_s += other.time_s
         self.notes += other.notes
         self.deviations += other.deviations
+        self.mission_times_s += other.mission_times_s
 
     def summary(self) -> str:
         """'simulated: N photos, largest deviation d m / a°' and what is wrong, for the export's line."""
         from ..formats.mavlink import AUTOPILOT_LABELS
 
         text = (f"simulated ({AUTOPILOT_LABELS.get(self.autopilot, self.autopilot)}): {self.taken} photos, largest "
-                f"deviation {self.position_m:.2f} m / {self.angle_deg:.1f}°")
+                f"deviation {self.position_m:.2f} m / {self.angle_deg:.1f}°, "
+                f"{max(self.mission_times_s, default=self.time_s) / 60:.1f} min take-off to landing")
         if self.taken != self.expected:
             text += f", {self.expected} expected"
         if self.gimbal_moving:
@@ -81,7 +84,8 @@ def flight_fidelity(flight, autopilot: str, gimbal: Gimbal = DEFAULT_GIMBAL, ite
         rep = replay_items(items, origin, autopilot, flight.speed_m_s, gimbal)
         proj = Proj(proj="aeqd", lat_0=origin[0], lon_0=origin[1], datum="WGS84", units="m")
         want = [(wp, ph) for wp in waypoints for ph in wp.photos]
-        one = Fidelity(autopilot, expected=len(want), taken=len(rep.photos), time_s=rep.time_s, notes=list(rep.notes))
+        one = Fidelity(autopilot, expected=len(want), taken=len(rep.photos), time_s=rep.time_s, notes=list(rep.notes),
+                       mission_times_s=[rep.time_s])
         for (wp, ph), got in zip(want, rep.photos):
             e, n = proj(wp.longitude_deg, wp.latitude_deg)
             d = float(np.linalg.norm(np.subtract(got.xyz, (e, n, wp.altitude_m))))

@@ -34,6 +34,7 @@ class Px4:
     yaw_error_deg: float = 12.0  # MIS_YAW_ERR
     yaw_rate_deg_s: float = 45.0  # MPC_YAWRAUTO_MAX
     accel_m_s2: float = 3.0  # MPC_ACC_HOR
+    land_speed_m_s: float = 0.7  # MPC_LAND_SPEED: the whole descent of NAV_LAND and of a return
 
 
 DEFAULTS = Px4()
@@ -52,7 +53,8 @@ def replay(items: list[Item], speed_m_s: float, gimbal: Gimbal, prm: Px4 = DEFAU
 
     for k, it in enumerate(items):
         c, p = it.command, it.params
-        if c in (mav.NAV_RETURN_TO_LAUNCH, mav.NAV_LAND):
+        if c in (mav.NAV_RETURN_TO_LAUNCH, mav.NAV_LAND):  # home at the altitude it has (RTL), or there; landing
+            veh.land((0.0, 0.0, 0.0) if c == mav.NAV_RETURN_TO_LAUNCH else it.xyz, ((0.0, prm.land_speed_m_s),))
             break
         if c in (mav.DO_MOUNT_CONTROL, mav.DO_GIMBAL_MANAGER_PITCHYAW):
             veh.aim_gimbal(p[0])

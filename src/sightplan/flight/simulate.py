@@ -131,6 +131,22 @@ class Vehicle:
         return PhotoPose(self.t, (float(self.p[0]), float(self.p[1]), float(self.p[2])), self.yaw % 360.0,
                          self.pitch, self.pitch_target, bool(still), item)
 
+    def land(self, xyz: tuple[float, float, float] | None, stages: tuple[tuple[float, float], ...]) -> None:
+        """Fly level to above ``xyz`` (None: where it is; NaN coordinates likewise), then descend to the ground
+        (z = 0, the take-off's height) at each stage's speed below each stage's height: ((above_m, speed), …)."""
+        if xyz is not None and math.isfinite(xyz[0]) and math.isfinite(xyz[1]):
+            self.target = np.array([xyz[0], xyz[1], self.p[2]])
+            while float(np.linalg.norm(self.target - self.p)) > 1e-3 and self.t < MAX_TIME_S:
+                self.step()
+        vmax = self.vmax
+        for above, speed in stages:
+            floor = min(above, self.p[2]) if above > 0 else 0.0
+            self.vmax = min(vmax, speed)
+            self.target = np.array([self.p[0], self.p[1], floor])
+            while self.p[2] - floor > 1e-3 and self.t < MAX_TIME_S:
+                self.step()
+        self.vmax = vmax
+
     def bearing_to(self, xyz: NDArray) -> float | None:
         d = np.asarray(xyz[:2]) - self.p[:2]
         return None if float(np.hypot(*d)) < 1e-6 else math.degrees(math.atan2(d[0], d[1])) % 360.0
