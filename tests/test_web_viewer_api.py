@@ -425,3 +425,19 @@ def test_every_json_response_is_a_named_model(client):
                     continue
                 ref = body.get("$ref") or body.get("items", {}).get("$ref")
                 assert ref, (method, path, code, body)
+
+
+def test_an_export_its_replay_refuses_is_a_409_the_page_can_force(client, project, model, monkeypatch):
+    """The replay's verdict (sightplan.export.ReplayRefusal) reaches the page as the flight checks' do: a 409 with
+    the reason in ``violations``, and force=true writes the file."""
+    import sightplan.export as export
+
+    r = client.post(f"/api/projects/{project}/plans", json={"model_id": model, "template": "orbit", "name": "replayed"})
+    assert r.status_code == 201, r.text
+    url = f"/api/projects/{project}/plans/{r.json()['id']}/versions/1/export"
+    assert client.get(url, params={"format": "qgc"}).status_code == 200
+    monkeypatch.setattr(export, "_longer_than_a_battery", lambda *a: "mission 'x' flies 30.0 min in the replay")
+    r = client.get(url, params={"format": "qgc"})
+    assert r.status_code == 409 and len(r.json()["violations"]) == 1
+    assert r.json()["violations"][0].startswith("mission 'x' flies 30.0 min in the replay; split the plan")
+    assert client.get(url, params={"format": "qgc", "force": True}).status_code == 200

@@ -130,11 +130,11 @@ def export_plan(plan: Plan, fmt: ExportFormat, path: str | Path, georef: Georefe
         replays = [flight_fidelity(flight, autopilot, gimbal or DEFAULT_GIMBAL) for flight, _ in jobs]
         off = next((r for r in replays if not r.faithful), None)
         if off is not None and faithful:
-            raise PlanError(f"the {fmt} export would not take its photos at the frames: {off.summary()}"
+            raise ReplayRefusal(f"the {fmt} export would not take its photos at the frames: {off.summary()}"
                             f"{'; ' + off.notes[0] if off.notes else ''}; export it anyway with --force (force=true on the web)")
         long = _longer_than_a_battery(plan, [f for f, _ in jobs], replays, speed_m_s)
         if long and faithful:
-            raise PlanError(f"{long}; split the plan into shorter missions, fly faster (--speed), or export it "
+            raise ReplayRefusal(f"{long}; split the plan into shorter missions, fly faster (--speed), or export it "
                             "anyway with --force (force=true on the web)")
     written: list[Path] = []
     try:
@@ -149,6 +149,10 @@ def export_plan(plan: Plan, fmt: ExportFormat, path: str | Path, georef: Georefe
     except OSError as exc:
         raise PlanError(f"cannot write {path}: {exc.strerror or exc}") from None
     return written
+
+
+class ReplayRefusal(PlanError):
+    """An export refused because its replay takes photos off their frames or outlasts a battery."""
 
 
 def _longer_than_a_battery(plan: Plan, flights: list[Flight], replays: list, speed_m_s: float) -> str | None:
@@ -173,5 +177,5 @@ def _longer_than_a_battery(plan: Plan, flights: list[Flight], replays: list, spe
     return None
 
 
-__all__ = ["EXPORT_FORMATS", "EXTENSIONS", "AircraftError", "Autopilot", "ExportFormat", "ExportedFile", "export_plan",
-           "file_summary"]
+__all__ = ["EXPORT_FORMATS", "EXTENSIONS", "AircraftError", "Autopilot", "ExportFormat", "ExportedFile", "ReplayRefusal",
+           "export_plan", "file_summary"]

@@ -260,11 +260,17 @@ def export_version(project_id: int, plan_id: int, number: int, session: SessionD
     folder.mkdir()
     background.add_task(state.storage.remove, folder)
     stem = f"{_slug(plan_row.name)}_v{number}"
+    from ...export import ReplayRefusal
+
     try:
         spec = FORMATS[format]
         paths = export_files(data, format, folder / (stem + spec.suffix), geo, takeoff, speed_m_s=speed,
                              mission=mission, autopilot=autopilot, aircraft=aircraft if spec.aircraft_choice else None,
                              faithful=not force)
+    except ReplayRefusal as exc:  # the replay's verdict, which the page can override like the checks'
+        state.storage.remove(folder)
+        raise FlightChecksFailed(str(exc), [str(exc)],
+                                 headers={FLIGHT_CHECKS_HEADER: "1"}) from None
     except BaseException:
         state.storage.remove(folder)
         raise
