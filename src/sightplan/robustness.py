@@ -11,8 +11,8 @@ planned frame, and each of the N draws takes, for every frame, one of that frame
 draws, in independent random orders per frame). Each draw is still an exact sample of the error: its frames are
 independent of each other and each is a normal draw of its pose. What is shared is between draws, so the draws are
 not independent of each other: the mean over N draws is as precise as about K independent draws for a metric
-that adds over frames. ``pool = draws`` (``--pool N``) casts N independent draws. The default pool is
-min(N, :data:`DEFAULT_POOL`).
+that adds over frames, and a rare event (a frame too close) is estimated from K·n distinct poses, not N·n.
+``pool = draws`` (``--pool N``) casts N independent draws. The default pool is min(N, :data:`DEFAULT_POOL`).
 
 **Safety.** Beside the metrics: in how many draws at least one frame comes closer to the model than the safety
 distance (the plan's recorded one, :func:`~sightplan.plan.checks.gate.recorded_settings`, else the
