@@ -62,6 +62,7 @@ bench: $(STAMP)
 	$(BIN)/python benchmarks/optimize.py
 	$(BIN)/python benchmarks/ties.py
 	$(BIN)/python benchmarks/loop.py
+	$(BIN)/python benchmarks/robustness.py
 
 clean:
 	rm -rf $(VENV) sightplan-demo sightplan-out sightplan-progress sightplan-study sightplan-validate .pytest_cache

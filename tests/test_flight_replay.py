@@ -17,7 +17,8 @@ from sightplan.camera.catalogue import get_camera
 from sightplan.export import export_plan
 from sightplan.flight import Gimbal
 from sightplan.flight.fidelity import flight_fidelity
-from sightplan.flight.simulate import Item, local_items, simulate_items
+from sightplan.flight.replay import simulate_items
+from sightplan.flight.simulate import Item, local_items
 from sightplan.formats import mavlink
 from sightplan.formats.flight import build_flight
 from sightplan.geo import Georeference

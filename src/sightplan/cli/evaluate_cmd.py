@@ -113,6 +113,59 @@ def write_comparison(base, flown, planned, flown_plan, path: Path) -> Path:
     return path
 
 
+def _check_draw_options(position_error: str | None, draws: int | None, pool: int | None, draw_seed: int | None,
+                        cluster: str | None):
+    """(pose error, draws, pool) of the --position-error options, checked before anything is loaded; (None, 0,
+    None) without --position-error."""
+    if position_error is None:
+        given = [name for name, v in (("--draws", draws), ("--pool", pool), ("--draw-seed", draw_seed)) if v is not None]
+        if given:
+            raise SightplanError(f"{', '.join(given)} applies to draws under --position-error, which is not given")
+        return None, 0, None
+    from ..plan.perturb import PoseError
+    from ..robustness import check_draws
+
+    if cluster is not None:
+        raise SightplanError("--position-error casts its draws here, not on a --cluster: drop one of them")
+    if draw_seed is not None and draw_seed < 0:
+        raise SightplanError(f"--draw-seed must be ≥ 0, got {draw_seed}")
+    n = 64 if draws is None else draws
+    try:
+        n_pool = check_draws(n, pool)
+    except SightplanError as exc:
+        raise SightplanError(f"--draws/--pool: {exc}") from None
+    return PoseError.parse(position_error), n, n_pool
+
+
+def robustness_table(result):
+    """Each plan metric as planned and over the draws (mean, 5th and 95th percentiles), the frames' least distance
+    to the model, and how often a frame comes closer than the safety distance: a heading line, a table, a line."""
+    import numpy as np
+    from rich.console import Group
+    from rich.text import Text
+
+    s = result.summary.plan
+    pct = lambda x: None if x is None else 100 * x  # noqa: E731
+    rows = [("V", s["n_visible"], ".1f", 1, "elements"), ("VC", s["VC"], ".2f", 100, "%"),
+            ("V̄C", s["VC_bar"], ".2f", 100, "%"), ("VR", s["VR"], ".2f", 1, "frames"),
+            ("R", s["R"], ".4f", 1, "m/px"), ("O", s["O"], ".2f", 1, "°"), ("T", s["T"], ".1f", 1, "features"),
+            ("stable", s["stable_share"], ".1f", 100, "%")]
+    pool = "independent" if result.pool == result.draws else f"sharing {result.pool} poses per frame"
+    t = Table("metric", "planned", "mean", "p5", "p95", "unit")
+    scale = lambda x, f: None if x is None else x * f  # noqa: E731
+    for name, sp, spec, f, unit in rows:
+        t.add_row(name, cell(scale(sp.nominal, f), spec), cell(scale(sp.mean, f), spec), cell(scale(sp.p5, f), spec),
+                  cell(scale(sp.p95, f), spec), unit)
+    sf = result.safety
+    least = [float(x) for x in (sf.least_m.mean(), *np.percentile(sf.least_m, [5, 95]))]
+    t.add_row("least distance", cell(sf.nominal_least_m, ".2f"), *(cell(x, ".2f") for x in least), "m")
+    head = (f"under position error {result.error.label()} (95 % bounds): {result.draws} draws ({pool}), "
+            f"seed {result.seed}")
+    foot = (f"a frame closer to the model than the safety distance ({sf.minimum_m:g} m) in "
+            f"{cell(pct(sf.draw_share), '.1f')} % of the draws; {cell(pct(sf.frame_share), '.2f')} % of all frames")
+    return Group(Text(head, style="italic"), t, Text(foot))
+
+
 def _check_report_options(html: Path | None, gltf: Path | None, colour_by: str,
                           bounds: str | None) -> tuple[ColourBy, tuple[float, float] | None]:
     """Refuse a bad --colour-by, --bounds or output path before anything is cast."""
@@ -193,6 +246,17 @@ def evaluate(
                            "evaluate the photos where they will be taken, beside the file's own frames")] = False,
     autopilot: Annotated[str | None, typer.Option(
         help="With --as-flown: px4 or ardupilot (default: the .plan's firmwareType; ArduPilot for WPL)")] = None,
+    position_error: Annotated[str | None, typer.Option(
+        "--position-error", help="Also evaluate the plan as it may be flown: draws with every frame moved by a normal "
+                                 "error whose 95 % bounds are 'H,V' metres (horizontal radius, vertical) and an "
+                                 "optional heading ',YAW' degrees; or 'gnss' (±1.5 m, ±0.5 m), 'rtk' (±0.1 m), with "
+                                 "an optional ',YAW'. Writes robustness.json and two CSVs to --out")] = None,
+    draws: Annotated[int | None, typer.Option(help="With --position-error: the number of draws (default 64)")] = None,
+    pool: Annotated[int | None, typer.Option(
+        help="With --position-error: perturbed poses cast per frame, which the draws share (default the smaller of "
+             "16 and --draws; --pool equal to --draws: independent draws)")] = None,
+    draw_seed: Annotated[int | None, typer.Option(
+        help="With --position-error: seed of the draws (default --seed)")] = None,
 ) -> None:
     """Evaluate a capture plan against a model: VC, V̄C, VR, R, O, T, per element and per frame."""
     from ..evaluate import EvaluationSettings
@@ -204,6 +268,7 @@ def evaluate(
     from ..report import write_report
 
     check_date_options(date_basis, unscheduled)
+    pose_error, n_draws, n_pool = _check_draw_options(position_error, draws, pool, draw_seed, cluster)
     if not 1 <= ring_frames <= MAX_RING_FRAMES:
         raise SightplanError(f"--ring-frames must be 1 to {MAX_RING_FRAMES:,}, got {ring_frames:,}")
     writable_folder(out, "--out")
@@ -258,6 +323,18 @@ def evaluate(
                                 cache_dir=None if cache else False,
                                 progress=lambda i, n: bar.update(task, completed=i))
     paths = write_report(ev, scene, the_plan, out, model_path=str(model), plan_path=str(plan or ""))
+    robust = None
+    if pose_error is not None:
+        from ..robustness import evaluate_under_error, write_robustness
+
+        with Progress(TextColumn("[bold]draws"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
+                      TimeRemainingColumn(), console=console, transient=False) as bar:
+            task = bar.add_task("draws", total=n_draws)
+            robust = evaluate_under_error(scene, the_plan, settings, pose_error, n_draws,
+                                          seed if draw_seed is None else draw_seed, pool=n_pool, nominal=ev,
+                                          features=feature_set,
+                                          progress=lambda i, n: bar.update(task, completed=n_draws * i / n))
+        paths.update(write_robustness(robust, scene, out))
     if picture:
         from ..engines import make_engine
         from ..engines.views import overview_view, storey_views
@@ -290,4 +367,6 @@ def evaluate(
         base = run_evaluation(scene, planned, settings, features=feature_set, cache_dir=None if cache else False)
         console.print(comparison_table(base, ev, f"the file's frames and the photos as flown ({plan})"))
         paths["as_flown"] = write_comparison(base, ev, planned, the_plan, Path(out) / "as_flown.json")
+    if robust is not None:
+        console.print(robustness_table(robust))
     console.print("wrote " + ", ".join(str(p) for p in paths.values()))

@@ -2,6 +2,7 @@
 rules of :mod:`.px4` and :mod:`.ardupilot`), and every photo's pose compared with the frame it was meant to take
 (:mod:`.fidelity`)."""
 
-from .simulate import Gimbal, PhotoPose, Replay, simulate_file, simulate_items
+from .replay import simulate_file, simulate_items
+from .simulate import Gimbal, PhotoPose, Replay
 
 __all__ = ["Gimbal", "PhotoPose", "Replay", "simulate_file", "simulate_items"]

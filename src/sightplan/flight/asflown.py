@@ -26,7 +26,7 @@ def replay_file(path: str | Path, autopilot: str | None = None, gimbal: Gimbal =
     """The file replayed, and its home (latitude°, longitude°, height in the file's datum)."""
     from ..formats.qgc import parse_qgc_plan
     from ..formats.wpl import parse_wpl
-    from .simulate import simulate_file
+    from .replay import simulate_file
 
     path = Path(path)
     src = parse_qgc_plan(path) if path.suffix.lower() == ".plan" else parse_wpl(path)

@@ -7,7 +7,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .simulate import DEFAULT_GIMBAL, Gimbal, Replay, local_items, simulate_items, wrap180
+from .replay import simulate_items
+from .simulate import DEFAULT_GIMBAL, Gimbal, Replay, local_items, wrap180
 
 TOLERANCE_M = 0.1  # a photo farther than this from its frame…
 TOLERANCE_DEG = 1.0  # …or turned more than this (heading or pitch) is not the frame that was evaluated

@@ -1,5 +1,5 @@
 """What an autopilot does with a MAVLink mission: a replay of its items under the firmware's rules, giving the pose
-of every photo (:func:`simulate_items`, :func:`simulate_file`).
+of every photo (:func:`~sightplan.flight.replay.simulate_items`, :func:`~sightplan.flight.replay.simulate_file`).
 
 The aircraft is a point that flies straight at its current position setpoint, at most ``speed_m_s`` and braking at
 ``accel_m_s2`` so as to stop on it (v = min(v_max, √(2·a·d)), the speed rising by at most a·dt a step); its yaw
@@ -17,30 +17,16 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import numpy as np
 from numpy.typing import NDArray
 
-from ..errors import PlanError
+from ..formats.flight import DEFAULT_GIMBAL, Gimbal
+
+__all__ = ["DEFAULT_GIMBAL", "DT_S", "Gimbal", "Item", "PhotoPose", "Replay", "Vehicle", "local_items"]
 
 DT_S = 0.02  # the replay's time step
 MAX_TIME_S = 4 * 3600.0  # a replay that runs longer is a mission that never ends (a waypoint never reached)
-
-
-@dataclass(frozen=True)
-class Gimbal:
-    """A gimbal's pitch slew rate and the time it needs to settle after reaching a new pitch."""
-
-    rate_deg_s: float = 30.0
-    settle_s: float = 0.5
-
-    def wait_s(self, change_deg: float) -> float:
-        """The time from a pitch command until the gimbal is still at its new pitch."""
-        return abs(float(change_deg)) / self.rate_deg_s + self.settle_s
-
-
-DEFAULT_GIMBAL = Gimbal()
 
 
 @dataclass(frozen=True)
@@ -171,37 +157,3 @@ def local_items(commands: list, home: tuple[float, float, float]) -> list[Item]:
             xyz = (float(e), float(n), float(z))
         out.append(Item(int(c.command), params, xyz))
     return out
-
-
-def simulate_items(items: list[Item], autopilot: str, speed_m_s: float, gimbal: Gimbal = DEFAULT_GIMBAL,
-                   profile=None) -> Replay:
-    """Replay ``items`` (from home, on the ground, nose north, gimbal level) under ``autopilot``'s rules."""
-    from . import ardupilot, px4
-
-    module = {"px4": px4, "ardupilot": ardupilot}.get(autopilot)
-    if module is None:
-        raise PlanError(f"no replay for autopilot {autopilot!r}: px4 or ardupilot")
-    return module.replay(items, speed_m_s, gimbal, profile or module.DEFAULTS)
-
-
-def simulate_file(path: str | Path, autopilot: str | None = None, gimbal: Gimbal = DEFAULT_GIMBAL, profile=None) -> Replay:
-    """Replay a QGroundControl ``.plan`` or ``QGC WPL 110`` file; ``autopilot`` defaults to the file's
-    (``firmwareType``), else PX4 for ``.plan`` and ArduPilot for WPL."""
-    import json
-
-    from ..formats.mavlink import FIRMWARE_TYPES
-    from ..formats.qgc import parse_qgc_plan
-    from ..formats.wpl import parse_wpl
-
-    path = Path(path)
-    if path.suffix.lower() == ".plan":
-        src = parse_qgc_plan(path)
-        if autopilot is None:
-            firmware = json.loads(path.read_text(encoding="utf-8")).get("mission", {}).get("firmwareType")
-            autopilot = next((k for k, v in FIRMWARE_TYPES.items() if v == firmware), "px4")
-    else:
-        src = parse_wpl(path)
-        autopilot = autopilot or "ardupilot"
-    if src.home is None:
-        raise PlanError(f"{path.name} has no home position: nothing to replay it from")
-    return simulate_items(local_items(src.commands, src.home), autopilot, src.speed_m_s, gimbal, profile)

@@ -46,6 +46,22 @@ FOOTPRINT_NOTE = ("no footprint for these frames: an image-corner ray does not r
 
 
 @dataclass(frozen=True)
+class Gimbal:
+    """A gimbal's pitch slew rate and the time it needs to settle after reaching a new pitch: the writers size their
+    waits after a change of pitch by it, and the replay (:mod:`sightplan.flight.simulate`) turns the gimbal by it."""
+
+    rate_deg_s: float = 30.0
+    settle_s: float = 0.5
+
+    def wait_s(self, change_deg: float) -> float:
+        """The time from a pitch command until the gimbal is still at its new pitch."""
+        return abs(float(change_deg)) / self.rate_deg_s + self.settle_s
+
+
+DEFAULT_GIMBAL = Gimbal()
+
+
+@dataclass(frozen=True)
 class Photo:
     """One photo action: plan frame ``frame`` taken with this true heading and gimbal pitch (degrees)."""
 

@@ -82,7 +82,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Literal, get_args
+from typing import Literal, get_args
 
 import numpy as np
 from numpy.typing import NDArray
@@ -93,11 +93,8 @@ from ..errors import CameraError, PlanError
 from ..geo import Georeference, GeoreferenceError
 from ..geometry.poses import R_from_gimbal
 from ..plan.types import Mission, Plan
-from .flight import SAME_POSITION_M, Flight, Photo, Waypoint, same_angle
+from .flight import DEFAULT_GIMBAL, SAME_POSITION_M, Flight, Gimbal, Photo, Waypoint, same_angle
 from .reading import DEFAULT_PITCH_DEG, DEFAULT_SPEED_M_S, bearing, differs, given_camera, place_takeoff
-
-if TYPE_CHECKING:
-    from ..flight.simulate import Gimbal
 
 # MAV_CMD: navigation
 NAV_WAYPOINT, NAV_LOITER_UNLIM, NAV_LOITER_TURNS, NAV_LOITER_TIME = 16, 17, 18, 19
@@ -578,10 +575,8 @@ def mission_items(flight: Flight, waypoints: list[Waypoint], autopilot: Autopilo
     """The command sequence of one mission for ``autopilot``: dicts with ``command``, ``frame``, 7 ``params`` and
     ``nav`` (positional); see the module docstring. ``gimbal``: its slew rate and settle time, which set the waits
     (default :class:`~sightplan.flight.simulate.Gimbal`)."""
-    from ..flight.simulate import Gimbal as _Gimbal
-
     autopilot = resolve_autopilot(autopilot)
-    gimbal = gimbal or _Gimbal()
+    gimbal = gimbal or DEFAULT_GIMBAL
     items: list[dict] = []
 
     def add(command: int, params: list[float], nav: bool = False) -> None:

@@ -3,7 +3,8 @@
 from .elements import ElementMetrics, element_metrics
 from .params import MetricParams
 from .plan import Metrics, PlanMetrics, compute_metrics
+from .robustness import DrawSummary, ElementSpread, Spread, summarize_draws
 from .stability import FrameMetrics, frame_metrics, stable_feature_counts
 
-__all__ = ["ElementMetrics", "FrameMetrics", "MetricParams", "Metrics", "PlanMetrics", "compute_metrics",
-           "element_metrics", "frame_metrics", "stable_feature_counts"]
+__all__ = ["DrawSummary", "ElementMetrics", "ElementSpread", "FrameMetrics", "MetricParams", "Metrics", "PlanMetrics",
+           "Spread", "compute_metrics", "element_metrics", "frame_metrics", "stable_feature_counts", "summarize_draws"]

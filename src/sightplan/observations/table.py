@@ -38,6 +38,14 @@ class FrameObservation:
     sampling_focal_px: float
 
 
+def _frame_rows(frame: NDArray, index: NDArray) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    """The rows of the frames ``index`` (in that order) of a table sorted by ``frame``, and how many each has."""
+    lo = np.searchsorted(frame, index, side="left")
+    sizes = np.searchsorted(frame, index, side="right") - lo
+    starts = np.cumsum(sizes) - sizes  # where each frame's rows begin in the output
+    return np.arange(int(sizes.sum()), dtype=np.int64) + np.repeat(lo - starts, sizes), sizes
+
+
 @dataclass(frozen=True)
 class Observations:
     """Sparse observations of a plan's n frames over a scene's z elements.
@@ -142,6 +150,22 @@ class Observations:
         index = np.asarray(index, int)
         frames = [self.frame_observation(int(f)) for f in index]
         return Observations.from_frames(frames, self.is_target, self.present, self.n_features, dict(self.meta))
+
+    def take_frames(self, index: NDArray) -> Observations:
+        """:meth:`select_frames` in a few array operations (for many selections of one large table, as the draws
+        of :mod:`sightplan.robustness` make); a frame may be taken more than once."""
+        index = np.asarray(index, np.int64).reshape(-1)
+        if len(index) and (index.min() < 0 or index.max() >= self.n_frames):
+            raise ObservationsError(f"frame index out of range 0..{self.n_frames - 1}")
+        rows, sizes = _frame_rows(self.frame, index)
+        frows, fsizes = _frame_rows(self.feature_frame, index)
+        new = np.arange(len(index), dtype=np.int32)
+        return replace(
+            self, n_frames=len(index), frame=np.repeat(new, sizes), element=self.element[rows], count=self.count[rows],
+            depth_mean=self.depth_mean[rows], angle_mean=self.angle_mean[rows], pixel_scale=self.pixel_scale[index],
+            sampling_focal_px=self.sampling_focal_px[index], feature_frame=np.repeat(new, fsizes),
+            feature_id=self.feature_id[frows], meta=dict(self.meta),
+        )
 
     @staticmethod
     def concatenate(parts: list[Observations]) -> Observations:
