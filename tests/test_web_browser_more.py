@@ -357,6 +357,27 @@ def test_pilot_position_take_off_and_return_and_export_anyway(browser, server, a
             page.click("#force-export")
         assert info.value.suggested_filename.endswith((".plan", ".zip"))
         page.wait_for_function("document.querySelector('#messages').textContent.includes('despite')")
+        page.locator("#messages .msg.error button").click()  # read: closed
+
+        # version 1 evaluated as PX4 flies it, and under an RTK position error: the band below its row
+        page.select_option("#version-select", "1")
+        wait_for(page, "window.sightplanTest.planVersion() === 1")
+        page.click("#sec-eval details summary")
+        page.fill("#eval-scale", str(SCALE))
+        page.select_option("#eval-as-flown", "px4")
+        page.select_option("#eval-error", "rtk")
+        page.fill("#eval-draws", "4")
+        page.click("#eval-start")
+        wait_for(page, "document.querySelector('#metrics-table tr.band') !== null", 120)
+        (ev,) = [e for e in server.get(f"/api/projects/{project}/evaluations") if e["settings"].get("as_flown")]
+        assert ev["settings"]["robustness"]["draws"] == 4
+        row = page.locator(f"#metrics-table tr[data-evaluation='{ev['id']}']")
+        assert row.locator("td[data-site]").inner_text() == "as flown (PX4)"
+        band = page.locator(f"#metrics-table tr[data-band-of='{ev['id']}']")
+        vc = ev["metrics"]["robustness"]["metrics"]["VC_pct"]
+        assert band.locator("td[data-band=VC_pct]").inner_text() == f"{vc['p5']:.2f}–{vc['p95']:.2f}"
+        assert "4 draws, ±0.1 m / ±0.1 m" in band.inner_text()
+        shot(page, artifacts, "23d-as-flown-with-band")
         assert not [p for p in problems if "page error" in p], problems
     finally:
         ctx.close()

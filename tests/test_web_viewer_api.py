@@ -441,3 +441,27 @@ def test_an_export_its_replay_refuses_is_a_409_the_page_can_force(client, projec
     assert r.status_code == 409 and len(r.json()["violations"]) == 1
     assert r.json()["violations"][0].startswith("mission 'x' flies 30.0 min in the replay; split the plan")
     assert client.get(url, params={"format": "qgc", "force": True}).status_code == 200
+
+
+def test_an_evaluation_as_flown_and_under_position_error(client, project, plan, reference):
+    """``as_flown``: the version's PX4 export replayed takes every photo on its frame, so the metrics are the plan's
+    (the library's evaluation here); ``position_error``: the metrics' band over the draws, the plan inside it."""
+    _, ref = reference
+    r = client.post(f"/api/projects/{project}/evaluations", json={
+        "plan_id": plan, "version": 1, "settings": {"scale": SCALE, "engine": "embree"}, "as_flown": "px4",
+        "position_error": "rtk", "draws": 4})
+    assert r.status_code == 202, r.text
+    assert wait_job(client, r.json()["job"]["id"])["status"] == "done"
+    ev = client.get(f"/api/projects/{project}/evaluations/{r.json()['evaluation']['id']}").json()
+    assert ev["settings"]["as_flown"] == "px4" and ev["settings"]["robustness"]["draws"] == 4
+    m = ev["metrics"]
+    assert m["VC_pct"] == pytest.approx(100 * ref.metrics.plan.VC) and m["VR"] == pytest.approx(ref.metrics.plan.VR,
+                                                                                                  rel=1e-3)
+    band = m["robustness"]
+    assert band["draws"] == 4 and band["label"] == "±0.1 m / ±0.1 m"
+    vc = band["metrics"]["VC_pct"]
+    assert vc["nominal"] == pytest.approx(m["VC_pct"]) and vc["p5"] <= vc["mean"] <= vc["p95"]
+    for body, word in (({"draws": 4}, "position_error"), ({"position_error": "x"}, "position error"),
+                       ({"as_flown": "dji"}, "as_flown")):
+        r = client.post(f"/api/projects/{project}/evaluations", json={"plan_id": plan, **body})
+        assert r.status_code == 422 and word in r.json()["detail"], (body, r.text)

@@ -69,3 +69,37 @@ def deviations(plan: Plan, flown: Plan) -> tuple[np.ndarray, np.ndarray]:
     h1, p1, _ = gimbal_from_R(flown.R_world_camera)
     a = np.maximum(np.abs((h1 - h0 + 180.0) % 360.0 - 180.0), np.abs(p1 - p0))
     return d, a
+
+
+def as_flown_of_plan(plan: Plan, georef: Georeference, takeoff_m, autopilot: str, speed_m_s: float = 5.0,
+                     gimbal: Gimbal = DEFAULT_GIMBAL) -> tuple[Plan, list[Replay]]:
+    """``plan`` as ``autopilot`` flies sightplan's own export of it (:func:`~sightplan.formats.mavlink.mission_items`,
+    each mission from its take-off point): every frame moved to where its photo is taken in the replay."""
+    from ..formats.flight import build_flight
+    from ..formats.mavlink import mission_items
+    from .fidelity import replay_items
+
+    flight = build_flight(plan, georef, takeoff_m, fmt="qgc", speed_m_s=speed_m_s)
+    C, R = plan.C_world.copy(), plan.R_world_camera.copy()
+    replays = []
+    for _, wps in flight.by_mission():
+        home = flight.takeoff_of(wps[0].mission)
+        rep = replay_items(mission_items(flight, wps, autopilot, gimbal), (home.latitude_deg, home.longitude_deg, 0.0),
+                           autopilot, flight.speed_m_s, gimbal)
+        photos = [ph for wp in wps for ph in wp.photos]
+        if len(rep.photos) != len(photos):
+            raise PlanError(f"the replay of mission {wps[0].mission + 1} takes {len(rep.photos)} photos for "
+                            f"{len(photos)} frames{': ' + rep.notes[0] if rep.notes else ''}")
+        proj = Proj(proj="aeqd", lat_0=home.latitude_deg, lon_0=home.longitude_deg, datum="WGS84", units="m")
+        xyz = np.array([p.xyz for p in rep.photos], float)
+        lon, lat = proj(xyz[:, 0], xyz[:, 1], inverse=True)
+        where = georef.from_geodetic(lat, lon, home.height_m + xyz[:, 2])
+        heading = georef.model_heading(where, np.array([p.heading_deg for p in rep.photos]))
+        idx = np.array([ph.frame for ph in photos])
+        C[idx] = where
+        R[idx] = R_from_gimbal(heading, np.array([p.pitch_deg for p in rep.photos]))
+        replays.append(rep)
+    flown = replace(plan, C_world=C, R_world_camera=R,
+                    parameters={**plan.parameters, "as_flown": {"autopilot": autopilot, "speed_m_s": flight.speed_m_s,
+                                                               "flight_time_s": round(sum(r.time_s for r in replays), 1)}})
+    return flown, replays

@@ -267,6 +267,14 @@ class EvaluationIn(BaseModel):
     unscheduled: Literal["present", "absent"] = Field("present", description="Elements no schedule dates")
     reality_id: int | None = Field(None, description="A reality capture of the site (scaffolding, neighbours, what "
                                                      "stands): it hides what is behind it, and is not scored")
+    as_flown: Literal["px4", "ardupilot"] | None = Field(None, description=(
+        "Evaluate the photos where this autopilot takes them: the version's MAVLink export replayed under its rules "
+        "(as `sightplan evaluate --as-flown`)"))
+    position_error: str | None = Field(None, max_length=40, description=(
+        "Also evaluate draws with every frame moved by a normal error whose 95 % bounds are 'H,V' metres (and ',YAW' "
+        "degrees), or 'gnss' / 'rtk' (as `sightplan evaluate --position-error`): each metric's 5th-95th percentile "
+        "band goes into metrics.robustness"))
+    draws: int | None = Field(None, ge=2, le=256, description="With position_error: the number of draws (default 32)")
 
 
 class EvaluationOut(Orm):

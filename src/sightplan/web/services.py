@@ -46,10 +46,12 @@ def report_summary(report: LoadReport) -> dict[str, Any]:
 
 FOURD_KEY = "fourd"  # the capture date of an evaluation, kept beside its settings
 REALITY_KEY = "reality_id"  # the reality capture an evaluation takes as occluders
+AS_FLOWN_KEY = "as_flown"  # the autopilot whose replay of the version's export is evaluated
+ROBUSTNESS_KEY = "robustness"  # the position error and draws an evaluation's metrics are also spread under
 
 
 def evaluation_settings(s: dict[str, Any]) -> EvaluationSettings:
-    v = SettingsIn(**{k: x for k, x in s.items() if k not in (FOURD_KEY, REALITY_KEY)})
+    v = SettingsIn(**{k: x for k, x in s.items() if k not in (FOURD_KEY, REALITY_KEY, AS_FLOWN_KEY, ROBUSTNESS_KEY)})
     return EvaluationSettings(engine=v.engine, scale=v.scale, d_max=v.d_max, feature_density=v.feature_density,
                               feature_seed=v.seed, metric=MetricParams(omega=v.omega, k=v.k, min_track=v.min_track,
                                                                        min_features=v.min_features))

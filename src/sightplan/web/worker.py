@@ -21,7 +21,9 @@ from .db import Database
 from .models import Evaluation, Job, Model, Plan, PlanVersion, Reality, Schedule, utcnow
 from .scenes import evaluation_scene
 from .services import (
+    AS_FLOWN_KEY,
     FLIGHT_KEY,
+    ROBUSTNESS_KEY,
     add_plan_version,
     evaluation_settings,
     flight_settings,
@@ -316,11 +318,16 @@ class Worker:
         with self.db.session() as s:
             scene = evaluation_scene(self.storage, s, stored_model, settings_json, project_id)
         plan = read_plan(self.storage.plan_path(stored_plan))
+        if settings_json.get(AS_FLOWN_KEY):
+            plan = self._as_flown(job_id, plan, scene, settings_json[AS_FLOWN_KEY])
         progress = self._progress(job_id, len(plan), evaluation_id)
         result = evaluate(scene, plan, settings, cache_dir=self.storage.frame_cache, progress=lambda i, n: progress(i))
         out = self.storage.evaluation_dir(result_name)
         out.mkdir(parents=True, exist_ok=True)
         report = report_dict(result, scene, plan, model_path=model_label, plan_path=plan_label)
+        if settings_json.get(ROBUSTNESS_KEY):
+            report["metrics"]["robustness"] = self._robustness(job_id, scene, plan, result,
+                                                               settings_json[ROBUSTNESS_KEY])
         (out / "report.json").write_text(json.dumps(report, indent=1, allow_nan=False), encoding="utf-8")
         (out / "elements.json").write_text(json.dumps(_jsonable(element_rows(result, scene))), encoding="utf-8")
         (out / "frames.json").write_text(json.dumps(_jsonable(frame_rows(result, plan))), encoding="utf-8")
@@ -335,6 +342,42 @@ class Worker:
             vc = report["metrics"]["VC_pct"]
             job.message = (f"VC {vc:.1f} %" if vc is not None else "done") + \
                 (f"; {result.cache_hits} of {len(plan)} frames unchanged, taken from the cache" if result.cache_hits else "")
+
+    def _as_flown(self, job_id: int, plan, scene, autopilot: str):
+        """The version as ``autopilot`` flies its export (:func:`~sightplan.flight.asflown.as_flown_of_plan`)."""
+        from ..export.files import takeoff_point
+        from ..flight.asflown import as_flown_of_plan, deviations
+        from ..geo import Georeference, resolve_georeference
+
+        self._message(job_id, f"replaying the mission as {autopilot} flies it")
+        geo = resolve_georeference(plan.parameters.get("georeference"),
+                                   Georeference.from_scene_metadata(scene.metadata), what="an as-flown evaluation")
+        flown, replays = as_flown_of_plan(plan, geo, takeoff_point(plan, scene, hint="give the plan a model"),
+                                          autopilot)
+        d, a = deviations(plan, flown)
+        flown.parameters["as_flown"] |= {"largest_deviation_m": round(float(d.max()), 3),
+                                         "largest_deviation_deg": round(float(a.max()), 2)}
+        return flown
+
+    def _robustness(self, job_id: int, scene, plan, nominal, spec: dict) -> dict:
+        """The plan metrics' spread under the position error of ``spec`` (:func:`~sightplan.robustness.
+        evaluate_under_error`), as robustness.json holds it, less the timings."""
+        from ..robustness import evaluate_under_error, robustness_dict
+
+        total = spec["pool"] * len(plan)
+        self._message(job_id, f"{spec['draws']} draws under {spec['label']}: casting {total} perturbed frames")
+        progress = self._progress(job_id, total)  # the job's bar runs again, over the draws' frames
+        result = evaluate_under_error(scene, plan, nominal.settings, tuple(spec["error"]), spec["draws"], 0,
+                                      pool=spec["pool"], nominal=nominal, progress=lambda i, n: progress(i))
+        doc = robustness_dict(result)
+        doc.pop("timings", None)
+        return doc | {"label": spec["label"]}
+
+    def _message(self, job_id: int, text: str) -> None:
+        with self.db.session() as s:
+            job = s.get(Job, job_id)
+            if job is not None:
+                job.message = text
 
     def _optimize(self, job_id: int) -> None:
         """An optimised plan (``sightplan optimize``) around the job's model, saved as a new plan of one version."""

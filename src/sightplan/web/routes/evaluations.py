@@ -16,7 +16,9 @@ from ..deps import PROJECT_ACCESS, ServerState, SessionDep, StateDep, in_project
 from ..models import Evaluation, Job, Model, Plan, PlanVersion, Reality, Schedule
 from ..scenes import evaluation_scene
 from ..schemas import ElementsOut, ErrorOut, EvaluationIn, EvaluationOut, EvaluationStartOut, JobOut
-from ..services import FOURD_KEY, REALITY_KEY, evaluation_settings, rebuilt_evaluation
+from ..services import AS_FLOWN_KEY, FOURD_KEY, REALITY_KEY, ROBUSTNESS_KEY, evaluation_settings, rebuilt_evaluation
+
+DEFAULT_DRAWS = 32  # draws under a position error when the request names none
 
 router = APIRouter(prefix="/api/projects/{project_id}/evaluations", tags=["evaluations"], dependencies=PROJECT_ACCESS)
 NOT_FOUND = {404: {"model": ErrorOut, "description": "No such project, evaluation, plan, version or model"}}
@@ -89,6 +91,18 @@ def start_evaluation(project_id: int, body: EvaluationIn, session: SessionDep, s
         if reality.status != "ready":
             raise HTTPException(409, f"reality capture {reality.id} is {reality.status}, not ready")
         settings[REALITY_KEY] = reality.id
+    if body.as_flown is not None:
+        settings[AS_FLOWN_KEY] = body.as_flown
+    if body.position_error is not None:
+        from ...plan.perturb import PoseError
+        from ...robustness import check_draws
+
+        draws = body.draws if body.draws is not None else DEFAULT_DRAWS
+        error = PoseError.parse(body.position_error)
+        settings[ROBUSTNESS_KEY] = {"error": [error.horizontal_m, error.vertical_m, error.yaw_deg], "draws": draws,
+                                    "pool": check_draws(draws, None), "label": error.label()}
+    elif body.draws is not None:
+        raise HTTPException(422, "draws needs a position_error: the error the draws are made under")
     if body.date is not None:
         settings[FOURD_KEY] = capture_date(session, project_id, model_id, body)
     elif body.schedule_id is not None:

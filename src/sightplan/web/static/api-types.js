@@ -134,6 +134,9 @@
  * @property {'finish'|'start'} [date_basis] Which schedule date builds an element
  * @property {'present'|'absent'} [unscheduled] Elements no schedule dates
  * @property {(number|null)} [reality_id] A reality capture of the site (scaffolding, neighbours, what stands): it hides what is behind it, and is not scored
+ * @property {('px4'|'ardupilot'|null)} [as_flown] Evaluate the photos where this autopilot takes them: the version's MAVLink export replayed under its rules (as `sightplan evaluate --as-flown`)
+ * @property {(string|null)} [position_error] Also evaluate draws with every frame moved by a normal error whose 95 % bounds are 'H,V' metres (and ',YAW' degrees), or 'gnss' / 'rtk' (as `sightplan evaluate --position-error`): each metric's 5th-95th percentile band goes into metrics.robustness
+ * @property {(number|null)} [draws] With position_error: the number of draws (default 32)
  */
 
 /**

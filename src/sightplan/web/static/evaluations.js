@@ -26,6 +26,7 @@ const METRIC_COLUMNS = [
 function siteLabel(e) {
   const s = e.settings || {};
   const bits = [];
+  if (s.as_flown) bits.push(` as flown (${s.as_flown === 'px4' ? 'PX4' : 'ArduPilot'})`);
   if (s.fourd && s.fourd.date) bits.push(` at ${s.fourd.date}`);
   if (s.reality_id) {
     const r = state.realities.find((x) => x.id === s.reality_id);
@@ -70,8 +71,11 @@ async function startEvaluation() {
   const settings = { scale: Number($('#eval-scale').value), engine: $('#eval-engine').value, omega: int('#eval-omega'),
     k: int('#eval-k'), min_track: int('#eval-min-track'), min_features: int('#eval-min-features') };
   const site = evalSite();
+  const flown = {};
+  if ($('#eval-as-flown').value) flown.as_flown = $('#eval-as-flown').value;
+  if ($('#eval-error').value) Object.assign(flown, { position_error: $('#eval-error').value, draws: int('#eval-draws') });
   const res = await api.post(projectUrl('/evaluations'), { plan_id: state.plan.id, version: state.version,
-    model_id: state.model.id, settings, ...site });
+    model_id: state.model.id, settings, ...site, ...flown });
   set({ evaluations: [...state.evaluations, res.evaluation] });
   setProgress($('#eval-progress'), 0, 'queued');
   $('#eval-status').textContent = `evaluating ${state.plan.name} v${state.version}${siteLabel(res.evaluation)} `
@@ -114,14 +118,31 @@ function renderMetricsTable() {
   $('#metrics-table thead').replaceChildren(el('tr', {}, el('th', {}, 'plan'), el('th', {}, 'eval.'),
     el('th', {}, 'frames'), ...METRIC_COLUMNS.map(([, head, unit]) => el('th', {}, `${head} (${unit})`)),
     el('th', {}, 'visible / z'), el('th', {}, 'scale'), el('th', {}, 'site')));
-  $('#metrics-table tbody').replaceChildren(...done.map((e) => el('tr', {
+  $('#metrics-table tbody').replaceChildren(...done.flatMap((e) => [el('tr', {
     dataset: { evaluation: e.id }, class: state.evaluation && state.evaluation.id === e.id ? 'current' : '',
     onclick: () => act('Showing the evaluation', () => selectEvaluation(e.id)),
   }, el('td', {}, `${planName(e.plan_id)} v${e.plan_version}`), el('td', {}, `#${e.id}`),
   el('td', {}, String(e.metrics.frames)),
   ...metricCells(e.metrics).map((v, k) => el('td', { dataset: { metric: METRIC_COLUMNS[k][0] } }, v)),
   el('td', {}, `${e.metrics.visible} / ${e.metrics.z}`), el('td', {}, String(e.settings.scale)),
-  el('td', { class: 'text', dataset: { site: siteLabel(e).trim() } }, siteLabel(e).trim() || 'as built'))));
+  el('td', { class: 'text', dataset: { site: siteLabel(e).trim() } }, siteLabel(e).trim() || 'as built')),
+  ...(e.metrics.robustness ? [bandRow(e)] : [])]));
+}
+
+// the 5th–95th percentile of each metric over the draws under a position error, below its evaluation's row
+function bandRow(e) {
+  const r = e.metrics.robustness;
+  const cells = METRIC_COLUMNS.map(([key, , , digits]) => {
+    const m = r.metrics[key];
+    const text = !m || m.p5 === null || m.p95 === null ? '—'
+      : `${Number(m.p5).toFixed(digits)}–${Number(m.p95).toFixed(digits)}`;
+    return el('td', { dataset: { band: key } }, text);
+  });
+  const safety = r.safety ? `; ${formatNumber(r.safety.draws_too_close_pct, 3)} % of draws come within `
+    + `${r.safety.minimum_m} m` : '';
+  return el('tr', { class: 'band', dataset: { bandOf: e.id } },
+    el('td', { colspan: 3, class: 'text' }, `5–95 % of ${r.draws} draws, ${r.label}`), ...cells,
+    el('td', { colspan: 3, class: 'text' }, `p5–p95${safety}`));
 }
 
 function renderCompare() {
