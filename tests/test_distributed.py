@@ -115,6 +115,7 @@ def test_bad_arguments(client, duplex):
         evaluate_distributed(scene, plan, SETTINGS, cluster="local:zero")
 
 
+@pytest.mark.bench  # the command line on a local cluster (20 s); test_batches_on_two_workers_equal_local stays in make test
 def test_cli_cluster_matches_local(tmp_path: Path):
     env = {**os.environ, "COLUMNS": "120"}
     reports = []

@@ -118,7 +118,7 @@ def file_commands(path):
     return cmds, (items[0].x, items[0].y, items[0].z), None
 
 
-@pytest.mark.parametrize("site", ["sample", "basement house"])
+@pytest.mark.parametrize("site", [pytest.param("sample", marks=pytest.mark.bench), "basement house"])
 def test_every_export_takes_its_photos_at_the_frames(sites, site, tmp_path):
     scene = sites[site]
     geo = Georeference.from_scene_metadata(scene.metadata)

@@ -705,7 +705,7 @@ def read_back(paths, scene) -> list:
     return [load_plan(p, camera="m3e", **scene_placement(scene)) for p in paths]
 
 
-@pytest.mark.parametrize("site", ["sample", "house"])
+@pytest.mark.parametrize("site", [pytest.param("sample", marks=pytest.mark.bench), "house"])
 def test_exports_read_back_where_they_were_planned(tmp_path, site_plans, site):
     """Every frame of an export comes back where the plan has it, heights included (to 1 cm), headings and pitches
     too, from the take-off point each file records (QGroundControl, WPL, DJI WPML); a Litchi CSV, which has none,
@@ -756,7 +756,7 @@ def test_a_raised_take_off_comes_back_from_the_file_not_the_ground(tmp_path, sit
             np.testing.assert_allclose(back[0].parameters["takeoff_m"], takeoff, atol=0.01)
 
 
-@pytest.mark.parametrize("site", ["sample", "house"])
+@pytest.mark.parametrize("site", [pytest.param("sample", marks=pytest.mark.bench), "house"])
 def test_check_of_an_export_finds_no_height_violation(tmp_path, site_plans, site):
     """`sightplan check EXPORT MODEL` on each app's file of a facade plan (the lowest waypoints, 0.5 m above the
     minimum height at the worst of the vertical error): no waypoint, leg, flight out or home too low."""

@@ -371,6 +371,7 @@ NEAR_FRAME_MS = 400.0
 BUDGET = 300_000
 
 
+@pytest.mark.bench  # 5 million points streamed in Chromium: in make bench
 def test_pointcloud_js_streams_a_5_million_point_site_in_chromium(served_site):
     sync_playwright = _browser_or_skip()
     from PIL import Image

@@ -335,6 +335,7 @@ ORBIT_JS = """async (seconds) => {
 
 
 @pytest.mark.slow
+@pytest.mark.bench  # a measurement of frame times: in make bench
 def test_viewer_draws_a_steel_structure_with_2000_frames_and_reports_frame_times(browser, server, artifacts):
     from conftest import shared_file
     from sightplan.camera.catalogue import get_camera
