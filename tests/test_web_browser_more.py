@@ -378,6 +378,11 @@ def test_pilot_position_take_off_and_return_and_export_anyway(browser, server, a
         assert band.locator("td[data-band=VC_pct]").inner_text() == f"{vc['p5']:.2f}–{vc['p95']:.2f}"
         assert "4 draws, ±0.1 m / ±0.1 m" in band.inner_text()
         shot(page, artifacts, "23d-as-flown-with-band")
+        # every metric label of the table says what it means, as the library's glossary does
+        help_ = server.get("/api/info")["metric_help"]
+        titles = page.eval_on_selector_all("#metrics-table th[data-metric]",
+                                           "ths => ths.map((t) => [t.dataset.metric, t.title])")
+        assert len(titles) == 8 and all(t == help_[k]["text"] for k, t in titles), titles
         assert not [p for p in problems if "page error" in p], problems
     finally:
         ctx.close()

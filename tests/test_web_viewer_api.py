@@ -465,3 +465,11 @@ def test_an_evaluation_as_flown_and_under_position_error(client, project, plan, 
                        ({"as_flown": "dji"}, "as_flown")):
         r = client.post(f"/api/projects/{project}/evaluations", json={"plan_id": plan, **body})
         assert r.status_code == 422 and word in r.json()["detail"], (body, r.text)
+
+
+def test_the_page_has_an_icon(client):
+    page = client.get("/").text
+    assert '<link rel="icon" href="/static/favicon.svg"' in page
+    for url in ("/static/favicon.svg", "/favicon.ico"):
+        r = client.get(url)
+        assert r.status_code == 200 and r.headers["content-type"].startswith("image/svg+xml") and b"<svg" in r.content

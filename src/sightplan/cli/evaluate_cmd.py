@@ -37,18 +37,22 @@ if TYPE_CHECKING:
 
 
 def summary_table(ev, title: str) -> Table:
-    """The plan metrics, one per row, as in the paper's Table 2."""
+    """The plan metrics, one per row, as in the paper's Table 2, each with its definition
+    (:mod:`sightplan.metrics.glossary`)."""
+    from ..metrics.glossary import explain
+
     p = ev.metrics.plan
     pct = lambda x: None if x is None else 100 * x  # noqa: E731
     t = Table("metric", "value", "unit", "meaning", title=title, title_justify="left")
+    mp = ev.settings.metric
     rows = [
-        ("VC", cell(pct(p.VC), ".2f"), "%", f"visual coverage: {p.n_visible} of {p.z} elements seen by ≥ Ω px"),
-        ("V̄C", cell(pct(p.VC_bar), ".2f"), "%", f"relative visual coverage: of the {p.n_observed} observed elements"),
-        ("VR", cell(p.VR, ".2f"), "frames", "redundant visibility per visible element"),
-        ("R", cell(p.R, ".4f"), "m/px", "back-projection resolution (surface sampling distance)"),
-        ("O", cell(p.O, ".2f"), "°", "viewpoint orientation (0° = head-on)"),
-        ("T", cell(p.T, ".1f"), "features", "stability: stable features per frame"),
-        ("stable", cell(pct(p.stable_share), ".1f"), "%", "frames with ≥ Λ stable features"),
+        ("VC", cell(pct(p.VC), ".2f"), "%", f"{explain('VC_pct', mp)} ({p.n_visible} of {p.z})"),
+        ("V̄C", cell(pct(p.VC_bar), ".2f"), "%", f"{explain('VC_bar_pct', mp)} ({p.n_visible} of {p.n_observed})"),
+        ("VR", cell(p.VR, ".2f"), "frames", explain("VR", mp)),
+        ("R", cell(p.R, ".4f"), "m/px", explain("R_m_per_px", mp)),
+        ("O", cell(p.O, ".2f"), "°", explain("O_deg", mp)),
+        ("T", cell(p.T, ".1f"), "features", explain("T", mp)),
+        ("stable", cell(pct(p.stable_share), ".1f"), "%", explain("stable_frames_pct", mp)),
         ("time", f"{ev.timings['total_s']:.1f}", "s",
          f"{p.n_frames} frames, all from the cache" if not ev.timings["frames_cast"] else
          f"{p.n_frames} frames, {ev.timings['frames_cast']} cast ({ev.timings['s_per_frame']:.3f} s each), "

@@ -24,6 +24,7 @@ import numpy as np
 
 from ..errors import ReportError
 from ..evaluate import Evaluation
+from ..metrics.glossary import GLOSSARY, explain
 from ..model.scene import Scene
 from ..plan.types import Plan
 from ..version import __version__
@@ -64,6 +65,7 @@ PLAN_COLUMNS: tuple[tuple[str, str, str, str, float], ...] = (
     ("O", "O", "°", ".2f", 1.0),
     ("T", "T", "features", ".1f", 1.0),
 )
+GLOSSARY_KEYS = {"VC": "VC_pct", "VC_bar": "VC_bar_pct", "VR": "VR", "R": "R_m_per_px", "O": "O_deg", "T": "T"}
 STABLE_COLOUR, UNSTABLE_COLOUR = VISIBLE, UNSEEN
 COLOURS_JS = Path(__file__).with_name("colours.js")  # the viewer's colouring, shared with the web page
 
@@ -338,10 +340,13 @@ def html_report(ev: Evaluation, scene: Scene, plan: Plan, *, model_label: str = 
     meta_html = "".join(f"<dt>{e(k)}</dt><dd>{e(v)}</dd>" for k, v in meta)
     cells = plan_cells(ev)
     table = ("<table id=\"plan-metrics\"><thead><tr><th>plan</th>"
-             + "".join(f"<th>{e(head)} <small>({e(unit)})</small></th>" for _, head, unit, _ in cells)
+             + "".join(f"<th title=\"{e(explain(GLOSSARY_KEYS[attr], mp))}\">{e(head)} <small>({e(unit)})</small>"
+                       "</th>" for attr, head, unit, _ in cells)
              + f"</tr></thead><tbody><tr><td>{e(plan_name)}</td>"
              + "".join(f"<td data-metric=\"{attr}\">{value}</td>" for attr, _, _, value in cells)
              + "</tr></tbody></table>")
+    definitions = "".join(f"<dt>{e(d.label)} <small>({e(d.unit)})</small></dt><dd>{e(explain(d.key, mp))}</dd>"
+                          for d in GLOSSARY)
     summary = (f"{p.n_visible} of {p.z} target elements seen by ≥ Ω px, {p.n_observed} observed; "
                f"{_fmt(p.stable_share, '.1f', 100.0)} % of the {p.n_frames} frames stable (ν_f ≥ Λ).")
     options = "".join(f"<option value=\"{m}\"{' selected' if m == colour_by else ''}>{e(METRIC_LABELS[m][0])}</option>"
@@ -368,6 +373,7 @@ def html_report(ev: Evaluation, scene: Scene, plan: Plan, *, model_label: str = 
 </header>
 <h2>Plan metrics</h2>
 {table}
+<details id="definitions"><summary>What the metrics mean</summary><dl>{definitions}</dl></details>
 <p>{e(summary)}</p>
 <h2>The model coloured by a metric <small>(drag to turn, wheel to zoom, right-drag to pan, click an element)</small></h2>
 <div id="viewer" data-state="loading">

@@ -44,6 +44,8 @@ class InfoOut(BaseModel):
     export_formats: list[str]
     export_format_help: dict[str, str] = Field(default_factory=dict, description="What each export format is for: "
                                                                                  "name → a few words (the page's menu)")
+    metric_help: dict[str, dict[str, str]] = Field(default_factory=dict, description=(
+        "What each metric means (label, unit, one sentence with the default thresholds): the page's labels"))
     aircraft: dict[str, str] = Field(default_factory=dict, description="Aircraft and rover presets of the plan form: "
                                                                        "id → name")
 

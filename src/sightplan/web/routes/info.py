@@ -5,6 +5,7 @@ from __future__ import annotations
 from fastapi import APIRouter
 
 from ...formats.registry import EXPORT_FORMATS, WRITERS
+from ...metrics.glossary import glossary
 from ...plan.checks import battery
 from ...plan.templates.base import label_of, unit_of
 from ...plan.templates.registry import TEMPLATES, default_flight
@@ -27,7 +28,8 @@ def info(state: StateDep) -> InfoOut:
                    max_upload_bytes=cfg.max_upload_bytes, templates=list(TEMPLATES),
                    export_formats=list(EXPORT_FORMATS),
                    export_format_help={f.name: f.help or f.label for f in WRITERS},
-                   aircraft={k: v.name for k, v in {**battery.AIRCRAFT, **battery.ROVERS}.items()})
+                   aircraft={k: v.name for k, v in {**battery.AIRCRAFT, **battery.ROVERS}.items()},
+                   metric_help=glossary())
 
 
 @router.get("/templates", response_model=list[TemplateOut], summary="The plan templates and their parameters")

@@ -513,6 +513,12 @@ def index_page() -> FileResponse:
     return _file(STATIC_DIR / "index.html", "no-cache")
 
 
+@router.get("/favicon.ico", response_class=FileResponse, include_in_schema=False)
+def favicon() -> FileResponse:
+    """The page's icon, for browsers that ask for it at the root whatever the page says."""
+    return _file(STATIC_DIR / "favicon.svg", "public, max-age=86400")
+
+
 @router.get("/docs", response_class=FileResponse, include_in_schema=False)
 def api_docs() -> FileResponse:
     """The OpenAPI documentation (Swagger UI from web/node_modules: no network needed)."""

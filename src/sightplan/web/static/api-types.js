@@ -298,6 +298,7 @@
  * @property {Array<string>} templates Templates
  * @property {Array<string>} export_formats Export Formats
  * @property {Object<string, string>} [export_format_help] What each export format is for: name → a few words (the page's menu)
+ * @property {Object<string, Object<string, string>>} [metric_help] What each metric means (label, unit, one sentence with the default thresholds): the page's labels
  * @property {Object<string, string>} [aircraft] Aircraft and rover presets of the plan form: id → name
  */
 

@@ -3,6 +3,7 @@
 // tabs (the histogram of the metric shown, ν_f along the path).
 import * as api from './api.js';
 import { drawHistogram, drawStability, formatNumber } from './charts.js';
+import { metricHelp } from './glossary.js';
 import { Colourer, STABLE, UNSTABLE } from './colours.js';
 import { $, $$, act, el, fillSelect, setProgress, showMessage } from './dom.js';
 import { currentBounds, feedbackMatchesPlan, projectUrl, viewer } from './context.js';
@@ -116,8 +117,10 @@ function renderMetricsTable() {
   const done = state.evaluations.filter((e) => e.status === 'done' && e.metrics);
   $('#metrics-empty').hidden = done.length > 0;
   $('#metrics-table thead').replaceChildren(el('tr', {}, el('th', {}, 'plan'), el('th', {}, 'eval.'),
-    el('th', {}, 'frames'), ...METRIC_COLUMNS.map(([, head, unit]) => el('th', {}, `${head} (${unit})`)),
-    el('th', {}, 'visible / z'), el('th', {}, 'scale'), el('th', {}, 'site')));
+    el('th', {}, 'frames'), ...METRIC_COLUMNS.map(([key, head, unit]) => el('th', { title: metricHelp(key),
+      dataset: { metric: key } }, `${head} (${unit})`)),
+    el('th', { title: metricHelp('visible'), dataset: { metric: 'visible' } }, 'visible / z'), el('th', {}, 'scale'),
+    el('th', {}, 'site')));
   $('#metrics-table tbody').replaceChildren(...done.flatMap((e) => [el('tr', {
     dataset: { evaluation: e.id }, class: state.evaluation && state.evaluation.id === e.id ? 'current' : '',
     onclick: () => act('Showing the evaluation', () => selectEvaluation(e.id)),
@@ -166,7 +169,8 @@ function renderCompare() {
     const tol = 0.5 * 10 ** -digits;
     const cls = d === null || higherBetter === null || Math.abs(d) < tol ? '' : (d > 0) === higherBetter ? 'good' : 'bad';
     const fmt = (v) => (v === null || v === undefined ? '—' : Number(v).toFixed(digits));
-    return el('tr', { dataset: { metric: key } }, el('td', {}, `${label}${unit ? ` (${unit})` : ''}`), el('td', {}, fmt(va)),
+    return el('tr', { dataset: { metric: key } }, el('td', { title: metricHelp(key) }, `${label}${unit ? ` (${unit})` : ''}`),
+      el('td', {}, fmt(va)),
       el('td', {}, fmt(vb)), el('td', { class: cls }, d === null ? '—' : `${d > 0 ? '+' : ''}${d.toFixed(digits)}`));
   }));
 }

@@ -3,6 +3,7 @@
 import * as api from './api.js';
 import { formatNumber } from './charts.js';
 import { $, el, showMessage } from './dom.js';
+import { metricHelp } from './glossary.js';
 import { feedbackMatchesPlan, feedbackOfModel, projectUrl, viewer } from './context.js';
 import { set, state } from './store.js';
 import { selectFrame, showSelection } from './frames.js';
@@ -36,7 +37,7 @@ export async function selectElement(e) {
   } else return;
   const labels = { global_id: 'GlobalId', ifc_class: 'IFC class', R_i_m_per_px: 'R_i (SSD)', O_i_deg: 'O_i',
     frames_observed: 'frames observed', pixels_total: 'pixels' };
-  info.replaceChildren(...rows.flatMap(([k, v, raw]) => [el('dt', {}, labels[k] || k),
+  info.replaceChildren(...rows.flatMap(([k, v, raw]) => [el('dt', { title: metricHelp(k) }, labels[k] || k),
     el('dd', { dataset: { field: k, value: JSON.stringify(raw ?? null) } }, String(v))]));
   const matches = feedbackMatchesPlan();
   $('#element-frames tbody').replaceChildren(...frames.map((f) => el('tr', {

@@ -1,0 +1,12 @@
+// What each metric means: the server's definitions (GET /api/info: metric_help, from sightplan.metrics.glossary),
+// shown as the tooltip of every metric label on the page.
+import { state } from './store.js';
+
+const ALIASES = { R_i_m_per_px: 'R_i', O_i_deg: 'O_i' };
+
+/** The definition of metric ``key`` (a report key: VC_pct, VR, R_m_per_px, …, VR_i, R_i_m_per_px, O_i_deg), or ''. */
+export function metricHelp(key) {
+  const help = state.info && state.info.metric_help;
+  const d = help && help[ALIASES[key] || key];
+  return d ? d.text : '';
+}
