@@ -67,8 +67,10 @@ def _product(f, body, ifc_class: str, name: str, lo, hi, **attributes):
     return product
 
 
-def write_basement_house(path: pathlib.Path, *, georeferenced: bool = True) -> pathlib.Path:
-    """Write the house described in the module docstring to ``path`` (IFC4, metres) and return ``path``."""
+def write_basement_house(path: pathlib.Path, *, georeferenced: bool = True,
+                         true_north: tuple[float, float] = (0.0, 1.0)) -> pathlib.Path:
+    """Write the house described in the module docstring to ``path`` (IFC4, metres) and return ``path``;
+    ``true_north``: the model context's TrueNorth (true north's direction in the model's x, y)."""
     api = ifcopenshell.api
     f = api.project.create_file(version="IFC4")
     project = api.root.create_entity(f, ifc_class="IfcProject", name="Basement House")
@@ -85,7 +87,7 @@ def write_basement_house(path: pathlib.Path, *, georeferenced: bool = True) -> p
         site.RefLatitude = (51, 50, 16, 800000)  # 51.8380 N
         site.RefLongitude = (5, 52, 12, 0)  # 5.8700 E
         site.RefElevation = 10.0
-        model.TrueNorth = f.createIfcDirection((0.0, 1.0))
+        model.TrueNorth = f.createIfcDirection(tuple(float(v) for v in true_north))
 
     building = api.root.create_entity(f, ifc_class="IfcBuilding", name="House")
     api.aggregate.assign_object(f, products=[building], relating_object=site)

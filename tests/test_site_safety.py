@@ -218,3 +218,15 @@ def test_the_position_error_is_recorded_with_the_checks_the_export_repeats(house
     checks = plan.parameters["checks"]
     gnss = {**checks, "settings": {**checks["settings"], "position_error_m": [1.5, 0.5]}}
     assert export_violations(replace(plan, parameters={**plan.parameters, "checks": gnss}), scene=house)
+
+
+def test_facade_sides_are_named_by_the_true_bearing_they_face(tmp_path):
+    """Model +Y at 310° true: the model's south side faces 130° true, so it is the south-east side."""
+    import math
+
+    a = math.radians(50.0)
+    turned = load_model(str(write_basement_house(tmp_path / "turned.ifc", true_north=(math.sin(a), math.cos(a)))),
+                        cache=False)[0]
+    plan, _ = plan_from_template("facade", turned, P4P, {}, FlightSettings(safety_distance_m=SAFETY))
+    assert [m.name.split(" (")[0] for m in plan.missions][:4] == ["facade south-east", "facade north-east",
+                                                                  "facade north-west", "facade south-west"]

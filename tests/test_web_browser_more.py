@@ -665,3 +665,47 @@ def test_account_dialog_tokens_and_password(browser, team_server, artifacts):
         assert not [p for p in problems if "page error" in p], problems
     finally:
         ctx.close()
+
+
+# --------------------------------------------------------------------------- (f) true north
+def test_headings_and_the_north_button_follow_true_north(browser, server, artifacts, tmp_path):
+    """A site whose model +Y points to 310° true (its TrueNorth is 50° off the y axis): the frame card shows the
+    heading the exported WPL flies, to 0.1°, and N moves a frame toward true north, not along +Y."""
+    import math
+    import urllib.request
+
+    from site_fixture import write_basement_house
+
+    a = math.radians(50.0)
+    ifc = write_basement_house(tmp_path / "turned.ifc", true_north=(math.sin(a), math.cos(a)))
+    project = server.request("POST", "/api/projects", {"name": "Turned site"})["id"]
+    res = server.upload(f"/api/projects/{project}/models", "turned.ifc", ifc.read_bytes())
+    assert server.wait_job(res["job"]["id"])["status"] == "done"
+    plan = server.request("POST", f"/api/projects/{project}/plans",
+                          {"model_id": res["model"]["id"], "template": "orbit", "name": "turned"})
+    base = f"/api/projects/{project}/plans/{plan['id']}/versions/1"
+    assert server.get(f"{base}/geometry")["north_offset_deg"] == pytest.approx(310.0, abs=1e-3)
+    req = urllib.request.Request(server.url + f"{base}/export?format=wpl&mission=1",
+                                 headers={"Authorization": f"Bearer {server.token}"} if server.token else {})
+    with urllib.request.urlopen(req, timeout=120) as r:
+        rows = [line.split("\t") for line in r.read().decode().splitlines()[1:]]
+    exported = next(float(c[4]) for c in rows if int(c[3]) == 115)  # frame 0's CONDITION_YAW (ArduPilot)
+    ctx, page, problems = open_project(browser, server, project)
+    try:
+        page.select_option("#plan-select", str(plan["id"]))
+        wait_for(page, "window.sightplanTest.planVersion() === 1")
+        page.click("button[data-tab=frames]")
+        page.click("#frame-list tbody tr[data-frame='0']")
+        wait_for(page, "window.sightplanTest.selectedFrame() === 0")
+        shown = json.loads(page.get_attribute("#frame-info dd[data-field='heading (true)']", "data-value"))
+        assert abs((shown - exported + 180) % 360 - 180) < 0.1, (shown, exported)
+        before = json.loads(page.get_attribute("#frame-info dd[data-field='position (m)']", "data-value"))
+        page.fill("#move-step", "1")
+        page.click("button[data-move='y+']")
+        wait_for(page, "window.sightplanTest.dirty()")
+        after = json.loads(page.get_attribute("#frame-info dd[data-field='position (m)']", "data-value"))
+        assert np.subtract(after, before) == pytest.approx([math.sin(a), math.cos(a), 0.0], abs=1e-6)
+        shot(page, artifacts, "26-true-north")
+        assert not [p for p in problems if "page error" in p], problems
+    finally:
+        ctx.close()

@@ -419,6 +419,9 @@ class PlanGeometryOut(BaseModel):
     missions: list[MissionGeometryOut]
     waypoints: list[list[float]] = Field(description="Flight waypoints [x, y, z] (m), when they differ from frames")
     parameters: dict[str, Any] = Field(description="The plan's parameters (template settings, checks, take-off)")
+    north_offset_deg: float | None = Field(None, description=(
+        "Degrees to add to a model heading (clockwise from model +Y) to get the true heading, at the frames' centre, "
+        "from the plan's georeference (map grid convergence included); null without one"))
 
 
 class FlightChecksOut(BaseModel):

@@ -131,6 +131,25 @@ def _capsule_intervals(P: NDArray, d: NDArray, A: NDArray, B: NDArray, r: float)
     return np.where(rect, np.minimum(lo, t0), lo), np.where(rect, np.maximum(hi, t1), hi)
 
 
+COMPASS = ("north", "north-east", "east", "south-east", "south", "south-west", "west", "north-west")
+
+
+def _compass(bearing_deg: float) -> str:
+    """The nearest of the eight compass points to a true bearing."""
+    return COMPASS[round((bearing_deg % 360.0) / 45.0) % 8]
+
+
+def _north_offset(scene: Scene, centre: np.ndarray) -> float:
+    """Degrees from a model heading to the true heading at ``centre`` (0 for a model without a georeference)."""
+    from ...geo import Georeference, GeoreferenceError
+
+    try:
+        geo = Georeference.from_scene_metadata(scene.metadata)
+        return 0.0 if geo is None else float(geo.north_offset_deg(centre)[0])
+    except GeoreferenceError:
+        return 0.0
+
+
 def _outline_sides(scene: Scene, g: float, s_h: float) -> list[tuple]:
     """(name, start, along, columns, outward normal) per outline edge, as for the box's sides."""
     import shapely
@@ -220,7 +239,9 @@ def facade_grid(scene: Scene, camera: Camera, safety_distance_m: float, overlap:
             ("north", np.array([hi[0], hi[1]]), np.array([-1.0, 0.0]), _positions(size[0], s_h), np.array([0.0, 1.0])),
             ("west", np.array([lo[0], hi[1]]), np.array([0.0, -1.0]), _positions(size[1], s_h), np.array([-1.0, 0.0])),
         ]
-        sides = [(f"facade {name}", *rest) for name, *rest in sides]
+        offset = _north_offset(scene, (lo + hi) / 2)  # the sides are named by the true bearing they face
+        sides = [(f"facade {_compass(math.degrees(math.atan2(normal[0], normal[1])) + offset) if offset else name}",
+                  start, along, cols, normal) for name, start, along, cols, normal in sides]
     C, heading, pitch, missions = [], [], [], []
     floors = []
     for name, start, along, cols, normal in sides:

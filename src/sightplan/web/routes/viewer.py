@@ -283,7 +283,22 @@ def plan_geometry(project: ProjectRead, plan_id: int, number: int, session: Sess
                   for m in plan.missions],
         waypoints=np.asarray(plan.waypoints).reshape(-1, 3).tolist(),
         parameters={k: v for k, v in plan.parameters.items() if k != "georeference"},
+        north_offset_deg=north_offset(plan),
     )
+
+
+def north_offset(plan) -> float | None:
+    """The true heading of model +Y at the plan's centre (the exports' headings less the model's), or None."""
+    from ...geo import Georeference, GeoreferenceError
+
+    geo = plan.parameters.get("georeference")
+    if not isinstance(geo, dict) or not len(plan):
+        return None
+    try:
+        centre = np.asarray(plan.C_world, float).mean(axis=0)
+        return round(float(Georeference.from_dict(geo).north_offset_deg(centre)[0]), 4)
+    except (GeoreferenceError, ValueError, KeyError, TypeError):
+        return None
 
 
 @router.get("/api/projects/{project_id}/plans/{plan_id}/versions/{number}/checks", response_model=FlightChecksOut,

@@ -542,6 +542,7 @@
  * @property {Array<MissionGeometryOut>} missions Missions
  * @property {Array<Array<number>>} waypoints Flight waypoints [x, y, z] (m), when they differ from frames
  * @property {Object<string, *>} parameters The plan's parameters (template settings, checks, take-off)
+ * @property {(number|null)} [north_offset_deg] Degrees to add to a model heading (clockwise from model +Y) to get the true heading, at the frames' centre, from the plan's georeference (map grid convergence included); null without one
  */
 
 /**

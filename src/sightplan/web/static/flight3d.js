@@ -1,4 +1,4 @@
-// The flight around a plan in the 3D view: the pilots' stations (a cone each, with the line-of-sight circle) and each
+// The flight around a plan in the 3D view, and its compass: the pilots' stations (a cone each, with the line-of-sight circle) and each
 // mission's checked flight out (take-off climb, flight over to the first waypoint, descent to it; green) and home
 // (climb from the last waypoint, flight back, landing; amber), as the flight checks found them.
 import * as THREE from 'three';
@@ -60,4 +60,15 @@ export function flightGroup(plan, checks, size, toViewer) {
     }
   }
   return group;
+}
+
+/** The compass needle's CSS rotation (degrees): the screen direction of north at the orbit target, true north when
+ * ``northOffset`` (degrees from a model heading to the true heading) is known, else model +Y (viewer −Z). */
+export function compassAngle(camera, target, radius, northOffset, box) {
+  const a = target.clone().project(camera);
+  const n = -((northOffset || 0) * Math.PI) / 180;  // true north's model heading
+  const r = Math.max(radius || 1, 1);
+  const b = target.clone().add(new THREE.Vector3(r * Math.sin(n), 0, -r * Math.cos(n))).project(camera);
+  const angle = Math.atan2(-(b.y - a.y) * box.clientHeight, (b.x - a.x) * box.clientWidth);
+  return 90 - (angle * 180) / Math.PI;
 }

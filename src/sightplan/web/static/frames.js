@@ -10,7 +10,12 @@ import { headingPitch } from './planedit.js';
 
 let viewToken = null;  // the simulated view asked last: an older one is dropped
 
-const headingPitchOf = (R) => headingPitch([[R[0], R[1], R[2]], [R[3], R[4], R[5]], [R[6], R[7], R[8]]]);
+// heading (true, on a georeferenced plan: the exports' number; else from model +Y) and pitch of a rotation
+const headingPitchOf = (R) => {
+  const hp = headingPitch([[R[0], R[1], R[2]], [R[3], R[4], R[5]], [R[6], R[7], R[8]]]);
+  return state.northOffset === null ? hp : { ...hp, heading: (hp.heading + state.northOffset + 360) % 360 };
+};
+const headingLabel = () => (state.northOffset === null ? 'heading (from model +Y)' : 'heading (true)');
 
 function renderFrameList() {
   const tbody = $('#frame-list tbody');
@@ -61,7 +66,7 @@ function renderFrameInfo() {
     ['frame', `${i} — ${g.name[i]}`, i], ['mission', k === null ? '—' : g.missions[k].name, k],
     ['camera', g.camera[i], g.camera[i]],
     ['position (m)', g.position[i].map((v) => v.toFixed(2)).join(', '), g.position[i]],
-    ['heading', `${hp.heading.toFixed(1)}°`, hp.heading], ['pitch', `${hp.pitch.toFixed(1)}°`, hp.pitch],
+    [headingLabel(), `${hp.heading.toFixed(1)}°`, hp.heading], ['pitch', `${hp.pitch.toFixed(1)}°`, hp.pitch],
   ];
   const { checks } = state;
   if (checks && !state.dirty) {

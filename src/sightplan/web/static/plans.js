@@ -60,7 +60,9 @@ async function loadVersion(number, { keepEvaluation = false } = {}) {
   const [json, geom] = await Promise.all([api.get(base), api.get(`${base}/geometry`)]);
   const selectedFrame = state.selectedFrame !== null && state.selectedFrame >= geom.position.length ? null
     : state.selectedFrame;
-  set({ saved: json, draft: clonePlan(json), dirty: false, geom, checks: null, selectedFrame });
+  set({ saved: json, draft: clonePlan(json), dirty: false, geom, checks: null, selectedFrame,
+    northOffset: geom.north_offset_deg ?? null });
+  viewer.setNorthOffset(state.northOffset);
   const plan = state.plan;
   if (plan.model_id && (!state.model || state.model.id !== plan.model_id) && state.models.some((m) => m.id === plan.model_id)) {
     await selectModel(plan.model_id);
@@ -249,6 +251,12 @@ export function bindPlans() {
   for (const b of $$('[data-move]')) {
     b.addEventListener('click', () => act('Moving the frame', async () => {
       const step = Number($('#move-step').value) || 1;
+      const bearing = { 'y+': 0, 'x+': 90, 'y-': 180, 'x-': 270 }[b.dataset.move];
+      if (bearing !== undefined && state.northOffset !== null) {  // N, E, S, W: true directions on a georeferenced plan
+        const a = ((bearing - state.northOffset) * Math.PI) / 180;
+        move([step * Math.sin(a), step * Math.cos(a), 0]);
+        return;
+      }
       const axis = 'xyz'.indexOf(b.dataset.move[0]);
       const d = [0, 0, 0];
       d[axis] = b.dataset.move[1] === '+' ? step : -step;

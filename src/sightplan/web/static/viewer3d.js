@@ -10,7 +10,7 @@ import * as THREE from 'three';
 import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
 import { MeshBVH } from 'three-mesh-bvh/core/MeshBVH.js';
 import { acceleratedRaycast } from 'three-mesh-bvh/utils/ExtensionUtilities.js';
-import { flightGroup } from './flight3d.js';
+import { compassAngle, flightGroup } from './flight3d.js';
 
 const SOLID = 0;
 const GHOST = 1;
@@ -101,6 +101,7 @@ export class Viewer {
     this.selectedFrame = null;
     this.selectedElement = null;
     this.compass = null;
+    this.northOffset = null;
     this._pending = false;
     this._bindPointer();
     new ResizeObserver(() => this.resize()).observe(box);
@@ -175,13 +176,12 @@ export class Viewer {
 
   setCompass(el) { this.compass = el; }
 
+  // degrees from a model heading to the true heading: the compass points to true north (null: model +Y)
+  setNorthOffset(deg) { this.northOffset = deg; if (this.compass) this._updateCompass(); }
+
   _updateCompass() {
-    // the screen direction of north (model +Y, viewer −Z) at the orbit target
-    const t = this.controls.target;
-    const a = t.clone().project(this.camera);
-    const b = t.clone().add(new THREE.Vector3(0, 0, -Math.max(this.radius || 1, 1))).project(this.camera);
-    const angle = Math.atan2(-(b.y - a.y) * this.box.clientHeight, (b.x - a.x) * this.box.clientWidth);
-    this.compass.style.transform = `rotate(${90 - (angle * 180) / Math.PI}deg)`;
+    this.compass.style.transform = `rotate(${compassAngle(this.camera, this.controls.target, this.radius,
+      this.northOffset, this.box)}deg)`;
   }
 
   toViewer(p) {
