@@ -50,6 +50,7 @@ def agreement(a, b, *args) -> tuple[float, float, np.ndarray, np.ndarray]:
     return same.mean(), (ids_a >= 0).mean(), t_a, t_b
 
 
+@pytest.mark.bench  # pixel by pixel (10 s); test_metrics_agree_between_engines stays in make test
 def test_pinhole_element_maps_agree_on_the_duplex(engines, small_plan):
     a, b = engines
     for i in range(len(small_plan)):

@@ -682,10 +682,11 @@ def test_headings_and_the_north_button_follow_true_north(browser, server, artifa
     res = server.upload(f"/api/projects/{project}/models", "turned.ifc", ifc.read_bytes())
     assert server.wait_job(res["job"]["id"])["status"] == "done"
     plan = server.request("POST", f"/api/projects/{project}/plans",
-                          {"model_id": res["model"]["id"], "template": "orbit", "name": "turned"})
+                          {"model_id": res["model"]["id"], "template": "orbit", "name": "turned", "radius_m": [20],
+                           "height_m": [3], "step_deg": 45})
     base = f"/api/projects/{project}/plans/{plan['id']}/versions/1"
     assert server.get(f"{base}/geometry")["north_offset_deg"] == pytest.approx(310.0, abs=1e-3)
-    req = urllib.request.Request(server.url + f"{base}/export?format=wpl&mission=1",
+    req = urllib.request.Request(server.url + f"{base}/export?format=wpl&mission=1&force=true",
                                  headers={"Authorization": f"Bearer {server.token}"} if server.token else {})
     with urllib.request.urlopen(req, timeout=120) as r:
         rows = [line.split("\t") for line in r.read().decode().splitlines()[1:]]

@@ -64,6 +64,7 @@ def test_an_optimisation_takes_off_from_the_ground_station_given(client, tmp_pat
     assert other["parameters"]["takeoff_m"][:2] != pytest.approx(STATION[:2])
 
 
+@pytest.mark.bench  # a browser and an optimisation (12 s); the API's optimisation tests stay in make test
 def test_the_page_s_optimise_form_sends_the_ground_stations_of_the_flight_settings(tmp_path):
     """In Chromium: a ground station typed in the plan form's flight settings goes with the Optimise request, and
     the plan the job makes takes off from it."""
