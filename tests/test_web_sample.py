@@ -49,6 +49,7 @@ def test_sample_project_is_made_once_and_evaluated(tmp_path):
     assert ev["metrics"]["VC_pct"] == pytest.approx(100 * ref.VC) and ev["metrics"]["VR"] == pytest.approx(ref.VR)
 
 
+@pytest.mark.bench  # a server process (11 s); test_sample_project_is_made_once_and_evaluated stays in make test
 def test_serve_sample_starts_with_the_project_ready(tmp_path):
     port = free_port()
     proc = subprocess.Popen([sys.executable, "-m", "sightplan", "serve", "--sample", "--port", str(port), "--data",
