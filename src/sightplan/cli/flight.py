@@ -48,47 +48,38 @@ def parse_point(text: str, what: str):
 
 def parse_stations(texts: list[str] | None, scene=None, georeference=None):
     """--ground-station values → (n, 3) model points, or None: 'x,y,z' as given, 'lat,lon' or 'geo:lat,lon'
-    at :data:`~sightplan.plan.checks.feasibility.GROUND_STATION_HEIGHT_M` above the ground there, placed by
-    ``georeference`` (a plan's), else the scene's."""
+    at :data:`~sightplan.plan.ground.GROUND_STATION_HEIGHT_M` above the ground there, placed by ``georeference``
+    (a plan's), else the scene's."""
     import numpy as np
 
     from ..errors import PlanError
 
     if not texts:
         return None
-    model, geodetic = [], []
-    for text in texts:
+    out, geodetic = np.zeros((len(texts), 3)), np.zeros(len(texts), bool)
+    for k, text in enumerate(texts):
         body = text.strip()
-        uri = body.lower().startswith("geo:")
-        if uri:
-            body = body[4:].split(";")[0]  # geo:lat,lon[,alt][;u=…] (RFC 5870)
+        geodetic[k] = body.lower().startswith("geo:")
+        if geodetic[k]:
+            body = body[4:].split(";")[0]  # geo:lat,lon[,alt][;u=…] (RFC 5870): the altitude is not the ground's
         try:
             values = [float(v) for v in body.split(",")]
         except ValueError:
             values = []
-        if uri and len(values) in (2, 3):
-            values = values[:2]
-        if len(values) == 2 and np.isfinite(values).all():
-            geodetic.append((len(model) + len(geodetic), values))
-        elif len(values) == 3 and not uri and np.isfinite(values).all():
-            model.append((len(model) + len(geodetic), values))
-        else:
+        geodetic[k] |= len(values) == 2
+        want = (2, 3) if geodetic[k] else (3,)
+        if len(values) not in want or not np.isfinite(values).all():
             raise PlanError(f"ground station {text!r} must be 'x,y,z' in metres (model frame) or 'lat,lon' in degrees")
-    out = np.zeros((len(texts), 3))
-    for k, v in model:
-        out[k] = v
-    if geodetic:
+        out[k, :len(values)] = values
+    if geodetic.any():
         from ..geo import Georeference, resolve_georeference
-        from ..plan.checks.feasibility import GROUND_STATION_HEIGHT_M
         from ..plan.ground import stations_from_geodetic
 
         if scene is None:
             raise PlanError("a ground station given by latitude/longitude needs the model")
         geo = resolve_georeference(georeference, Georeference.from_scene_metadata(scene.metadata),
                                    what="a ground station given by latitude/longitude")
-        where = stations_from_geodetic(scene, geo, [v for _, v in geodetic], GROUND_STATION_HEIGHT_M)
-        for (k, _), xyz in zip(geodetic, where):
-            out[k] = xyz
+        out[geodetic] = stations_from_geodetic(scene, geo, out[geodetic, :2])
     return out
 
 

@@ -10,29 +10,26 @@ from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
-from pyproj import Proj
 
 from ..errors import PlanError
 from ..geo import Georeference
 from ..geometry.poses import R_from_gimbal, gimbal_from_R
 from ..plan.types import Plan
-from .simulate import DEFAULT_GIMBAL, Gimbal, Replay
+from .replay import read_mission, simulate_items
+from .simulate import DEFAULT_GIMBAL, Gimbal, Replay, local_projection
 
 MAVLINK_SUFFIXES = (".plan", ".waypoints", ".txt", ".mission")
 
 
-def replay_file(path: str | Path, autopilot: str | None = None, gimbal: Gimbal = DEFAULT_GIMBAL
-                ) -> tuple[Replay, tuple[float, float, float]]:
-    """The file replayed, and its home (latitude°, longitude°, height in the file's datum)."""
-    from ..formats.qgc import parse_qgc_plan
-    from ..formats.wpl import parse_wpl
-    from .replay import simulate_file
-
-    path = Path(path)
-    src = parse_qgc_plan(path) if path.suffix.lower() == ".plan" else parse_wpl(path)
-    if src.home is None:
-        raise PlanError(f"{path.name} has no home position: nothing to replay it from")
-    return simulate_file(path, autopilot, gimbal), src.home
+def photo_poses(replay: Replay, home: tuple[float, float, float], georef: Georeference
+                ) -> tuple[np.ndarray, np.ndarray]:
+    """(n, 3) model centres and (n, 3, 3) rotations of a replay's photos, taken from ``home`` (latitude°,
+    longitude°, height in the georeference's datum): position, true heading and gimbal pitch, roll 0."""
+    xyz = np.array([p.xyz for p in replay.photos], float).reshape(-1, 3)
+    lon, lat = local_projection(home[0], home[1])(xyz[:, 0], xyz[:, 1], inverse=True)
+    C = georef.from_geodetic(lat, lon, home[2] + xyz[:, 2])
+    heading = georef.model_heading(C, np.array([p.heading_deg for p in replay.photos]))
+    return C, R_from_gimbal(heading, np.array([p.pitch_deg for p in replay.photos]))
 
 
 def as_flown_plan(path: str | Path, plan: Plan, georef: Georeference, autopilot: str | None = None,
@@ -44,18 +41,13 @@ def as_flown_plan(path: str | Path, plan: Plan, georef: Georeference, autopilot:
     if path.suffix.lower() not in MAVLINK_SUFFIXES:
         raise PlanError(f"--as-flown replays MAVLink missions (.plan, .waypoints); {path.name} is not one. DJI WPML "
                         "and Litchi missions take their photos on their waypoints: evaluate the file as it is")
-    rep, home = replay_file(path, autopilot, gimbal)
+    items, home, autopilot, speed = read_mission(path, autopilot)
+    rep = simulate_items(items, autopilot, speed, gimbal)
     if len(rep.photos) != len(plan):
         why = f" ({rep.notes[0]})" if rep.notes else ""
         raise PlanError(f"the replay of {path.name} takes {len(rep.photos)} photos, the file names {len(plan)} "
                         f"frames{why}: they cannot be compared frame by frame")
-    proj = Proj(proj="aeqd", lat_0=home[0], lon_0=home[1], datum="WGS84", units="m")
-    xyz = np.array([p.xyz for p in rep.photos], float)
-    lon, lat = proj(xyz[:, 0], xyz[:, 1], inverse=True)
-    C = georef.from_geodetic(lat, lon, home[2] + xyz[:, 2])
-    heading = georef.model_heading(C, np.array([p.heading_deg for p in rep.photos]))
-    pitch = np.array([p.pitch_deg for p in rep.photos])
-    R = R_from_gimbal(heading, pitch)
+    C, R = photo_poses(rep, home, georef)
     flown = replace(plan, C_world=C, R_world_camera=R,
                     parameters={**plan.parameters, "as_flown": {"file": path.name, "autopilot": rep.autopilot,
                                                                "flight_time_s": round(rep.time_s, 1)}})
@@ -90,14 +82,8 @@ def as_flown_of_plan(plan: Plan, georef: Georeference, takeoff_m, autopilot: str
         if len(rep.photos) != len(photos):
             raise PlanError(f"the replay of mission {wps[0].mission + 1} takes {len(rep.photos)} photos for "
                             f"{len(photos)} frames{': ' + rep.notes[0] if rep.notes else ''}")
-        proj = Proj(proj="aeqd", lat_0=home.latitude_deg, lon_0=home.longitude_deg, datum="WGS84", units="m")
-        xyz = np.array([p.xyz for p in rep.photos], float)
-        lon, lat = proj(xyz[:, 0], xyz[:, 1], inverse=True)
-        where = georef.from_geodetic(lat, lon, home.height_m + xyz[:, 2])
-        heading = georef.model_heading(where, np.array([p.heading_deg for p in rep.photos]))
         idx = np.array([ph.frame for ph in photos])
-        C[idx] = where
-        R[idx] = R_from_gimbal(heading, np.array([p.pitch_deg for p in rep.photos]))
+        C[idx], R[idx] = photo_poses(rep, (home.latitude_deg, home.longitude_deg, home.height_m), georef)
         replays.append(rep)
     flown = replace(plan, C_world=C, R_world_camera=R,
                     parameters={**plan.parameters, "as_flown": {"autopilot": autopilot, "speed_m_s": flight.speed_m_s,

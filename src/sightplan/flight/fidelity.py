@@ -8,7 +8,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .replay import simulate_items
-from .simulate import DEFAULT_GIMBAL, Gimbal, Replay, local_items, wrap180
+from .simulate import DEFAULT_GIMBAL, Gimbal, Replay, local_items, local_projection
 
 TOLERANCE_M = 0.1  # a photo farther than this from its frame…
 TOLERANCE_DEG = 1.0  # …or turned more than this (heading or pitch) is not the frame that was evaluated
@@ -73,27 +73,28 @@ def flight_fidelity(flight, autopilot: str, gimbal: Gimbal = DEFAULT_GIMBAL, ite
     """Each mission of ``flight`` (a :class:`~sightplan.formats.flight.Flight`) written as
     :func:`~sightplan.formats.mavlink.mission_items` for ``autopilot`` (or by ``items_of(flight, waypoints)``),
     replayed from its take-off point, every photo compared with its frame."""
-    from pyproj import Proj
-
     from ..formats.mavlink import mission_items
 
     total = Fidelity(autopilot)
     for _, waypoints in flight.by_mission():
         items = items_of(flight, waypoints) if items_of else mission_items(flight, waypoints, autopilot, gimbal)
         home = flight.takeoff_of(waypoints[0].mission)
-        origin = (home.latitude_deg, home.longitude_deg, 0.0)
-        rep = replay_items(items, origin, autopilot, flight.speed_m_s, gimbal)
-        proj = Proj(proj="aeqd", lat_0=origin[0], lon_0=origin[1], datum="WGS84", units="m")
+        rep = replay_items(items, (home.latitude_deg, home.longitude_deg, 0.0), autopilot, flight.speed_m_s, gimbal)
         want = [(wp, ph) for wp in waypoints for ph in wp.photos]
         one = Fidelity(autopilot, expected=len(want), taken=len(rep.photos), time_s=rep.time_s, notes=list(rep.notes),
                        mission_times_s=[rep.time_s])
-        for (wp, ph), got in zip(want, rep.photos):
-            e, n = proj(wp.longitude_deg, wp.latitude_deg)
-            d = float(np.linalg.norm(np.subtract(got.xyz, (e, n, wp.altitude_m))))
-            a = max(abs(wrap180(got.heading_deg - ph.heading_deg)), abs(got.pitch_deg - ph.pitch_deg))
-            one.deviations.append((d, a))
-            one.position_m, one.angle_deg = max(one.position_m, d), max(one.angle_deg, a)
-            one.gimbal_moving += not got.gimbal_still
+        n = min(len(want), len(rep.photos))  # compared in order, as far as both go
+        if n:
+            wp_ll = np.array([(wp.longitude_deg, wp.latitude_deg, wp.altitude_m) for wp, _ in want[:n]])
+            e, north = local_projection(home.latitude_deg, home.longitude_deg)(wp_ll[:, 0], wp_ll[:, 1])
+            got = rep.photos[:n]
+            d = np.linalg.norm(np.array([p.xyz for p in got]) - np.column_stack([e, north, wp_ll[:, 2]]), axis=1)
+            turn = (np.array([p.heading_deg for p in got]) - [ph.heading_deg for _, ph in want[:n]] + 180.0) % 360.0
+            tilt = np.abs(np.array([p.pitch_deg for p in got]) - [ph.pitch_deg for _, ph in want[:n]])
+            a = np.maximum(np.abs(turn - 180.0), tilt)
+            one.deviations = list(zip(d.tolist(), a.tolist()))
+            one.position_m, one.angle_deg = float(d.max()), float(a.max())
+            one.gimbal_moving = sum(not p.gimbal_still for p in got)
         total.add(one)
     return total
 

@@ -9,7 +9,7 @@ from ..errors import PlanError
 from . import ardupilot, px4
 from .simulate import DEFAULT_GIMBAL, Gimbal, Item, Replay, local_items
 
-__all__ = ["simulate_file", "simulate_items"]
+__all__ = ["read_mission", "simulate_file", "simulate_items"]
 
 
 def simulate_items(items: list[Item], autopilot: str, speed_m_s: float, gimbal: Gimbal = DEFAULT_GIMBAL,
@@ -24,6 +24,14 @@ def simulate_items(items: list[Item], autopilot: str, speed_m_s: float, gimbal: 
 def simulate_file(path: str | Path, autopilot: str | None = None, gimbal: Gimbal = DEFAULT_GIMBAL, profile=None) -> Replay:
     """Replay a QGroundControl ``.plan`` or ``QGC WPL 110`` file; ``autopilot`` defaults to the file's
     (``firmwareType``), else PX4 for ``.plan`` and ArduPilot for WPL."""
+    items, _, autopilot, speed = read_mission(path, autopilot)
+    return simulate_items(items, autopilot, speed, gimbal, profile)
+
+
+def read_mission(path: str | Path, autopilot: str | None = None
+                 ) -> tuple[list[Item], tuple[float, float, float], str, float]:
+    """A ``.plan`` or WPL file's items (in its home's local frame), its home (latitude°, longitude°, height), the
+    autopilot it is replayed for (``autopilot``, else the file's) and its speed."""
     import json
 
     from ..formats.mavlink import FIRMWARE_TYPES
@@ -41,4 +49,4 @@ def simulate_file(path: str | Path, autopilot: str | None = None, gimbal: Gimbal
         autopilot = autopilot or "ardupilot"
     if src.home is None:
         raise PlanError(f"{path.name} has no home position: nothing to replay it from")
-    return simulate_items(local_items(src.commands, src.home), autopilot, src.speed_m_s, gimbal, profile)
+    return local_items(src.commands, src.home), src.home, autopilot, src.speed_m_s

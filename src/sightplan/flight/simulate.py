@@ -21,9 +21,10 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
-from ..formats.flight import DEFAULT_GIMBAL, Gimbal
+from ..formats.flight import DEFAULT_GIMBAL, Gimbal, wrap180
 
-__all__ = ["DEFAULT_GIMBAL", "DT_S", "Gimbal", "Item", "PhotoPose", "Replay", "Vehicle", "local_items"]
+__all__ = ["DEFAULT_GIMBAL", "DT_S", "Gimbal", "Item", "PhotoPose", "Replay", "Vehicle", "local_items", "local_projection",
+           "wrap180"]
 
 DT_S = 0.02  # the replay's time step
 MAX_TIME_S = 4 * 3600.0  # a replay that runs longer is a mission that never ends (a waypoint never reached)
@@ -61,10 +62,6 @@ class Replay:
     photos: list[PhotoPose] = field(default_factory=list)
     time_s: float = 0.0
     notes: list[str] = field(default_factory=list)
-
-
-def wrap180(a: float) -> float:
-    return (a + 180.0) % 360.0 - 180.0
 
 
 class Vehicle:
@@ -138,15 +135,21 @@ class Vehicle:
         return None if float(np.hypot(*d)) < 1e-6 else math.degrees(math.atan2(d[0], d[1])) % 360.0
 
 
+def local_projection(latitude_deg: float, longitude_deg: float):
+    """The replay's east-north frame at a home point: pyproj's azimuthal equidistant projection there (WGS 84,
+    metres); ``proj(lon, lat)`` gives east, north and ``proj(e, n, inverse=True)`` the way back."""
+    from pyproj import Proj
+
+    return Proj(proj="aeqd", lat_0=latitude_deg, lon_0=longitude_deg, datum="WGS84", units="m")
+
+
 def local_items(commands: list, home: tuple[float, float, float]) -> list[Item]:
     """MAVLink commands (``command``, ``frame``, ``params`` with latitude, longitude, altitude in params 5–7) →
     :class:`Item` in the east-north-up frame of ``home`` (latitude°, longitude°, absolute height m): an azimuthal
     equidistant projection at home (pyproj), heights above home (frames 3/6 as they are, 0/5 less home's)."""
-    from pyproj import Proj
-
     from ..formats.mavlink import POSITIONAL
 
-    proj = Proj(proj="aeqd", lat_0=home[0], lon_0=home[1], datum="WGS84", units="m")
+    proj = local_projection(home[0], home[1])
     out = []
     for c in commands:
         params = tuple(float(v) for v in c.params)

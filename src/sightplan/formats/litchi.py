@@ -47,7 +47,7 @@ from ..geometry.poses import R_from_gimbal
 from ..plan.types import Mission, Plan
 from .base import FlightFormat, ReadOptions, Source, Target
 from .flight import SAME_POSITION_M, Flight, Waypoint, mission_paths, number_text, same_angle
-from .reading import DEFAULT_PITCH_DEG, DEFAULT_SPEED_M_S, given_camera, place_takeoff
+from .reading import DEFAULT_PITCH_DEG, DEFAULT_SPEED_M_S, given_camera, number_cell, place_takeoff
 
 MAX_ACTIONS = 15
 MAX_WAYPOINTS = 99
@@ -147,16 +147,7 @@ def sniff(source: Source) -> bool:
 
 
 def _cell(row: dict, key: str, where: str, default: float) -> float:
-    text = (row.get(key) or "").strip()
-    if not text:
-        return default
-    try:
-        v = float(text)
-    except ValueError:
-        raise PlanError(f"{where}: {key} {text!r} is not a number") from None
-    if not math.isfinite(v):
-        raise PlanError(f"{where}: {key} is not a finite number")
-    return v
+    return number_cell(row.get(key), key, where, default)  # type: ignore[return-value]
 
 
 def _rows(path: Path) -> list[tuple[str, dict]]:

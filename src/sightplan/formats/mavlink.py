@@ -93,7 +93,7 @@ from ..errors import CameraError, PlanError
 from ..geo import Georeference, GeoreferenceError
 from ..geometry.poses import R_from_gimbal
 from ..plan.types import Mission, Plan
-from .flight import DEFAULT_GIMBAL, SAME_POSITION_M, Flight, Gimbal, Photo, Waypoint, same_angle
+from .flight import DEFAULT_GIMBAL, SAME_POSITION_M, Flight, Gimbal, Photo, Waypoint, same_angle, wrap180
 from .reading import DEFAULT_PITCH_DEG, DEFAULT_SPEED_M_S, bearing, differs, given_camera, place_takeoff
 
 # MAV_CMD: navigation
@@ -550,7 +550,7 @@ def stops(photos: tuple[Photo, ...]) -> list[list[Photo]]:
 
 def _turn(a: float, b: float) -> float:
     """The least turn from heading a to heading b (degrees, ≥ 0)."""
-    return abs((b - a + 180.0) % 360.0 - 180.0)
+    return abs(wrap180(b - a))
 
 
 def _up(seconds: float) -> float:

@@ -19,6 +19,21 @@ DEFAULT_PITCH_DEG = -90.0
 DEFAULT_SPEED_M_S = 5.0
 
 
+def number_cell(text: str | None, name: str, where: str, default: float | None = None) -> float | None:
+    """A number a mission file gives as text (a CSV cell, an XML element's text): ``default`` when empty, else a
+    finite float, or one PlanError naming ``where`` and ``name``."""
+    text = (text or "").strip()
+    if not text:
+        return default
+    try:
+        v = float(text)
+    except ValueError:
+        raise PlanError(f"{where}: {name} {text!r} is not a number") from None
+    if not math.isfinite(v):
+        raise PlanError(f"{where}: {name} is not a finite number")
+    return v
+
+
 def differs(camera: Camera | str | dict | None, cam: Camera) -> bool:
     """Whether a camera argument was given and names another camera than ``cam``."""
     if camera is None:

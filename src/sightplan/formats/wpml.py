@@ -106,7 +106,15 @@ from ..plan.types import Mission, Plan
 from .base import FlightFormat, ReadOptions, Source, Target
 from .flight import Flight, Waypoint, number_text, same_angle, wrap180
 from .kml import KML_NS
-from .reading import DEFAULT_PITCH_DEG, DEFAULT_SPEED_M_S, bearing, differs, given_camera, place_takeoff
+from .reading import (
+    DEFAULT_PITCH_DEG,
+    DEFAULT_SPEED_M_S,
+    bearing,
+    differs,
+    given_camera,
+    number_cell,
+    place_takeoff,
+)
 
 WPML_NS = "http://www.dji.com/wpmz/1.0.2"
 SPEED_RANGE_M_S = (1.0, 15.0)  # autoFlightSpeed, waypointSpeed and globalTransitionalSpeed
@@ -168,16 +176,7 @@ def _text(el: ET.Element | None, name: str) -> str | None:
 
 
 def _num(el: ET.Element | None, name: str, where: str, default: float | None = None) -> float | None:
-    text = _text(el, name)
-    if text is None or text == "":
-        return default
-    try:
-        v = float(text)
-    except ValueError:
-        raise PlanError(f"{where}: {name} {text!r} is not a number") from None
-    if not math.isfinite(v):
-        raise PlanError(f"{where}: {name} is not a finite number")
-    return v
+    return number_cell(_text(el, name), name, where, default)
 
 
 def _numbers(text: str | None, n: int, what: str, where: str) -> list[float] | None:

@@ -34,6 +34,7 @@ from ..model.scene import Scene
 
 TERRAIN_CLASSES = ("ifcsite", "ifcgeographicelement")
 MIN_HEIGHT_M = 2.0  # least height of a waypoint above the ground (a plan setting)
+GROUND_STATION_HEIGHT_M = 1.5  # a pilot station stands this far above the ground (a pilot's eyes)
 GROUND_Z_KEY = "ground_z_m"  # scene metadata: the user's ground height (model frame)
 SECTION_CELL_M = 0.2  # the horizontal section's grid
 DOOR_SECTION_M = 1.0  # the section is this far above a door's sill (or at its middle, if lower)
@@ -263,7 +264,8 @@ def height_floor(scene: Scene, xy: ArrayLike, min_height_m: float) -> float:
 FAR_STATION_M = 5_000.0  # a pilot station given by latitude/longitude farther than this from the model is a mistake
 
 
-def stations_from_geodetic(scene: Scene, geo, latlon: ArrayLike, height_m: float = 1.5) -> NDArray[np.float64]:
+def stations_from_geodetic(scene: Scene, geo, latlon: ArrayLike, height_m: float = GROUND_STATION_HEIGHT_M
+                           ) -> NDArray[np.float64]:
     """(n, 3) pilot stations (model frame) at (n, 2) latitude°, longitude° (WGS 84): ``height_m`` above the
     ground there (:func:`ground_z`); ``geo`` is the model's :class:`~sightplan.geo.Georeference`.
 

@@ -189,7 +189,7 @@ FLIGHT_APPS = ("qgc", "wpl", "wpml", "litchi")  # missions read from a flight ap
 def _pilot_at_takeoff(plan: Plan) -> Plan:
     """A flight-app mission's pilot stands at its take-off point (1.5 m up, as a pilot station): the line-of-sight
     and battery checks measure from there, not from a corner of the region."""
-    from .checks.feasibility import GROUND_STATION_HEIGHT_M
+    from .ground import GROUND_STATION_HEIGHT_M
 
     station = tuple(float(v) for v in np.asarray(plan.parameters["takeoff_m"], float) + [0, 0, GROUND_STATION_HEIGHT_M])
     missions = tuple(m if m.ground_station is not None else replace(m, ground_station=station) for m in plan.missions)

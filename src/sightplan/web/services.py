@@ -136,14 +136,13 @@ def ground_stations(scene: Scene, points: list | None, geodetic: list | None) ->
     out = [list(map(float, p)) for p in points or []]
     if geodetic:
         from ..geo import Georeference, GeoreferenceError
-        from ..plan.checks.feasibility import GROUND_STATION_HEIGHT_M
         from ..plan.ground import stations_from_geodetic
 
         geo = Georeference.from_scene_metadata(scene.metadata)
         if geo is None:
             raise GeoreferenceError("ground stations by latitude/longitude need a georeferenced model "
                                     "(IfcMapConversion, or IfcSite RefLatitude/RefLongitude): give them as x, y, z")
-        out += stations_from_geodetic(scene, geo, geodetic, GROUND_STATION_HEIGHT_M).tolist()
+        out += stations_from_geodetic(scene, geo, geodetic).tolist()
     return out
 
 

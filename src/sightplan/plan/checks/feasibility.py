@@ -17,7 +17,16 @@ from numpy.typing import NDArray
 
 from ...errors import PlanError
 from ...model.scene import Scene
-from ..ground import MIN_HEIGHT_M, Ground, ground_of, ground_z, has_terrain, targets_only, without_terrain
+from ..ground import (
+    GROUND_STATION_HEIGHT_M,
+    MIN_HEIGHT_M,
+    Ground,
+    ground_of,
+    ground_z,
+    has_terrain,
+    targets_only,
+    without_terrain,
+)
 from ..types import Mission, Plan
 from .airspace import FAA_LIMIT_M, AltitudeReport, check_altitude, sight_lines
 from .battery import AIRCRAFT, Aircraft, Rover, mission_time, split_by_battery, split_by_rover
@@ -30,8 +39,6 @@ from .safety import (
     segment_distances,
     worst_segment_clearance,
 )
-
-GROUND_STATION_HEIGHT_M = 1.5
 
 
 @dataclass(frozen=True)
