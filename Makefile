@@ -56,6 +56,7 @@ bench: $(STAMP)
 	$(BIN)/python benchmarks/run.py
 	$(BIN)/python benchmarks/planning.py
 	$(BIN)/python benchmarks/checks.py
+	$(BIN)/python benchmarks/replay.py
 	$(BIN)/python benchmarks/validation.py
 	$(BIN)/python benchmarks/large.py
 	$(BIN)/python benchmarks/pointcloud.py
