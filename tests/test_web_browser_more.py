@@ -11,16 +11,20 @@ date). Screenshots of each step go to ``$SIGHTPLAN_TEST_ARTIFACTS`` (default ``t
 
 from __future__ import annotations
 
+import http.server
 import io
 import json
+import math
 import subprocess
 import sys
+import threading
 from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 import pytest
 import trimesh
+from PIL import Image
 
 from browser_support import ARTIFACTS, Server, element_on_screen, launch_browser, open_page, shot, view_pixels
 from sightplan.camera.catalogue import get_camera
@@ -28,6 +32,7 @@ from sightplan.model.load import load_model, sample_model_path
 from sightplan.plan.templates import indoor_route
 
 SCALE = 0.05
+MAGENTA = (255, 0, 200)
 PASSWORDS = {"olivia": "olivia-secret-1", "victor": "victor-secret-2"}
 
 
@@ -38,8 +43,38 @@ def browser():
 
 
 @pytest.fixture(scope="module")
-def server(tmp_path_factory):
-    s = Server(tmp_path_factory.mktemp("browser-more") / "data")
+def tiles():
+    """A tile server on the loopback address: every tile one magenta PNG, every request counted."""
+    from PIL import Image
+
+    png = io.BytesIO()
+    Image.new("RGB", (256, 256), MAGENTA).save(png, "PNG")
+    hits: list[str] = []
+
+    class Tiles(http.server.BaseHTTPRequestHandler):
+        def do_GET(self):
+            hits.append(self.path)
+            self.send_response(200)
+            self.send_header("Content-Type", "image/png")
+            self.send_header("Access-Control-Allow-Origin", "*")
+            self.end_headers()
+            self.wfile.write(png.getvalue())
+
+        def log_message(self, *args):
+            pass
+
+    httpd = http.server.ThreadingHTTPServer(("127.0.0.1", 0), Tiles)
+    threading.Thread(target=httpd.serve_forever, daemon=True).start()
+    httpd.hits = hits
+    yield httpd
+    httpd.shutdown()
+
+
+@pytest.fixture(scope="module")
+def server(tmp_path_factory, tiles):
+    basemap = f"http://127.0.0.1:{tiles.server_port}/tiles/{{z}}/{{x}}/{{y}}.png"
+    s = Server(tmp_path_factory.mktemp("browser-more") / "data",
+               extra_args=("--basemap", basemap, "--basemap-attribution", "loopback test tiles"))
     # the sample Duplex is tessellated in the background while the first test runs
     project = s.request("POST", "/api/projects", {"name": "Duplex 4D"})["id"]
     s.duplex = (project, s.upload(f"/api/projects/{project}/models", "duplex.ifc", sample_model_path().read_bytes()))
@@ -707,6 +742,82 @@ def test_headings_and_the_north_button_follow_true_north(browser, server, artifa
         after = json.loads(page.get_attribute("#frame-info dd[data-field='position (m)']", "data-value"))
         assert np.subtract(after, before) == pytest.approx([math.sin(a), math.cos(a), 0.0], abs=1e-6)
         shot(page, artifacts, "26-true-north")
+        assert not [p for p in problems if "page error" in p], problems
+    finally:
+        ctx.close()
+
+
+# --------------------------------------------------------------------------- (g) the map
+def _geodetic(point, lat0, lon0, north_deg):
+    """Latitude/longitude of a model point of the fixture, from its site's reference point and its model +Y's true
+    heading, by pyproj's geodesic (not by sightplan's georeference)."""
+    from pyproj import Geod
+
+    t = math.radians(north_deg)
+    x, y = point
+    east, north = x * math.cos(t) + y * math.sin(t), -x * math.sin(t) + y * math.cos(t)
+    lon, lat, _ = Geod(ellps="WGS84").fwd(lon0, lat0, math.degrees(math.atan2(east, north)), math.hypot(east, north))
+    return lat, lon
+
+
+def test_the_map_shows_the_site_where_it_stands_and_places_a_pilot(browser, server, tiles, artifacts, tmp_path):
+    """The turned house (model +Y at 310° true) on the map: its footprint's corners at the latitude/longitude the
+    site's reference point gives, within 1 m; the loopback tiles drawn behind it; a click places mission 1's pilot,
+    saved as a new version whose flight checks start there."""
+    from pyproj import Geod
+
+    from site_fixture import write_basement_house
+
+    a = math.radians(50.0)
+    lat0, lon0 = 51 + 50 / 60 + 16.8 / 3600, 5 + 52 / 60 + 12 / 3600
+    ifc = write_basement_house(tmp_path / "turned.ifc", true_north=(math.sin(a), math.cos(a)))
+    project = server.request("POST", "/api/projects", {"name": "Mapped site"})["id"]
+    res = server.upload(f"/api/projects/{project}/models", "turned.ifc", ifc.read_bytes())
+    assert server.wait_job(res["job"]["id"])["status"] == "done"
+    plan = server.request("POST", f"/api/projects/{project}/plans",
+                          {"model_id": res["model"]["id"], "template": "orbit", "name": "mapped", "radius_m": [20],
+                           "height_m": [3], "step_deg": 45})
+    geod = Geod(ellps="WGS84")
+    ctx, page, problems = open_page(browser, server, init_script=f"localStorage.setItem('sightplan.project', "
+                                                                 f"'{project}'); localStorage.setItem('sightplan.map', '1')")
+    try:
+        page.select_option("#plan-select", str(plan["id"]))
+        wait_for(page, "window.sightplanTest.planVersion() === 1 && window.sightplanTest.flightChecked()")
+        wait_for(page, "window.sightplanTest.map.ready() && window.sightplanTest.map.drawn('pilots') !== null")
+        ring = page.evaluate("window.sightplanTest.map.drawn('footprint')")["features"][0]["geometry"]["coordinates"][0]
+        for corner in [(0.0, 0.0), (12.0, 0.0), (12.0, 8.0), (0.0, 8.0)]:  # the house's walls, model frame
+            lat, lon = _geodetic(corner, lat0, lon0, 310.0)
+            gaps = [geod.inv(lon, lat, q[0], q[1])[2] for q in ring]
+            assert min(gaps) < 1.0, (corner, min(gaps))
+        # the loopback tiles were fetched and drawn: magenta fills the map where nothing else is drawn
+        assert any(h.startswith("/tiles/") for h in tiles.hits)
+        box = page.locator("#map-canvas").bounding_box()
+        pixels = np.asarray(Image.open(io.BytesIO(page.screenshot(clip=box))).convert("RGB"), int)
+        assert (np.abs(pixels - MAGENTA).sum(axis=2) < 30).mean() > 0.3
+        assert "loopback test tiles" in page.inner_text("#map-canvas")
+        # place mission 1's pilot 40 m south-west of the house (true bearings), then save and check from there
+        want_lon, want_lat, _ = geod.fwd(lon0, lat0, 225.0, 40.0)
+        page.select_option("#map-place", "0")
+        at = page.evaluate(f"window.sightplanTest.map.screenPoint({want_lat}, {want_lon})")
+        page.mouse.click(at["x"], at["y"])
+        wait_for(page, "window.sightplanTest.dirty()")
+        placed = page.evaluate("window.sightplanTest.map.drawn('pilots')")["features"]
+        lon_p, lat_p = next(f for f in placed if f["properties"]["mission"] == 0)["geometry"]["coordinates"]
+        assert geod.inv(want_lon, want_lat, lon_p, lat_p)[2] < 1.0
+        page.click("#plan-save")
+        wait_for(page, "window.sightplanTest.planVersion() === 2 && window.sightplanTest.flightChecked()")
+        checks = server.get(f"/api/projects/{project}/plans/{plan['id']}/versions/2/checks")
+        east, north = 40 * math.sin(math.radians(225)), 40 * math.cos(math.radians(225))
+        t = math.radians(310.0)  # model x, y of that point, inverting the rotation above
+        want_xy = [east * math.cos(t) - north * math.sin(t), east * math.sin(t) + north * math.cos(t)]
+        assert checks["missions"][0]["ground_station"][:2] == pytest.approx(want_xy, abs=1.0)
+        # a click with "ground station of the new-plan form" writes its latitude, longitude there
+        page.select_option("#map-place", "form")
+        at = page.evaluate(f"window.sightplanTest.map.screenPoint({want_lat}, {want_lon})")
+        page.mouse.click(at["x"], at["y"])
+        typed = [float(v) for v in page.input_value("#plan-stations").splitlines()[-1].split(",")]
+        assert geod.inv(want_lon, want_lat, typed[1], typed[0])[2] < 1.0
+        shot(page, artifacts, "27-map")
         assert not [p for p in problems if "page error" in p], problems
     finally:
         ctx.close()

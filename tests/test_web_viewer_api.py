@@ -10,6 +10,7 @@ import struct
 
 import numpy as np
 import pytest
+import trimesh
 
 pytest.importorskip("fastapi")
 pytest.importorskip("httpx")
@@ -212,8 +213,6 @@ def test_a_failing_export_lists_its_violations_and_exports_only_when_forced(clie
 
 def test_a_pilot_station_by_latitude_and_longitude(client, project, model, scene):
     from sightplan.geo import Georeference
-
-    geo = Georeference.from_scene_metadata(scene.metadata)
     lat, lon, _ = geo.to_geodetic([[-30.0, -20.0, 0.0]])
     r = client.post(f"/api/projects/{project}/plans", json={
         "model_id": model, "template": "orbit", "radius_m": [22], "height_m": [4.0], "step_deg": 30,
@@ -473,3 +472,55 @@ def test_the_page_has_an_icon(client):
     for url in ("/static/favicon.svg", "/favicon.ico"):
         r = client.get(url)
         assert r.status_code == 200 and r.headers["content-type"].startswith("image/svg+xml") and b"<svg" in r.content
+
+
+def test_the_site_of_the_duplex_on_the_map(client, project, model, scene):
+    """The Duplex stands at its IfcSite's latitude/longitude: the footprint covers the walls' extent, and the affine
+    map the page draws with agrees with pyproj's geodesic from the site's reference point to centimetres."""
+    from pyproj import Geod
+
+    from sightplan.geo import Georeference
+    site = client.get(f"/api/projects/{project}/models/{model}/site").json()
+    assert site["georeferenced"] and "IfcSite" in site["source"]
+    ring = np.array(site["footprint_xy"][0])
+    lo, hi = scene.bounds()
+    assert (ring.min(axis=0) >= lo[:2] - 1e-3).all() and (ring.max(axis=0) <= hi[:2] + 1e-3).all()
+    assert np.ptp(ring[:, 0]) > 0.9 * (hi[0] - lo[0]) and np.ptp(ring[:, 1]) > 0.9 * (hi[1] - lo[1])
+    ref = scene.metadata["site_location"]
+    f = site["to_lat_lon"]
+    for x, y in [(0.0, 0.0), (300.0, -200.0), (-250.0, 400.0)]:  # the origin and two points a pilot might stand on
+        lat = f["origin_lat_lon"][0] + np.dot(f["matrix"][0], np.subtract([x, y], f["origin_xy"]))
+        lon = f["origin_lat_lon"][1] + np.dot(f["matrix"][1], np.subtract([x, y], f["origin_xy"]))
+        ox, oy = np.asarray(ref.get("origin_m") or (0, 0, 0))[:2]
+        heading = np.degrees(np.arctan2(x - ox, y - oy)) + (ref.get("true_north_deg") or 0.0)
+        want_lon, want_lat, _ = Geod(ellps="WGS84").fwd(ref["longitude_deg"], ref["latitude_deg"], heading,
+                                                         np.hypot(x - ox, y - oy))
+        assert Geod(ellps="WGS84").inv(lon, lat, want_lon, want_lat)[2] < 0.1
+    assert site["to_lat_lon"]["max_error_m"] < 0.1
+
+
+def test_a_mesh_without_georeference_is_drawn_about_zero_zero(client, project):
+    box = trimesh.creation.box((10.0, 4.0, 3.0))
+    buf = io.BytesIO()
+    box.export(buf, file_type="obj")
+    r = client.post(f"/api/projects/{project}/models", files={"file": ("box.obj", buf.getvalue())})
+    assert wait_job(client, r.json()["job"]["id"])["status"] == "done"
+    site = client.get(f"/api/projects/{project}/models/{r.json()['model']['id']}/site").json()
+    assert not site["georeferenced"] and "no georeference" in site["note"]
+    assert site["centre_lat_lon"] == pytest.approx([0.0, 0.0], abs=1e-6)
+    ring = np.array(site["footprint_xy"][0])
+    assert np.ptp(ring, axis=0) == pytest.approx([10.0, 4.0], abs=0.11)  # the box, widened by nothing
+
+
+def test_a_basemap_is_configured_checked_and_allowed(tmp_path):
+    from sightplan.web.config import ServerConfigError
+
+    with pytest.raises(ServerConfigError, match=r"\{z\}, \{x\} and \{y\}"):
+        ServerConfig(data_dir=tmp_path, basemap_url="https://tiles.example.com/tile.png")
+    url = "https://tiles.example.com/{z}/{x}/{-y}.png"
+    with TestClient(create_app(ServerConfig(data_dir=tmp_path, basemap_url=url, basemap_attribution="© tiles"))) as c:
+        r = c.get("/api/info")
+        assert r.json()["basemap"] == {"url": url, "attribution": "© tiles"}
+        policy = r.headers["content-security-policy"]
+        assert "img-src 'self' data: blob: https://tiles.example.com;" in policy
+        assert "connect-src 'self' https://tiles.example.com;" in policy

@@ -256,6 +256,28 @@ class Georeference:
         azimuth, _, _ = Geod(ellps="WGS84").inv(lon0, lat0, lon1, lat1)
         return np.asarray(azimuth, float) % 360.0
 
+    def linear_fit(self, xy_min: ArrayLike, xy_max: ArrayLike, z_m: float = 0.0) -> dict:
+        """The affine map from model (x, y) to (latitude°, longitude°) that best fits this georeference over a
+        rectangle (least squares on an 11 × 11 grid at height ``z_m``), for a map that draws points it moves itself:
+
+        ``{"origin_xy": [x0, y0], "origin_lat_lon": [lat0, lon0], "matrix": [[dlat/dx, dlat/dy], [dlon/dx, dlon/dy]],
+        "max_error_m": e}``, where e is the largest distance between the fit and the exact transform on the grid."""
+        from pyproj import Geod
+
+        lo, hi = np.asarray(xy_min, float)[:2], np.asarray(xy_max, float)[:2]
+        gx, gy = np.meshgrid(np.linspace(lo[0], hi[0], 11), np.linspace(lo[1], hi[1], 11))
+        xy = np.stack([gx.ravel(), gy.ravel()], axis=1)
+        lat, lon, _ = self.to_geodetic(np.column_stack([xy, np.full(len(xy), float(z_m))]))
+        origin = (lo + hi) / 2
+        A = np.column_stack([np.ones(len(xy)), xy - origin])
+        (c_lat, *m_lat), *_ = np.linalg.lstsq(A, lat, rcond=None)
+        (c_lon, *m_lon), *_ = np.linalg.lstsq(A, lon, rcond=None)
+        fit_lat, fit_lon = A @ np.r_[c_lat, m_lat], A @ np.r_[c_lon, m_lon]
+        _, _, error = Geod(ellps="WGS84").inv(lon, lat, fit_lon, fit_lat)
+        return {"origin_xy": origin.tolist(), "origin_lat_lon": [float(c_lat), float(c_lon)],
+                "matrix": [[float(v) for v in m_lat], [float(v) for v in m_lon]],
+                "max_error_m": float(np.max(np.abs(error)))}
+
     def true_heading(self, xyz: ArrayLike, model_heading_deg: ArrayLike) -> NDArray[np.float64]:
         """(n,) true headings (clockwise from true north, [0, 360)) of model headings at (n, 3) points."""
         return (np.asarray(model_heading_deg, float) + self.north_offset_deg(xyz)) % 360.0

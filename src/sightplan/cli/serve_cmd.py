@@ -39,6 +39,12 @@ def serve_command(
     allowed_origin: Annotated[list[str] | None, typer.Option(
         "--allowed-origin", help="An origin besides the server's own whose pages may send changes, e.g. the "
                                  "https://host of a reverse proxy in front of it (repeatable)")] = None,
+    basemap: Annotated[str | None, typer.Option(
+        envvar="SIGHTPLAN_BASEMAP", help="The map's background: an XYZ tile URL with {z}, {x} and {y} (or {-y}), "
+                                         "fetched by the browser; default: a plain grid")] = None,
+    basemap_attribution: Annotated[str, typer.Option(
+        envvar="SIGHTPLAN_BASEMAP_ATTRIBUTION", help="The credit the basemap's licence asks for, shown on the map")]
+    = "",
 ) -> None:
     """Serve the web application and its REST API (OpenAPI docs at /docs).
 
@@ -52,7 +58,8 @@ def serve_command(
 
     config = ServerConfig(data_dir=data, database_url=database, host=host, port=port,
                           max_upload_bytes=int(max_upload_mb * 1024 * 1024), workers=workers, team=team,
-                          allowed_origins=tuple(allowed_origin or ()))
+                          allowed_origins=tuple(allowed_origin or ()), basemap_url=basemap,
+                          basemap_attribution=basemap_attribution)
     web_app = create_app(config)
     if sample:
         _sample_project(web_app.state.sightplan, config.team)

@@ -64,7 +64,7 @@ def create_app(config: ServerConfig | None = None) -> FastAPI:
     app.add_middleware(SameOriginChanges, allowed=state.config.allowed_origins)
     if not state.config.team:
         app.add_middleware(LocalOnly, host=state.config.host)
-    app.add_middleware(SecurityHeaders)
+    app.add_middleware(SecurityHeaders, basemap=state.config.basemap_origin)
     install_error_handlers(app)
     for router in ROUTERS:
         app.include_router(router)
@@ -144,24 +144,26 @@ class SameOriginChanges:
         await self.app(scope, receive, send)
 
 
-def _csp() -> str:
-    """The page's Content-Security-Policy: its own scripts only, the import map by its hash."""
+def _csp(basemap: str | None = None) -> str:
+    """The page's Content-Security-Policy: its own scripts only, the import map by its hash; the map's tiles from
+    ``basemap`` (an origin) too, when one is configured."""
     page = (STATIC_DIR / "index.html").read_text(encoding="utf-8")
     hashes = []
     for body in re.findall(r"<script(?![^>]*\bsrc=)[^>]*>(.*?)</script>", page, flags=re.S):
         digest = base64.b64encode(hashlib.sha256(body.encode("utf-8")).digest()).decode()
         hashes.append(f"'sha256-{digest}'")
+    tiles = f" {basemap}" if basemap else ""
     return ("default-src 'self'; script-src 'self' " + " ".join(hashes) + "; style-src 'self'; "
-            "img-src 'self' data: blob:; connect-src 'self'; worker-src 'self' blob:; object-src 'none'; "
+            f"img-src 'self' data: blob:{tiles}; connect-src 'self'{tiles}; worker-src 'self' blob:; object-src 'none'; "
             "base-uri 'none'; form-action 'self'; frame-ancestors 'none'")
 
 
 class SecurityHeaders:
     """Headers on every response: a strict Content-Security-Policy, no sniffing, no framing, same-origin referrers."""
 
-    def __init__(self, app) -> None:
+    def __init__(self, app, basemap: str | None = None) -> None:
         self.app = app
-        self.headers = [(b"content-security-policy", _csp().encode()), (b"x-content-type-options", b"nosniff"),
+        self.headers = [(b"content-security-policy", _csp(basemap).encode()), (b"x-content-type-options", b"nosniff"),
                         (b"x-frame-options", b"DENY"), (b"referrer-policy", b"same-origin")]
 
     async def __call__(self, scope, receive, send) -> None:

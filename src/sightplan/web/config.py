@@ -37,7 +37,9 @@ class ServerConfig:
     database_url: any SQLAlchemy URL, default SQLite in ``data_dir``; max_upload_bytes: the largest upload accepted;
     workers: background jobs run at the same time; team: accounts required (always, on a non-loopback address);
     allowed_origins: origins besides the server's own whose pages may send changes (``https://host`` of a reverse
-    proxy that ends TLS in front of the server)."""
+    proxy that ends TLS in front of the server); basemap_url: the map's background tiles, an XYZ template such as
+    ``https://tiles.example.com/{z}/{x}/{y}.png`` (``{-y}`` for TMS rows), fetched by the browser; basemap_attribution:
+    the credit its licence asks for, shown on the map."""
 
     data_dir: Path = DEFAULT_DATA_DIR
     database_url: str | None = None
@@ -47,7 +49,8 @@ class ServerConfig:
     workers: int = 2
     team: bool = False
     allowed_origins: tuple[str, ...] = ()
-
+    basemap_url: str | None = None
+    basemap_attribution: str = ""
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "data_dir", Path(self.data_dir).expanduser().resolve())
@@ -65,6 +68,21 @@ class ServerConfig:
                                         f"not {origin!r}")
             origins.append(o)
         object.__setattr__(self, "allowed_origins", tuple(origins))
+        if self.basemap_url is not None:
+            url = self.basemap_url.strip()
+            if not re.fullmatch(r"https?://[^/\s]+/\S*", url) or not all(
+                    k in url for k in ("{z}", "{x}")) or not ("{y}" in url or "{-y}" in url):
+                raise ServerConfigError(f"a basemap is an http(s) URL with {{z}}, {{x}} and {{y}} (or {{-y}}) in it, "
+                                        f"like https://tiles.example.com/{{z}}/{{x}}/{{y}}.png, not {self.basemap_url!r}")
+            object.__setattr__(self, "basemap_url", url)
+
+    @property
+    def basemap_origin(self) -> str | None:
+        """``scheme://host[:port]`` of the basemap's tiles (the page's security policy lets it fetch from there)."""
+        if not self.basemap_url:
+            return None
+        scheme, _, rest = self.basemap_url.partition("://")
+        return f"{scheme.lower()}://{rest.split('/', 1)[0].lower()}"
 
     @property
     def url(self) -> str:

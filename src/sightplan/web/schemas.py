@@ -30,6 +30,11 @@ class ErrorOut(BaseModel):
     violations: list[str] | None = Field(None, description="An export refused for its flight checks: each violation")
 
 
+class BasemapOut(BaseModel):
+    url: str = Field(description="XYZ tile URL template ({z}, {x}, {y} or {-y})")
+    attribution: str = Field(description="The credit to show on the map")
+
+
 class InfoOut(BaseModel):
     name: str = "sightplan"
     version: str
@@ -48,6 +53,8 @@ class InfoOut(BaseModel):
         "What each metric means (label, unit, one sentence with the default thresholds): the page's labels"))
     aircraft: dict[str, str] = Field(default_factory=dict, description="Aircraft and rover presets of the plan form: "
                                                                        "id → name")
+    basemap: BasemapOut | None = Field(None, description="The map's background tiles set by whoever runs the server; "
+                                                         "none: a plain grid")
 
 
 class ProjectIn(BaseModel):
@@ -400,6 +407,31 @@ class MissionGeometryOut(BaseModel):
     start: int = Field(description="First frame (index)")
     stop: int = Field(description="One past the last frame")
     ground_station: list[float] | None = Field(description="Pilot position [x, y, z] (model frame, m), if chosen")
+
+
+class LatLonFitOut(BaseModel):
+    """lat, lon = origin_lat_lon + matrix · ([x, y] − origin_xy), within max_error_m of the exact transform."""
+
+    origin_xy: list[float] = Field(description="Model x, y (m) the fit is centred on")
+    origin_lat_lon: list[float] = Field(description="Latitude, longitude (°) there")
+    matrix: list[list[float]] = Field(description="[[dlat/dx, dlat/dy], [dlon/dx, dlon/dy]] (° per m)")
+    max_error_m: float = Field(description="Largest distance between the fit and the exact transform over the site (m)")
+
+
+class SiteOut(BaseModel):
+    """Where a model stands on the earth, for the map."""
+
+    model_id: int
+    georeferenced: bool = Field(description="Whether the model carries its own georeference; if not, the map is "
+                                            "drawn about 0° N 0° E with model +Y as north")
+    source: str = Field(description="Where the georeference comes from (IfcMapConversion, the site's latitude)")
+    note: str = Field(description="Why the model counts as not georeferenced, if it does")
+    centre_lat_lon: list[float] = Field(description="Latitude, longitude (°) of the model's centre")
+    north_offset_deg: float = Field(description="True heading of model +Y at the centre (°)")
+    bounds: list[list[float]] = Field(description="The model's [min, max] corners, model frame (m)")
+    footprint_xy: list[list[list[float]]] = Field(description="Outer rings of the footprint, [x, y] (m), closed")
+    footprint_lat_lon: list[list[list[float]]] = Field(description="The same rings as [latitude, longitude] (°)")
+    to_lat_lon: LatLonFitOut
 
 
 class PlanGeometryOut(BaseModel):

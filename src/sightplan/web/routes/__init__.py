@@ -1,6 +1,7 @@
 """The REST API's routers, one module per resource."""
 
-from . import auth, evaluations, info, jobs, members, models, plans, projects, reality, schedules, shared, viewer
+from . import auth, evaluations, info, jobs, members, models, plans, projects, reality, schedules, shared, site, viewer
 
 ROUTERS = [info.router, projects.router, models.router, plans.router, evaluations.router, jobs.router,
-           auth.router, members.router, schedules.router, reality.router, shared.router, viewer.router]
+           auth.router, members.router, schedules.router, reality.router, shared.router, site.router,
+           viewer.router]

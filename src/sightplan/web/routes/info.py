@@ -11,7 +11,7 @@ from ...plan.templates.base import label_of, unit_of
 from ...plan.templates.registry import TEMPLATES, default_flight
 from ...version import __version__
 from ..deps import StateDep
-from ..schemas import CameraOut, InfoOut, TemplateFieldOut, TemplateOut
+from ..schemas import BasemapOut, CameraOut, InfoOut, TemplateFieldOut, TemplateOut
 
 router = APIRouter(prefix="/api", tags=["server"])
 SINGLE_USER = "single-user mode on the loopback address: no login; anyone on this machine can use it"
@@ -29,7 +29,9 @@ def info(state: StateDep) -> InfoOut:
                    export_formats=list(EXPORT_FORMATS),
                    export_format_help={f.name: f.help or f.label for f in WRITERS},
                    aircraft={k: v.name for k, v in {**battery.AIRCRAFT, **battery.ROVERS}.items()},
-                   metric_help=glossary())
+                   metric_help=glossary(),
+                   basemap=BasemapOut(url=cfg.basemap_url, attribution=cfg.basemap_attribution)
+                   if cfg.basemap_url else None)
 
 
 @router.get("/templates", response_model=list[TemplateOut], summary="The plan templates and their parameters")

@@ -46,8 +46,9 @@ PNG = {200: {"description": "A PNG image", "content": {"image/png": {}}}}
 STATIC_DIR = Path(__file__).resolve().parents[1] / "static"
 COLOURS_JS = Path(__file__).resolve().parents[2] / "report" / "colours.js"
 # Only these packages of web/node_modules are served, read-only, under /vendor/<package>/ (3d-tiles-renderer streams
-# reality point clouds; its build imports nothing but three.js and its own chunks; swagger-ui-dist draws /docs).
-VENDOR_PACKAGES = ("three", "three-mesh-bvh", "3d-tiles-renderer", "swagger-ui-dist")
+# reality point clouds; its build imports nothing but three.js and its own chunks; swagger-ui-dist draws /docs;
+# maplibre-gl draws the map, with its worker beside it).
+VENDOR_PACKAGES = ("three", "three-mesh-bvh", "3d-tiles-renderer", "swagger-ui-dist", "maplibre-gl")
 GEOMETRY_MAGIC = b"SPG1"
 GEOMETRY_MEDIA = "application/vnd.sightplan.geometry"
 NEUTRAL_TARGET = (0.78, 0.81, 0.86)  # elements of a view without an evaluation

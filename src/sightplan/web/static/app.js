@@ -12,6 +12,7 @@ import { $, act, errorText, showMessage } from './dom.js';
 import { bindEvaluations } from './evaluations.js';
 import { bindFrames, selectFrame } from './frames.js';
 import { selectElement } from './inspector.js';
+import { bindMap } from './map.js';
 import { bindModels } from './models.js';
 import { bindPicking, pickAt } from './picking.js';
 import { addPlan, bindPlans, selectPlan } from './plans.js';
@@ -52,6 +53,7 @@ async function init() {
   bindPicking();
   bindTemplateForm({ planCreated: addPlan });
   bindOptimize({ planCreated: addPlan });
+  bindMap();
   renderAll();
   let loggedIn = true;
   await act('Reading the server information', async () => {

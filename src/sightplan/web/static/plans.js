@@ -171,6 +171,14 @@ function edited(draft, selectedFrame = state.selectedFrame) {
   $('#violations').replaceChildren();
 }
 
+// an edit of the draft by another area of the page (the map places a pilot): change(draft) on a copy, then drawn
+export function editDraft(change) {
+  if (!state.draft) throw new Error('open a plan first');
+  const draft = clonePlan(state.draft);
+  change(draft);
+  edited(draft);
+}
+
 function needFrame() {
   if (state.selectedFrame === null || !state.draft) throw new Error('select a frame first');
   return state.selectedFrame;

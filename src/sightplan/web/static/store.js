@@ -16,6 +16,7 @@ const S = {
   northOffset: null,  // degrees from a model heading to the true heading (the plan's georeference), or null
   evaluations: [], evaluation: null, feedback: null, colourer: null, compareChosen: false,
   metric: 'visibility', bounds: {}, frameColourChosen: false, selectedFrame: null, selectedElement: null,
+  site: null,  // where the model shown stands (GET …/models/{id}/site), for the map
   allSchedules: [], dateStates: null, realities: [], realityHidden: new Set(), pick: null,
 };
 

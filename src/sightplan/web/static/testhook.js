@@ -23,7 +23,10 @@
 //   view.realityInfo()             each reality capture drawn: { id, kind, shown, box, triangles, pointsVisible, … }
 //   view.toViewer([x, y, z])       a model point in the viewer's frame
 //   view.viewer()                  the Viewer itself
+//   map.ready(), map.site(), map.drawn(source), map.screenPoint(lat, lon), map.toLatLon([x, y])
+//                                  the map: loaded, the site answer, a source's GeoJSON, where a point is on screen
 import { viewer } from './context.js';
+import { mapHook } from './map.js';
 import { state } from './store.js';
 
 const copy = (v) => (v === undefined || v === null ? null : JSON.parse(JSON.stringify(v)));
@@ -60,5 +63,6 @@ export function installTestHook() {
     siteAtDate: () => state.dateStates !== null,
     elementColour: (e) => viewer.elementAppearance(e),
     view,
+    map: mapHook,
   });
 }
