@@ -213,6 +213,8 @@ def test_a_failing_export_lists_its_violations_and_exports_only_when_forced(clie
 
 def test_a_pilot_station_by_latitude_and_longitude(client, project, model, scene):
     from sightplan.geo import Georeference
+
+    geo = Georeference.from_scene_metadata(scene.metadata)
     lat, lon, _ = geo.to_geodetic([[-30.0, -20.0, 0.0]])
     r = client.post(f"/api/projects/{project}/plans", json={
         "model_id": model, "template": "orbit", "radius_m": [22], "height_m": [4.0], "step_deg": 30,
@@ -479,7 +481,6 @@ def test_the_site_of_the_duplex_on_the_map(client, project, model, scene):
     map the page draws with agrees with pyproj's geodesic from the site's reference point to centimetres."""
     from pyproj import Geod
 
-    from sightplan.geo import Georeference
     site = client.get(f"/api/projects/{project}/models/{model}/site").json()
     assert site["georeferenced"] and "IfcSite" in site["source"]
     ring = np.array(site["footprint_xy"][0])
