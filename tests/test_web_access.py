@@ -223,8 +223,11 @@ def test_share_link_reads_the_plan_until_revoked(server, alices):
     r = c.post(f"/api/projects/{pid}/plans/{plan}/links")
     assert r.status_code == 201
     link = r.json()
-    assert link["url"].endswith(f"/api/shared/{link['token']}")
+    assert link["url"].endswith(f"/shared/{link['token']}") and "/api/" not in link["url"]
+    assert link["api_url"].endswith(f"/api/shared/{link['token']}")
     c.cookies.clear()  # the link needs no account
+    page = c.get(link["url"])  # the share view: the page, which reads the JSON below
+    assert page.status_code == 200 and page.headers["content-type"].startswith("text/html")
     shared = c.get(f"/api/shared/{link['token']}")
     assert shared.status_code == 200 and shared.json()["plan"]["id"] == plan
     assert [e["id"] for e in shared.json()["evaluations"]] == [alices["evaluation_id"]]
@@ -233,7 +236,19 @@ def test_share_link_reads_the_plan_until_revoked(server, alices):
     ev = c.get(f"/api/shared/{link['token']}/evaluations/{alices['evaluation_id']}")
     assert ev.status_code == 200 and ev.json()["metrics"]["frames"] == 6
     assert c.get(f"/api/shared/{link['token']}/versions/1/export?format=geojson").status_code == 200
-    # the link opens nothing else
+    # what the share view reads: the plan's model, version geometry and checks, the evaluation's feedback
+    base = f"/api/shared/{link['token']}"
+    model = shared.json()["model"]["id"]
+    assert c.get(f"{base}/models/{model}/geometry").content[:4] == b"SPG1"
+    assert c.get(f"{base}/models/{model}/site").json()["georeferenced"]
+    assert len(c.get(f"{base}/plans/{plan}/versions/1/geometry").json()["position"]) == 6
+    assert c.get(f"{base}/plans/{plan}/versions/1/checks").json()["plan_id"] == plan
+    assert len(c.get(f"{base}/evaluations/{alices['evaluation_id']}/feedback").json()["frames"]["stable"]) == 6
+    assert [e["id"] for e in c.get(f"{base}/evaluations").json()] == [alices["evaluation_id"]]
+    # the link opens nothing else: not another model, plan or evaluation id, not the project
+    for url in (f"/models/{model + 1}/geometry", f"/plans/{plan + 1}/versions/1/geometry",
+                f"/evaluations/{alices['evaluation_id'] + 1}/feedback"):
+        assert c.get(base + url).status_code == 404, url
     assert c.get(f"/api/projects/{pid}").status_code == 401
     assert c.get(f"/api/shared/{link['token']}x").status_code == 404
     # revoked: it stops working at once
@@ -241,7 +256,8 @@ def test_share_link_reads_the_plan_until_revoked(server, alices):
     assert c.delete(f"/api/projects/{pid}/links/{link['id']}").status_code == 204
     assert c.get(f"/api/projects/{pid}/links").json()[0]["revoked_at"] is not None
     c.cookies.clear()
-    for url in ("", "/versions/1", f"/evaluations/{alices['evaluation_id']}", "/versions/1/export?format=qgc"):
+    for url in ("", "/versions/1", f"/evaluations/{alices['evaluation_id']}", "/versions/1/export?format=qgc",
+                f"/plans/{plan}/versions/1/geometry", f"/models/{model}/site"):
         r = c.get(f"/api/shared/{link['token']}{url}")
         assert r.status_code == 404 and "revoked" in r.json()["detail"], url
 

@@ -26,7 +26,7 @@ import pytest
 import trimesh
 from PIL import Image
 
-from browser_support import ARTIFACTS, Server, element_on_screen, launch_browser, open_page, shot, view_pixels
+from browser_support import ARTIFACTS, VIEWPORT, Server, element_on_screen, launch_browser, open_page, shot, view_pixels
 from sightplan.camera.catalogue import get_camera
 from sightplan.model.load import load_model, sample_model_path
 from sightplan.plan.templates import indoor_route
@@ -595,27 +595,57 @@ def test_team_mode_login_members_share_links_and_roles(browser, team_server, art
         assert sorted((m["username"], m["role"]) for m in members) == [("olivia", "owner"), ("victor", "viewer")]
         shot(page, artifacts, "31-owner-members")
 
-        # a share link, shown once, opened without an account, then revoked
+        # evaluated, then shared by a link, shown once, opened without an account as a read-only page, then revoked
+        job = page.request.post(f"{server.url}/api/projects/{project}/evaluations", headers={"X-Sightplan-Request": "1"},
+                                data={"plan_id": plan, "settings": {"scale": SCALE}}).json()["job"]["id"]
+        for _ in range(600):
+            if page.request.get(f"{server.url}/api/jobs/{job}").json()["status"] in ("done", "failed"):
+                break
+            page.wait_for_timeout(200)
+        assert page.request.get(f"{server.url}/api/jobs/{job}").json()["status"] == "done"
         page.click("#share-box summary")
         page.click("#share-create")
         page.wait_for_selector("#share-new:not([hidden])")
         url = page.input_value("#share-url")
-        assert url.startswith(f"{server.url}/api/shared/spl")
+        assert url.startswith(f"{server.url}/shared/spl")
         link = int(page.get_attribute("#share-url", "data-link"))
         page.wait_for_selector(f"#share-links li[data-link='{link}'][data-state=active]")
         shot(page, artifacts, "32-share-link")
-        stranger = browser.new_context()
+        stranger = browser.new_context(viewport=VIEWPORT, bypass_csp=True)
         try:
             other = stranger.new_page()
-            response = other.goto(url)
-            assert response.status == 200
-            shared = json.loads(other.inner_text("body"))
-            assert shared["plan"]["id"] == plan and shared["plan"]["name"] == "orbit plan"
-            assert shared["plan"]["versions"][0]["frames"] == 4
+            sent = []
+            other.on("request", lambda r: sent.append((r.method, r.url)))
+            assert other.goto(url).status == 200
+            wait_for(other, "document.body?.dataset.state === 'ready' && window.sightplanTest.evaluationId() !== null"
+                            " && window.sightplanTest.view.modelTriangles() === 12")
+            assert other.evaluate("window.sightplanTest.view.planFrames()") == 4
+            assert "Shared plan “orbit plan”" in other.inner_text("#topbar")
+            row = other.inner_text("#metrics-table tbody tr")
+            assert row.startswith("orbit plan v1") and "\t4\t" in row
+            other.click("button[data-tab=checks]")
+            other.wait_for_selector("#missions-table tbody tr")
+            other.click("button[data-tab=metrics]")
+            shot(other, artifacts, "32b-share-view")
+            # nothing that changes anything is on offer, and the page asked for nothing but reads
+            for sel in ("#eval-start", "#plan-save", "#frame-delete", "#model-upload", "#model-delete",
+                        "#project-create", "#share-create", "#plan-create", "#optimize-run", "#plan-upload",
+                        "#schedule-add", "#reality-upload", "#member-add", "#move-apply", "#sec-edit", "#plan-new"):
+                assert other.is_hidden(sel), sel
+            other.click("button[data-tab=frames]")
+            other.click("#frame-list tbody tr[data-frame='1']")
+            wait_for(other, "window.sightplanTest.selectedFrame() === 1")
+            assert {m for m, _ in sent} == {"GET"}, sorted({m for m, _ in sent})
+            assert all("/api/projects" not in u for _, u in sent)
             assert other.context.request.get(f"{server.url}/api/projects/{project}").status == 401  # no account
+            shared = other.context.request.get(url.replace("/shared/", "/api/shared/")).json()  # the JSON stays
+            assert shared["plan"]["id"] == plan and shared["plan"]["versions"][0]["frames"] == 4
             page.click(f"#share-links li[data-link='{link}'] button")
             page.wait_for_selector(f"#share-links li[data-link='{link}'][data-state=revoked]")
-            assert other.goto(url).status == 404
+            other.goto(url)
+            wait_for(other, "document.body?.dataset.state === 'ready'")
+            assert "revoked" in other.inner_text("#view-empty")
+            assert other.context.request.get(url.replace("/shared/", "/api/shared/")).status == 404
         finally:
             stranger.close()
         links = page.request.get(f"{server.url}/api/projects/{project}/links").json()

@@ -379,12 +379,15 @@ class ShareLinkOut(Orm):
 
 class NewShareLinkOut(ShareLinkOut):
     token: str = Field(description="The link's secret, shown once")
-    url: str = Field(description="Read-only address of the shared plan (no login needed)")
+    url: str = Field(description="The share view: a read-only page of the plan (its model, map, metrics, feedback and "
+                                 "checks), no login needed")
+    api_url: str = Field(description="The same plan as JSON (GET), with its versions and evaluations below it")
 
 
 class SharedPlanOut(BaseModel):
     plan: PlanOut
     evaluations: list[EvaluationOut]
+    model: ModelOut | None = Field(None, description="The plan's model, if it has one")
 
 
 # --------------------------------------------------------------------------- the viewer's data

@@ -95,9 +95,9 @@ def create_link(project: ProjectEdit, plan_id: int, request: Request, user: User
                      created_by=user.id if user is not None else None)
     session.add(link)
     session.commit()
-    url = str(request.base_url).rstrip("/") + f"/api/shared/{secret}"
+    base = str(request.base_url).rstrip("/")
     return NewShareLinkOut(id=link.id, plan_id=plan_id, created_at=link.created_at, revoked_at=None, token=secret,
-                           url=url)
+                           url=f"{base}/shared/{secret}", api_url=f"{base}/api/shared/{secret}")
 
 
 @router.get("/links", response_model=list[ShareLinkOut], summary="The project's share links (editor or owner)",

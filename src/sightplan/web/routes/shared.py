@@ -13,7 +13,7 @@ from sqlalchemy.orm import Session
 from ...formats.registry import ExportFormat, export_choices
 from ..auth import digest
 from ..deps import SessionDep, StateDep
-from ..models import Evaluation, Plan, PlanVersion, ShareLink
+from ..models import Evaluation, Model, Plan, PlanVersion, ShareLink
 from ..schemas import ErrorOut, EvaluationOut, PlanFileOut, SharedPlanOut
 from . import evaluations, plans
 
@@ -42,7 +42,9 @@ def read_shared(token: str, session: SessionDep) -> SharedPlanOut:
     plan = shared_plan(session, token)
     rows = session.scalars(select(Evaluation).join(PlanVersion, Evaluation.plan_version_id == PlanVersion.id)
                            .where(PlanVersion.plan_id == plan.id).order_by(Evaluation.id))
-    return SharedPlanOut(plan=plans.plan_out(plan), evaluations=[evaluations.evaluation_out(e) for e in rows])
+    model = session.get(Model, plan.model_id) if plan.model_id is not None else None
+    return SharedPlanOut(plan=plans.plan_out(plan), evaluations=[evaluations.evaluation_out(e) for e in rows],
+                         model=model)
 
 
 @router.get("/versions/{number}", response_model=PlanFileOut, response_model_exclude_unset=True,

@@ -529,6 +529,12 @@ def index_page() -> FileResponse:
     return _file(STATIC_DIR / "index.html", "no-cache")
 
 
+@router.get("/shared/{token}", response_class=FileResponse, include_in_schema=False)
+def shared_page(token: str) -> FileResponse:
+    """A share link opened in a browser: the page, which reads the plan from /api/shared/{token} (read-only)."""
+    return _file(STATIC_DIR / "index.html", "no-cache")
+
+
 @router.get("/favicon.ico", response_class=FileResponse, include_in_schema=False)
 def favicon() -> FileResponse:
     """The page's icon, for browsers that ask for it at the root whatever the page says."""

@@ -20,6 +20,7 @@ import { bindProjects, loadProjects, selectProject } from './projects.js';
 import { bindReality } from './reality.js';
 import { bindSchedule } from './schedule.js';
 import { renderAll, set, state } from './store.js';
+import { openShared, shareToken } from './share.js';
 import { bindTeam } from './team.js';
 import { bindOptimize } from './optimize.js';
 import { bindTemplateForm } from './templates.js';
@@ -55,6 +56,12 @@ async function init() {
   bindOptimize({ planCreated: addPlan });
   bindMap();
   renderAll();
+  const token = shareToken();
+  if (token) {
+    await act('Opening the shared plan', () => openShared(token));
+    document.body.dataset.state = 'ready';
+    return;
+  }
   let loggedIn = true;
   await act('Reading the server information', async () => {
     loggedIn = await readSession();

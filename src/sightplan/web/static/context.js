@@ -8,7 +8,9 @@ export function setViewer(v) {
   viewer = v;
 }
 
-export const projectUrl = (path = '') => `/api/projects/${state.project.id}${path}`;
+// a project's URLs; in a share view, the same paths below the share link
+export const projectUrl = (path = '') => (state.share ? `/api/shared/${state.share}${path}`
+  : `/api/projects/${state.project.id}${path}`);
 
 // the user's role in the project shown; null in single-user mode, where everyone may do everything
 export function projectRole() {
@@ -16,8 +18,8 @@ export function projectRole() {
   return state.project.role || (state.me && state.me.projects && state.me.projects[state.project.id]) || null;
 }
 
-export const canEdit = () => !(state.info && state.info.login) || ['editor', 'owner'].includes(projectRole());
-export const isOwner = () => !(state.info && state.info.login) || projectRole() === 'owner';
+export const canEdit = () => !state.share && (!(state.info && state.info.login) || ['editor', 'owner'].includes(projectRole()));
+export const isOwner = () => !state.share && (!(state.info && state.info.login) || projectRole() === 'owner');
 
 // the feedback shown is of the plan version shown, unedited
 export function feedbackMatchesPlan() {

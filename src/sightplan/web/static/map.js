@@ -219,7 +219,8 @@ function onClick(e) {
 
 function renderPlaceOptions() {
   const missions = (state.draft && state.draft.missions) || [];
-  const options = [['', 'select frames (click)'], ['form', 'a ground station of the new-plan form']];
+  const options = [['', 'select frames (click)']];
+  if (canEdit()) options.push(['form', 'a ground station of the new-plan form']);
   if (canEdit()) missions.forEach((m, k) => options.push([k, `the pilot of mission ${k + 1}: ${m.name}`]));
   fillSelect($('#map-place'), options, $('#map-place').value);
 }

@@ -19,7 +19,7 @@ function datedSchedules() {
 
 export async function loadSchedules({ prefer = null } = {}) {
   const panel = $('#date-panel');
-  if (!state.project) {
+  if (!state.project || state.share) {  // a share view shows the plan, not the project's schedules
     panel.hidden = true;
     return;
   }

@@ -10,6 +10,7 @@
 // subscribers run is applied at once; its subscribers run after the current ones, once each.
 
 const S = {
+  share: null,  // the token of a share view (/shared/{token}), else null
   info: null, cameras: [], templates: [], me: null, projects: [], project: null, members: [], links: [],
   models: [], model: null, elements: null, geometryModel: null, fitted: null,
   plans: [], plan: null, version: null, saved: null, draft: null, dirty: false, geom: null, checks: null,
