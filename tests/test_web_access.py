@@ -145,6 +145,57 @@ def test_login_cookie_me_and_logout(server, alices):
     assert c.get("/api/projects").status_code == 401
 
 
+# --------------------------------------------------------------------------- the API's description
+JSON_TYPES = {"string": str, "array": list, "object": dict}
+
+
+def conforms(value, schema: dict) -> bool:
+    """The little of JSON Schema the error model uses: types, required keys, known properties, array items."""
+    if not isinstance(value, JSON_TYPES[schema["type"]]):
+        return False
+    if schema["type"] == "object":
+        props = schema.get("properties", {})
+        return set(schema.get("required", ())) <= set(value) and all(k in props and conforms(v, props[k])
+                                                                     for k, v in value.items())
+    return schema["type"] != "array" or all(conforms(v, schema["items"]) for v in value)
+
+
+def documented(doc: dict, path: str, method: str, status: int) -> dict:
+    """The body schema the document gives for an answer, its reference resolved."""
+    ref = doc["paths"][path][method]["responses"][str(status)]["content"]["application/json"]["schema"]["$ref"]
+    return doc["components"]["schemas"][ref.rsplit("/", 1)[1]]
+
+
+def test_the_team_api_document_has_its_login_and_the_errors_as_sent(server):
+    doc = server.get("/openapi.json").json()
+    assert "Team mode" in doc["info"]["description"] and "Single-user" not in doc["info"]["description"]
+    session, token = doc["components"]["securitySchemes"]["session"], doc["components"]["securitySchemes"]["token"]
+    assert (session["type"], session["in"], session["name"]) == ("apiKey", "cookie", "sightplan_session")
+    assert "`X-Sightplan-Request`" in session["description"]  # changes with the cookie need the page's header
+    assert (token["type"], token["scheme"]) == ("http", "bearer")
+    assert doc["paths"]["/api/projects"]["get"]["security"] == [{"session": []}, {"token": []}]
+    for path, method in (("/api/auth/login", "post"), ("/api/info", "get"), ("/api/shared/{token}", "get")):
+        assert not doc["paths"][path][method].get("security"), path
+    assert "HTTPValidationError" not in doc["components"]["schemas"]
+    server.cookies.clear()
+    r = server.get("/api/projects")
+    assert r.status_code == 401 and conforms(r.json(), documented(doc, "/api/projects", "get", 401))
+    c = login(server, "carol")
+    r = c.post("/api/projects", json={})
+    assert r.status_code == 422 and isinstance(r.json()["detail"], str)
+    assert conforms(r.json(), documented(doc, "/api/projects", "post", 422))
+    r = c.get("/api/projects/999999")
+    assert r.status_code == 404 and conforms(r.json(), documented(doc, "/api/projects/{project_id}", "get", 404))
+
+
+def test_the_single_user_api_document_asks_for_no_login(tmp_path):
+    with TestClient(create_app(ServerConfig(data_dir=tmp_path / "data"))) as c:
+        doc = c.get("/openapi.json").json()
+    assert "Single-user mode" in doc["info"]["description"] and "Team mode" not in doc["info"]["description"]
+    assert "securitySchemes" not in doc["components"]
+    assert not any("security" in op for ops in doc["paths"].values() for op in ops.values())
+
+
 # --------------------------------------------------------------------------- projects are their members' only
 def test_non_member_gets_404_on_every_project_route(server, alices):
     c = login(server, "carol")

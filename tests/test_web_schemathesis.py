@@ -1,5 +1,6 @@
 """Schemathesis over the team server's OpenAPI document: generated requests to every operation, authenticated with
-an API token, must never get a 5xx.
+an API token, must never get a 5xx, and every answer must be one the document describes (its status code, content
+type, headers and body schema).
 
 Bounded: a few examples per operation. Every other example has its path's ids pointed at real rows (a project with
 the Duplex, an orbit plan, its evaluation and a share link), so the generated queries and bodies reach the code behind
@@ -13,6 +14,12 @@ schemathesis = pytest.importorskip("schemathesis")
 
 from fastapi.testclient import TestClient  # noqa: E402
 from hypothesis import HealthCheck, Phase, given, settings  # noqa: E402
+from schemathesis.specs.openapi.checks import (  # noqa: E402
+    content_type_conformance,
+    response_headers_conformance,
+    response_schema_conformance,
+    status_code_conformance,
+)
 
 from sightplan.model.load import sample_model_path  # noqa: E402
 from sightplan.plan.templates import spacing  # noqa: E402
@@ -24,6 +31,8 @@ from web_support import wait_job  # noqa: E402
 EXAMPLES = 8
 # the token's own end (logout, password change, token revocation) is covered by test_web_access
 SKIPPED = ("/api/auth/logout", "/api/auth/password", "/api/auth/tokens/{token_id}")
+# every answer is one the document describes (a 5xx is reported on its own, with its message)
+CHECKS = [status_code_conformance, content_type_conformance, response_schema_conformance, response_headers_conformance]
 
 
 @pytest.fixture(scope="module")
@@ -66,8 +75,9 @@ def _order(operation) -> tuple[int, int]:
     return (operation.method.upper() == "DELETE", operation.path == "/api/projects/{project_id}")
 
 
-def _fuzz(operation, auth: dict, ids: dict, failures: list[str]) -> set[int]:
-    """Send EXAMPLES generated requests to one operation; the status codes it answered."""
+def _fuzz(operation, auth: dict, ids: dict, failures: dict[str, list[str]]) -> tuple[set[int], int]:
+    """Send EXAMPLES generated requests to one operation and check each answer; the status codes it answered and
+    the number of requests."""
     seen: set[int] = set()
     count = [0]
 
@@ -80,23 +90,36 @@ def _fuzz(operation, auth: dict, ids: dict, failures: list[str]) -> set[int]:
             case.path_parameters = {k: ids.get(k, v) for k, v in case.path_parameters.items()}
         response = case.call(headers=auth)
         seen.add(response.status_code)
+        request = f"{case.method} {case.formatted_path} {case.query or ''} → {response.status_code}"
         if response.status_code >= 500:
-            failures.append(f"{case.method} {case.formatted_path} {case.query or ''} → "
-                            f"{response.status_code}: {response.text[:200]}")
+            failures["server errors"].append(f"{request}: {response.text[:200]}")
+            return
+        try:
+            case.validate_response(response, checks=CHECKS, headers=auth)
+        except BaseExceptionGroup as group:
+            failures["violations"] += [f"{request}: {f.title}: {' '.join(str(f.message).split())[:300]}"
+                                       for f in group.exceptions]
 
     call()
-    return seen
+    return seen, count[0]
 
 
-def test_no_generated_request_gets_a_server_error(team):
+def test_no_generated_request_gets_a_server_error_or_an_undocumented_answer(team):
     app, token, ids = team
     schema = schemathesis.openapi.from_asgi("/openapi.json", app)
+    schema.config.generation.update(with_security_parameters=False)  # every request carries the token below
     auth = {"Authorization": f"Bearer {token}"}
-    failures: list[str] = []
+    failures: dict[str, list[str]] = {"server errors": [], "violations": []}
     operations = sorted((r.ok() for r in schema.get_all_operations()), key=_order)
-    statuses = {f"{op.method.upper()} {op.path}": _fuzz(op, auth, ids, failures)
-                for op in operations if op.path not in SKIPPED}
+    runs = {f"{op.method.upper()} {op.path}": _fuzz(op, auth, ids, failures)
+            for op in operations if op.path not in SKIPPED}
+    statuses = {op: codes for op, (codes, _) in runs.items()}
+    cases = sum(n for _, n in runs.values())
     assert len(statuses) > 60  # every operation was called
     answered = {op for op, codes in statuses.items() if codes & {200, 201, 202, 204, 409, 413, 415, 422}}
     assert len(answered) > 40, sorted(statuses.items())  # most got past the lookups, not only a 404
-    assert not failures, "\n".join(failures[:20])
+    assert schema["/api/auth/me"]["GET"].Case().call(headers=auth).status_code == 200  # the token still works
+    print(f"{cases} requests: {len(failures['server errors'])} server errors, {len(failures['violations'])} "
+          "answers the document does not describe")
+    assert failures == {"server errors": [], "violations": []}, \
+        "\n".join(f"{kind}: {line}" for kind, lines in failures.items() for line in lines[:20])

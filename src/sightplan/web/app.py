@@ -17,18 +17,12 @@ from .config import ServerConfig
 from .db import Database, upgrade_database
 from .deps import ServerState
 from .errors import ids_in_range, install_error_handlers
+from .openapi import description, install_document
 from .routes import ROUTERS
 from .routes.viewer import STATIC_DIR
 from .storage import Storage
 from .worker import Worker, recover_interrupted
 
-DESCRIPTION = """\
-sightplan's REST API: upload building models, make capture plans from templates or files, edit them as versions,
-evaluate them (VC, V̄C, VR, R, O, T) in the background, and download reports and flight-app exports.
-
-Single-user mode: the server listens on the loopback address only and asks for no login.
-Errors are JSON `{"detail": "one message"}`.
-"""
 MULTIPART_SLACK = 64 * 1024  # multipart headers and boundaries around the file
 UNPACKED_PER_UPLOAD = 10  # an archive's contents may be this many times the upload limit
 
@@ -56,8 +50,9 @@ def create_app(config: ServerConfig | None = None) -> FastAPI:
         yield
         close_state(state)
 
-    app = FastAPI(title="sightplan", version=__version__, description=DESCRIPTION, lifespan=lifespan,
-                  dependencies=[Depends(ids_in_range)], docs_url=None, redoc_url=None)
+    app = FastAPI(title="sightplan", version=__version__, description=description(state.config.team),
+                  lifespan=lifespan, dependencies=[Depends(ids_in_range)], docs_url=None, redoc_url=None)
+    install_document(app, [route for router in ROUTERS for route in router.routes], state.config.team)
     app.state.sightplan = state
 
     app.add_middleware(BodyLimit, limit=state.config.max_upload_bytes)

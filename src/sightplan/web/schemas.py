@@ -6,6 +6,7 @@ import datetime as dt
 from typing import Annotated, Any, Literal, Union
 
 from pydantic import AfterValidator, BaseModel, ConfigDict, Field, create_model
+from pydantic.json_schema import SkipJsonSchema
 
 from ..plan.templates.base import ParamInfo, Template, unit_of
 from ..plan.templates.registry import TEMPLATES
@@ -25,9 +26,17 @@ class Orm(BaseModel):
     model_config = ConfigDict(from_attributes=True)
 
 
+def _no_default(schema: dict) -> None:
+    schema.pop("default", None)
+
+
 class ErrorOut(BaseModel):
+    """Every error answer: one message, and with an export refused for its flight checks the violations."""
+
     detail: str = Field(description="One readable message")
-    violations: list[str] | None = Field(None, description="An export refused for its flight checks: each violation")
+    violations: list[str] | SkipJsonSchema[None] = Field(
+        None, description="An export refused for its flight checks (409): each violation; absent otherwise",
+        json_schema_extra=_no_default)
 
 
 class BasemapOut(BaseModel):

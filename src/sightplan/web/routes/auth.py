@@ -12,7 +12,7 @@ from ..models import Membership, Token
 from ..schemas import ErrorOut, LoginIn, NewTokenOut, PasswordIn, TokenIn, TokenOut, UserOut
 
 router = APIRouter(prefix="/api/auth", tags=["accounts"])
-UNAUTHORIZED = {401: {"model": ErrorOut, "description": "Not logged in, or a wrong user name or password"}}
+# 401 (not logged in) is documented on every route that needs a login: sightplan.web.openapi
 
 
 def user_out(session, user: User) -> UserOut:
@@ -21,7 +21,8 @@ def user_out(session, user: User) -> UserOut:
 
 
 @router.post("/login", response_model=UserOut, summary="Log in: sets the session cookie (14 days)",
-             responses={**UNAUTHORIZED, 404: {"model": ErrorOut, "description": "Single-user mode has no accounts"}})
+             responses={401: {"model": ErrorOut, "description": "A wrong user name or password"},
+                        404: {"model": ErrorOut, "description": "Single-user mode has no accounts"}})
 def login(body: LoginIn, request: Request, response: Response, session: SessionDep, state: StateDep) -> UserOut:
     if not state.config.team:
         raise HTTPException(404, "there are no accounts in single-user mode (start the server with --team)")
@@ -53,14 +54,14 @@ def logout(request: Request, session: SessionDep) -> Response:
     return response
 
 
-@router.get("/me", response_model=UserOut, summary="The logged-in user and their projects", responses=UNAUTHORIZED)
+@router.get("/me", response_model=UserOut, summary="The logged-in user and their projects")
 def me(user: UserDep, session: SessionDep) -> UserOut:
     return user_out(session, require_user(user))
 
 
 @router.post("/password", status_code=204, response_class=Response, summary="Change your password",
              description="Ends your login sessions (API tokens stay).",
-             responses={**UNAUTHORIZED, 403: {"model": ErrorOut, "description": "The current password is wrong"},
+             responses={403: {"model": ErrorOut, "description": "The current password is wrong"},
                         422: {"model": ErrorOut, "description": "The new password is too short"}})
 def change_password(body: PasswordIn, request: Request, user: UserDep, session: SessionDep) -> Response:
     user = require_user(user)
@@ -76,23 +77,21 @@ def change_password(body: PasswordIn, request: Request, user: UserDep, session: 
     return response
 
 
-@router.post("/tokens", response_model=NewTokenOut, status_code=201, summary="Create an API token for scripts",
-             responses=UNAUTHORIZED)
+@router.post("/tokens", response_model=NewTokenOut, status_code=201, summary="Create an API token for scripts")
 def create_token(body: TokenIn, user: UserDep, session: SessionDep) -> NewTokenOut:
     token, secret = issue_token(session, require_user(user), "api", body.name)
     session.commit()
     return NewTokenOut(id=token.id, name=token.name, created_at=token.created_at, last_used_at=None, token=secret)
 
 
-@router.get("/tokens", response_model=list[TokenOut], summary="Your API tokens (without their secrets)",
-            responses=UNAUTHORIZED)
+@router.get("/tokens", response_model=list[TokenOut], summary="Your API tokens (without their secrets)")
 def list_tokens(user: UserDep, session: SessionDep) -> list[Token]:
     user = require_user(user)
     return list(session.scalars(select(Token).where(Token.user_id == user.id, Token.kind == "api").order_by(Token.id)))
 
 
 @router.delete("/tokens/{token_id}", status_code=204, response_class=Response, summary="Revoke an API token",
-               responses={**UNAUTHORIZED, 404: {"model": ErrorOut, "description": "No such token of yours"}})
+               responses={404: {"model": ErrorOut, "description": "No such token of yours"}})
 def revoke_token(token_id: int, user: UserDep, session: SessionDep) -> Response:
     user = require_user(user)
     token = session.get(Token, token_id)

@@ -44,6 +44,10 @@ NOT_FOUND = {404: {"model": ErrorOut, "description": "No such project, plan, ver
 BAD_PLAN = {422: {"model": ErrorOut, "description": "The plan or a parameter is invalid (the library's message)"}}
 NOT_READY = {409: {"model": ErrorOut, "description": "The model is not loaded (yet)"}}
 MEDIA = {**{f.suffix: f.media_type for f in WRITERS}, ".zip": "application/zip"}
+EXPORTED = {200: {"description": "The exported file", "content": {m: {} for m in sorted(set(MEDIA.values()))}},
+            409: {"model": ErrorOut, "description": "The model is not loaded (yet), or the plan fails its flight checks "
+                                                   "(named in `violations`; force=true exports it anyway)"},
+            422: {"model": ErrorOut, "description": "No georeference, or a frame a drone cannot take"}}
 
 
 def plan_out(plan: Plan) -> PlanOut:
@@ -209,11 +213,7 @@ def _slug(text: str) -> str:
             summary="Export a plan version for a flight app or a map (a download)",
             description="Placed with the plan's georeference, else the model's (IfcMapConversion or IfcSite), as "
                         "`sightplan export` does; several files (a QGC plan per mission, Litchi parts) come as a zip.",
-            responses={200: {"description": "The exported file", "content": {m: {} for m in sorted(set(MEDIA.values()))}},
-                       **NOT_FOUND,
-                       409: {"model": ErrorOut, "description": "The model is not loaded (yet), or the plan fails its "
-                                                                "flight checks (named; force=true exports it anyway)"},
-                       422: {"model": ErrorOut, "description": "No georeference, or a frame a drone cannot take"}})
+            responses={**EXPORTED, **NOT_FOUND})
 def export_version(project_id: int, plan_id: int, number: int, session: SessionDep, state: StateDep,
                    background: BackgroundTasks,
                    format: Annotated[ExportFormat, Query(description=export_choices())],

@@ -55,7 +55,7 @@ def read_shared_version(token: str, number: int, session: SessionDep, state: Sta
 
 
 @router.get("/versions/{number}/export", response_class=FileResponse, summary="Export a version for a flight app",
-            responses=NOT_FOUND)
+            responses={**plans.EXPORTED, **NOT_FOUND})
 def export_shared_version(token: str, number: int, session: SessionDep, state: StateDep, background: BackgroundTasks,
                           format: Annotated[ExportFormat, Query(description=export_choices())],
                           speed: Annotated[float, Query(gt=0, description="Flight speed (m/s)")] = 5.0,

@@ -118,9 +118,10 @@
  */
 
 /**
+ * Every error answer: one message, and with an export refused for its flight checks the violations.
  * @typedef {object} ErrorOut
  * @property {string} detail One readable message
- * @property {(Array<string>|null)} [violations] An export refused for its flight checks: each violation
+ * @property {Array<string>} [violations] An export refused for its flight checks (409): each violation; absent otherwise
  */
 
 /**
@@ -278,11 +279,6 @@
  * @property {(Object<string, *>|null)} [ground] The site's ground the checks used: its level (model frame, m), where it comes from and why
  * @property {Array<number>} [position_error_m] The position error the checks hold at: horizontal, vertical (m)
  * @property {Array<Object<string, *>>} [trajectory] Per mission: its take-off point, climb and return heights, and the checked flight out (take-off, climb, over the first waypoint, the first waypoint) and home (the last waypoint, up, over the take-off, landing) as [x, y, z] polylines (model frame, m)
- */
-
-/**
- * @typedef {object} HTTPValidationError
- * @property {Array<ValidationError>} [detail] Detail
  */
 
 /**
@@ -732,15 +728,6 @@
  * @typedef {object} UserOut
  * @property {string} username Username
  * @property {Object<string, 'viewer'|'editor'|'owner'>} [projects] Your role in each project you belong to
- */
-
-/**
- * @typedef {object} ValidationError
- * @property {Array<(string|number)>} loc Location
- * @property {string} msg Message
- * @property {string} type Error Type
- * @property {*} [input] Input
- * @property {Object<string, *>} [ctx] Context
  */
 
 export {};

@@ -1,0 +1,150 @@
+"""The OpenAPI document as the server behaves: the mode it runs in, how to log in (team mode), and one error model,
+``{"detail": "one message"}``, on every error an operation can answer."""
+
+from __future__ import annotations
+
+import re
+from typing import Any
+
+from fastapi import FastAPI
+from fastapi.routing import APIRoute
+
+from .deps import SESSION_COOKIE, current_user, editable_project, owned_project, project_access
+
+SUMMARY = """\
+sightplan's REST API: upload building models, make capture plans from templates or files, edit them as versions,
+evaluate them (VC, V̄C, VR, R, O, T) in the background, and download reports and flight-app exports.
+"""
+SINGLE_USER = """\
+**Single-user mode**: the server answers on its loopback address only (a request to another `Host` gets 400) and
+asks for no login; anyone on this machine can use it.
+"""
+TEAM = """\
+**Team mode**: every request but logging in, `/api/info`, the catalogues and share links needs a login: the session
+cookie that `POST /api/auth/login` sets, or an API token (`POST /api/auth/tokens`) sent as
+`Authorization: Bearer <token>`. **Authorize** on this page takes a token. You see the projects you are a member of,
+with a role in each: a *viewer* reads, an *editor* also changes its models, plans, evaluations and share links, an
+*owner* also renames or deletes it and manages its members. A share link (`/api/shared/{token}`) reads one plan
+without a login.
+"""
+ERRORS = """\
+Every error is JSON `{"detail": "one message"}` (`ErrorOut`); an export refused for its flight checks (409) adds
+`violations`, one sentence each.
+"""
+ERROR_REF = {"$ref": "#/components/schemas/ErrorOut"}
+SECURITY_SCHEMES = {
+    "session": {"type": "apiKey", "in": "cookie", "name": SESSION_COOKIE,
+                "description": "The login session that `POST /api/auth/login` sets (14 days). A change made with it "
+                               "(any method but GET, HEAD, OPTIONS) must come from a page of this server (its "
+                               "`Origin`) or carry the header `X-Sightplan-Request` as sightplan's page does; "
+                               "scripts use an API token instead. A browser sends the cookie by itself (a value typed "
+                               "here is not sent): log in on this page with `POST /api/auth/login`."},
+    "token": {"type": "http", "scheme": "bearer",
+              "description": "An API token from `POST /api/auth/tokens`, sent as `Authorization: Bearer <token>` "
+                             "until it is revoked."},
+}
+LOGIN = [{"session": []}, {"token": []}]
+CHANGES = ("post", "put", "patch", "delete")
+ID_NAMES = ("number", "frame", "index")  # besides *_id: looked up, and past a database integer answer 404
+
+
+def description(team: bool) -> str:
+    """The document's description: what the API does, the mode the server runs in, the error model."""
+    return "\n".join((SUMMARY, TEAM if team else SINGLE_USER, ERRORS))
+
+
+def install_document(app: FastAPI, routes: list, team: bool) -> None:
+    """Make ``app``'s ``/openapi.json`` the document of :func:`honest_document` for ``routes`` (those of its
+    routers), built once."""
+
+    def openapi() -> dict[str, Any]:
+        if app.openapi_schema is None:
+            app.openapi_schema = honest_document(FastAPI.openapi(app), routes, team)
+        return app.openapi_schema
+
+    app.openapi = openapi  # type: ignore[method-assign]
+
+
+def _calls(dependant) -> set:
+    """Every function the dependencies of a route call, at any depth."""
+    out = set()
+    for dep in dependant.dependencies:
+        out.add(dep.call)
+        out |= _calls(dep)
+    return out
+
+
+def honest_document(doc: dict[str, Any], routes: list, team: bool) -> dict[str, Any]:
+    """FastAPI's document with the errors each operation can answer, all as ``ErrorOut`` (FastAPI's 422 schema
+    describes an array the server never sends), and, in team mode, the login's security schemes on the operations
+    that need one."""
+    for route in routes:
+        if not isinstance(route, APIRoute) or not route.include_in_schema:
+            continue
+        calls = _calls(route.dependant)
+        if "current_user" in route.endpoint.__code__.co_names:  # called in the route itself (an event stream)
+            calls.add(current_user)
+        for method in route.methods:
+            op = doc["paths"].get(route.path_format, {}).get(method.lower())
+            if op is not None:
+                _errors(op, method.lower(), calls, team, "require_user" in route.endpoint.__code__.co_names)
+                if team and current_user in calls:
+                    op["security"] = LOGIN
+    schemas = doc.setdefault("components", {}).setdefault("schemas", {})
+    schemas.pop("HTTPValidationError", None)
+    schemas.pop("ValidationError", None)
+    if team:
+        doc["components"]["securitySchemes"] = SECURITY_SCHEMES
+    return doc
+
+
+OTHER_HOST = "a request addressed to another `Host` than the loopback address"
+UNPARSED_FORM = "a form body that cannot be parsed"
+NOT_LOGGED_IN = "not logged in, or an unknown, revoked or expired session or token"
+CROSS_SITE = "a change sent by a page of another site"
+CROSS_SITE_TEAM = f"{CROSS_SITE}, or with the session cookie but without the header `X-Sightplan-Request`"
+ROLE = "your role in the project does not allow it"
+NO_SUCH = "no such resource (or not in a project of yours), or an id past the range of ids"
+NO_ACCOUNTS = "single-user mode has no accounts"
+TOO_LARGE = "the body is over the server's upload limit (`sightplan serve --max-upload-mb`)"
+INVALID = "invalid parameters or body: the first few problems, in one message"
+ROLE_WORDS = re.compile(r"role|owner|viewer", re.I)
+# the causes added to a route's own description of a code
+ADDED = (OTHER_HOST, UNPARSED_FORM, CROSS_SITE, CROSS_SITE_TEAM, ROLE, NO_ACCOUNTS, INVALID)
+
+
+def _errors(op: dict[str, Any], method: str, calls: set, team: bool, accounts_only: bool) -> None:
+    """Document on ``op`` each error it can answer. A code the route declares keeps its description, with the causes
+    that apply to every operation of its kind added."""
+    params = op.get("parameters", [])
+    body = op.get("requestBody", {}).get("content", {})
+    form = any(m in body for m in ("multipart/form-data", "application/x-www-form-urlencoded"))
+    looked_up = any(p["in"] == "path" or p["name"].endswith("_id") or p["name"] in ID_NAMES for p in params)
+    login = team and current_user in calls
+    causes = {
+        400: [OTHER_HOST] * (not team) + [UNPARSED_FORM] * form,
+        401: [NOT_LOGGED_IN] * login,
+        403: [CROSS_SITE_TEAM if team else CROSS_SITE] * (method in CHANGES)
+             + [ROLE] * bool(team and (calls & {editable_project, owned_project}
+                                        or method in CHANGES and project_access in calls)),
+        404: [NO_SUCH] * looked_up + [NO_ACCOUNTS] * (not team and accounts_only),
+        413: [TOO_LARGE] * bool(body),
+        422: [INVALID] * bool(params or body),
+    }
+    responses = op.setdefault("responses", {})
+    for code, found in causes.items():
+        key = str(code)
+        declared = responses.get(key, {}).get("description", "")
+        if declared == "Validation Error":  # FastAPI's own
+            declared = ""
+        if declared:  # the route's own words; causes of its kind that they do not cover yet are added
+            found = [c for c in found if c in ADDED and not (c == ROLE and ROLE_WORDS.search(declared))]
+        text = "; or ".join([declared] * bool(declared) + found)
+        if text:
+            responses.setdefault(key, {})["description"] = text[0].upper() + text[1:]
+    op["responses"] = responses = dict(sorted(responses.items()))
+    for key, response in responses.items():
+        if key[0] in "45":
+            response.setdefault("content", {}).setdefault("application/json", {})["schema"] = ERROR_REF
+    if login:
+        responses["401"]["headers"] = {"WWW-Authenticate": {"description": "`Bearer`", "schema": {"type": "string"}}}
