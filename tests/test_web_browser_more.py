@@ -264,8 +264,8 @@ def test_schedule_from_the_page_dates_the_site_and_the_evaluation(browser, serve
         # an orbit of 8 frames, evaluated at the slider's date
         page.click("#plan-new summary")
         page.select_option("#plan-template", "orbit")
-        page.fill("#plan-radius_m", "22")
-        page.fill("#plan-height_m", "6")
+        page.fill("#plan-radius_m-1", "22")
+        page.fill("#plan-height_m-1", "6")
         page.fill("#plan-step_deg", "45")
         page.click("#plan-create")
         wait_for(page, "window.sightplanTest.view.planFrames() === 8")
@@ -312,8 +312,8 @@ def test_pilot_position_take_off_and_return_and_export_anyway(browser, server, a
         page.click("#plan-new summary")
         page.select_option("#plan-template", "orbit")
         page.fill("#plan-name", "on site")
-        page.fill("#plan-radius_m", "22")
-        page.fill("#plan-height_m", "4")
+        page.fill("#plan-radius_m-1", "22")
+        page.fill("#plan-height_m-1", "4")
         page.fill("#plan-step_deg", "30")
         page.click("#my-position")
         page.wait_for_function("document.querySelector('#plan-stations').value.includes(',')")
@@ -543,12 +543,23 @@ def test_team_mode_login_members_share_links_and_roles(browser, team_server, art
         wait_for(page, "document.body?.dataset.model")
         page.click("#plan-new summary")
         page.select_option("#plan-template", "orbit")
-        page.fill("#plan-radius_m", "12")
-        page.fill("#plan-height_m", "3")
+        # two rings, a radius and a height a row: a third row added and removed again
+        page.fill("#plan-radius_m-1", "12")
+        page.fill("#plan-height_m-1", "3")
+        page.click("#plan-add-ring")
+        page.click("#plan-add-ring")
+        page.fill("#plan-radius_m-3", "16")
+        page.fill("#plan-height_m-3", "6")
+        page.click("#plan-rows-ring tbody tr:nth-child(2) button")
+        assert page.input_value("#plan-radius_m-2") == "16" and page.locator("#plan-rows-ring tbody tr").count() == 2
         page.fill("#plan-step_deg", "90")
         page.click("#plan-create")
-        wait_for(page, "window.sightplanTest.view.planFrames() === 4")
+        wait_for(page, "window.sightplanTest.view.planFrames() === 8")
         plan = page.evaluate("window.sightplanTest.planId()")
+        v1 = page.request.get(f"{server.url}/api/projects/{project}/plans/{plan}/versions/1").json()
+        assert (v1["parameters"]["radii_m"], v1["parameters"]["heights_m"]) == ([12, 16], [3, 6])
+        rings = [(round(float(np.hypot(x - 3, y - 2)), 3), z) for x, y, z in (f["position"] for f in v1["frames"])]
+        assert sorted(rings) == [(12, 3)] * 4 + [(16, 6)] * 4  # around the cube's centre (3, 2)
 
         # Victor joins as a viewer
         assert page.locator("#members-table tr[data-member=olivia][data-role=owner]").count() == 1
@@ -576,7 +587,7 @@ def test_team_mode_login_members_share_links_and_roles(browser, team_server, art
             assert response.status == 200
             shared = json.loads(other.inner_text("body"))
             assert shared["plan"]["id"] == plan and shared["plan"]["name"] == "orbit plan"
-            assert shared["plan"]["versions"][0]["frames"] == 4
+            assert shared["plan"]["versions"][0]["frames"] == 8
             assert other.context.request.get(f"{server.url}/api/projects/{project}").status == 401  # no account
             page.click(f"#share-links li[data-link='{link}'] button")
             page.wait_for_selector(f"#share-links li[data-link='{link}'][data-state=revoked]")
@@ -594,7 +605,7 @@ def test_team_mode_login_members_share_links_and_roles(browser, team_server, art
         page.wait_for_function("document.body?.dataset.state === 'ready' && document.body?.dataset.model", timeout=30_000)
         assert page.inner_text("#user-name") == "victor" and page.inner_text("#user-role") == "viewer"
         assert page.locator("#project-select option").all_inner_texts() == ["Team site"]
-        page.wait_for_function("window.sightplanTest.view.planFrames() === 4", timeout=30_000)
+        page.wait_for_function("window.sightplanTest.view.planFrames() === 8", timeout=30_000)
         for sel in ("#model-upload", "#model-delete", "#eval-start", "#member-add"):
             assert page.is_disabled(sel) or page.is_hidden(sel), sel
         for sel in ("#plan-new", "#plan-upload-box", "#sec-edit", "#share-box", "#schedule-new", "#reality-file",
