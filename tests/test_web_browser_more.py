@@ -71,8 +71,9 @@ def obj_bytes(mesh: trimesh.Trimesh) -> bytes:
     return buf.getvalue()
 
 
-def open_project(browser, server, project: int):
-    return open_page(browser, server, init_script=f"localStorage.setItem('sightplan.project', '{project}')")
+def open_project(browser, server, project: int, viewport: dict | None = None):
+    return open_page(browser, server, init_script=f"localStorage.setItem('sightplan.project', '{project}')",
+                     viewport=viewport)
 
 
 def click_model_point(page, point) -> dict:
@@ -383,6 +384,64 @@ def test_pilot_position_take_off_and_return_and_export_anyway(browser, server, a
         titles = page.eval_on_selector_all("#metrics-table th[data-metric]",
                                            "ths => ths.map((t) => [t.dataset.metric, t.title])")
         assert len(titles) == 8 and all(t == help_[k]["text"] for k, t in titles), titles
+        assert not [p for p in problems if "page error" in p], problems
+    finally:
+        ctx.close()
+
+
+# --------------------------------------------------------------------------- (b3) on a phone, and on a desktop
+# where every box of the page lies, its width and the canvas's height, read in one go
+LAYOUT = """() => ({
+  scrollWidth: document.documentElement.scrollWidth,
+  canvas: document.querySelector('#canvas-box canvas').getBoundingClientRect().height,
+  beyond: [...document.querySelectorAll('#missions-table td, #metrics-table td, #checks-summary')]
+    .filter((n) => n.offsetParent && n.getBoundingClientRect().right > window.innerWidth + 0.5).length,
+})"""
+
+
+def test_the_page_on_a_phone_and_on_a_desktop(browser, server, artifacts, duplex):
+    """At 375 × 812 nothing scrolls sideways, the 3D view fills most of the screen under folded toolbars, and the
+    panels are sheets opened from the bottom bar, the flight checks' and the metrics' tables stacked within the
+    screen's width; the same page at 1440 × 900 is the desktop's three columns."""
+    project, model = duplex
+    if not server.get(f"/api/projects/{project}/plans"):  # this test alone
+        server.request("POST", f"/api/projects/{project}/plans", {"model_id": model, "template": "orbit",
+                                                                   "radius_m": [22], "height_m": [6], "step_deg": 45})
+    ctx, page, problems = open_project(browser, server, project, viewport={"width": 375, "height": 812})
+    try:
+        wait_for(page, "window.sightplanTest.flightChecked()")
+        phone = page.evaluate(LAYOUT)
+        assert phone["scrollWidth"] <= 375 and phone["canvas"] >= 0.6 * 812, phone
+        assert page.is_hidden("#layer-toolbar") and page.is_hidden("#sidebar") and page.is_hidden("#bottom")
+        shot(page, artifacts, "phone-375x812")
+        page.click("#phone-bar button[data-sheet=checks]")
+        page.wait_for_selector("#missions-table tbody tr")
+        box = page.locator("#missions-table").bounding_box()
+        assert box["x"] >= 0 and box["x"] + box["width"] <= 375 and page.is_visible("#checks-summary"), box
+        assert page.get_attribute("#missions-table td:nth-child(6)", "data-label") == "battery"  # under its heading
+        assert page.evaluate(LAYOUT)["beyond"] == 0
+        shot(page, artifacts, "phone-375x812-checks")
+        page.click("#phone-bar button[data-sheet=metrics]")
+        metrics = page.evaluate(LAYOUT)
+        assert metrics["scrollWidth"] <= 375 and metrics["beyond"] == 0, metrics
+        shot(page, artifacts, "phone-375x812-metrics")
+        # the plan sheet steps aside while a ground station is picked in the view
+        page.click("#phone-bar button[data-sheet=plan]")
+        page.click("#plan-new summary")
+        page.click("#pick-stations")
+        assert page.evaluate("document.body.dataset.sheet") == "" and page.is_hidden("#sidebar")
+        page.keyboard.press("Escape")
+        page.wait_for_selector("#sidebar", state="visible")
+        page.click("#plan-new summary")
+        # the same page on a desktop: sidebar, view, inspector and bottom tabs, the frame editing in the sidebar
+        page.set_viewport_size({"width": 1440, "height": 900})
+        page.evaluate("document.getElementById('sidebar').scrollTop = 0")
+        page.wait_for_function("document.querySelector('#sec-edit').parentElement.id === 'sidebar'")
+        for sel in ("#sidebar", "#inspector", "#bottom", "#layer-toolbar", "#sec-edit"):
+            assert page.is_visible(sel), sel
+        assert page.is_hidden("#phone-bar") and page.is_hidden("#view-bar")
+        assert page.evaluate(LAYOUT)["scrollWidth"] == 1440
+        shot(page, artifacts, "desktop-1440x900")
         assert not [p for p in problems if "page error" in p], problems
     finally:
         ctx.close()
