@@ -139,12 +139,12 @@ document.addEventListener('DOMContentLoaded', () => {
 """
 
 
-def open_page(browser, server, init_script: str | None = None, wait_ready: bool = True):
-    """A fresh browser context on the page: (context, page, problems), problems being page errors and console
-    errors (other than failed loads answered 404)."""
+def open_page(browser, server, init_script: str | None = None, wait_ready: bool = True, viewport: dict | None = None):
+    """A fresh browser context on the page (``viewport``: default VIEWPORT): (context, page, problems), problems being
+    page errors and console errors (other than failed loads answered 404)."""
     # the tests' own probes (wait_for_function with an expression) are evaluated as strings, which the page's
     # Content-Security-Policy forbids; test_page_runs_under_its_content_security_policy opens it without bypass
-    ctx = browser.new_context(viewport=VIEWPORT, accept_downloads=True, bypass_csp=True)
+    ctx = browser.new_context(viewport=viewport or VIEWPORT, accept_downloads=True, bypass_csp=True)
     ctx.add_init_script(WATCH_PROGRESS)
     if init_script:
         ctx.add_init_script(init_script)

@@ -132,7 +132,11 @@ def test_the_form_description_is_the_declarations(client):
             assert f["kind"] == info.kind and f["help"] == info.help and f["choices"] == list(info.choices)
             assert f["default"] == (None if default == () else default)
             assert (f["ge"], f["gt"], f["le"], f["lt"]) == (info.ge, info.gt, info.le, info.lt)
+            assert f["pair"] == info.pair
         assert t["safety_distance_m"] == (0.3 if t["walked"] else 10.0)
+    # an orbit's radii and heights are paired ring by ring: the form shows them as rows
+    orbit = {f["name"]: f["pair"] for f in next(t for t in listed if t["name"] == "orbit")["fields"]}
+    assert orbit["radius_m"] == orbit["height_m"] == "ring"
 
 
 def test_parameters_given_as_a_dict_build_the_same_plan_as_the_dataclass():

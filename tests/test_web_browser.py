@@ -73,12 +73,16 @@ def test_pilot_walks_from_upload_to_export(browser, server, artifacts):
         page.select_option("#plan-template", "facade")
         page.select_option("#plan-camera", "p4p")
         page.fill("#plan-safety", "8")
-        page.fill("#plan-overlap", "0.8")
-        page.click("#plan-create")
+        assert "(%)" in page.inner_text("label:has(#plan-overlap)")  # typed in percent, sent as a fraction
+        page.fill("#plan-overlap", "80")
+        with page.expect_request(lambda r: r.method == "POST" and r.url.endswith("/plans")) as sent:
+            page.click("#plan-create")
+        assert sent.value.post_data_json["overlap"] == 0.8
         page.wait_for_function("window.sightplanTest.frameCount() !== null && window.sightplanTest.view.planFrames() !== null",
                                timeout=60_000)
         (plan,) = server.get(f"/api/projects/{project}/plans")
         v1 = server.get(f"/api/projects/{project}/plans/{plan['id']}/versions/1")
+        assert v1["parameters"]["overlap"] == 0.8
         drawn = page.evaluate("window.sightplanTest.view.planFrames()")
         assert plan["versions"][0]["frames"] == len(v1["frames"]) == drawn == 160
         assert page.inner_text("#plan-summary").startswith("160 frames · 4 mission(s)")

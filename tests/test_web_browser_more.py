@@ -106,8 +106,9 @@ def obj_bytes(mesh: trimesh.Trimesh) -> bytes:
     return buf.getvalue()
 
 
-def open_project(browser, server, project: int):
-    return open_page(browser, server, init_script=f"localStorage.setItem('sightplan.project', '{project}')")
+def open_project(browser, server, project: int, viewport: dict | None = None):
+    return open_page(browser, server, init_script=f"localStorage.setItem('sightplan.project', '{project}')",
+                     viewport=viewport)
 
 
 def click_model_point(page, point) -> dict:
@@ -299,8 +300,8 @@ def test_schedule_from_the_page_dates_the_site_and_the_evaluation(browser, serve
         # an orbit of 8 frames, evaluated at the slider's date
         page.click("#plan-new summary")
         page.select_option("#plan-template", "orbit")
-        page.fill("#plan-radius_m", "22")
-        page.fill("#plan-height_m", "6")
+        page.fill("#plan-radius_m-1", "22")
+        page.fill("#plan-height_m-1", "6")
         page.fill("#plan-step_deg", "45")
         page.click("#plan-create")
         wait_for(page, "window.sightplanTest.view.planFrames() === 8")
@@ -347,8 +348,8 @@ def test_pilot_position_take_off_and_return_and_export_anyway(browser, server, a
         page.click("#plan-new summary")
         page.select_option("#plan-template", "orbit")
         page.fill("#plan-name", "on site")
-        page.fill("#plan-radius_m", "22")
-        page.fill("#plan-height_m", "4")
+        page.fill("#plan-radius_m-1", "22")
+        page.fill("#plan-height_m-1", "4")
         page.fill("#plan-step_deg", "30")
         page.click("#my-position")
         page.wait_for_function("document.querySelector('#plan-stations').value.includes(',')")
@@ -418,6 +419,73 @@ def test_pilot_position_take_off_and_return_and_export_anyway(browser, server, a
         titles = page.eval_on_selector_all("#metrics-table th[data-metric]",
                                            "ths => ths.map((t) => [t.dataset.metric, t.title])")
         assert len(titles) == 8 and all(t == help_[k]["text"] for k, t in titles), titles
+        assert not [p for p in problems if "page error" in p], problems
+    finally:
+        ctx.close()
+
+
+# --------------------------------------------------------------------------- (b3) on a phone, and on a desktop
+# where every box of the page lies, its width and the canvas's height, read in one go
+LAYOUT = """() => ({
+  scrollWidth: document.documentElement.scrollWidth,
+  canvas: document.querySelector('#canvas-box canvas').getBoundingClientRect().height,
+  beyond: [...document.querySelectorAll('#missions-table td, #metrics-table td, #checks-summary')]
+    .filter((n) => n.offsetParent && n.getBoundingClientRect().right > window.innerWidth + 0.5).length,
+})"""
+
+
+def test_the_page_on_a_phone_and_on_a_desktop(browser, server, artifacts, duplex):
+    """At 375 × 812 nothing scrolls sideways, the 3D view fills most of the screen under folded toolbars, and the
+    panels are sheets opened from the bottom bar, the flight checks' and the metrics' tables stacked within the
+    screen's width; the same page at 1440 × 900 is the desktop's three columns."""
+    project, model = duplex
+    if not server.get(f"/api/projects/{project}/plans"):  # this test alone
+        server.request("POST", f"/api/projects/{project}/plans", {"model_id": model, "template": "orbit",
+                                                                   "radius_m": [22], "height_m": [6], "step_deg": 45})
+    ctx, page, problems = open_project(browser, server, project, viewport={"width": 375, "height": 812})
+    try:
+        wait_for(page, "window.sightplanTest.flightChecked()")
+        phone = page.evaluate(LAYOUT)
+        assert phone["scrollWidth"] <= 375 and phone["canvas"] >= 0.6 * 812, phone
+        assert page.is_hidden("#layer-toolbar") and page.is_hidden("#sidebar") and page.is_hidden("#bottom")
+        shot(page, artifacts, "phone-375x812")
+        page.click("#phone-bar button[data-sheet=checks]")
+        page.wait_for_selector("#missions-table tbody tr")
+        box = page.locator("#missions-table").bounding_box()
+        assert box["x"] >= 0 and box["x"] + box["width"] <= 375 and page.is_visible("#checks-summary"), box
+        assert page.get_attribute("#missions-table td:nth-child(6)", "data-label") == "battery"  # under its heading
+        assert page.evaluate(LAYOUT)["beyond"] == 0
+        shot(page, artifacts, "phone-375x812-checks")
+        page.click("#phone-bar button[data-sheet=metrics]")
+        metrics = page.evaluate(LAYOUT)
+        assert metrics["scrollWidth"] <= 375 and metrics["beyond"] == 0, metrics
+        shot(page, artifacts, "phone-375x812-metrics")
+        # the plan sheet steps aside while a ground station is picked in the view
+        page.click("#phone-bar button[data-sheet=plan]")
+        page.click("#plan-new summary")
+        page.click("#pick-stations")
+        assert page.evaluate("document.body.dataset.sheet") == "" and page.is_hidden("#sidebar")
+        page.keyboard.press("Escape")
+        page.wait_for_selector("#sidebar", state="visible")
+        page.click("#plan-new summary")
+        # the map instead of the 3D view, across the screen, with the site drawn
+        page.click("#phone-bar button[data-sheet='']")
+        page.click("#view-switch button[data-view=map]")
+        wait_for(page, "window.sightplanTest.map.ready()")
+        box = page.locator("#map-canvas").bounding_box()
+        assert box["width"] >= 360 and box["height"] >= 0.5 * 812 and page.evaluate(LAYOUT)["scrollWidth"] <= 375, box
+        assert page.evaluate("window.sightplanTest.map.drawn('footprint').features.length") >= 1
+        shot(page, artifacts, "phone-375x812-map")
+        page.click("#view-switch button[data-view='3d']")
+        # the same page on a desktop: sidebar, view, inspector and bottom tabs, the frame editing in the sidebar
+        page.set_viewport_size({"width": 1440, "height": 900})
+        page.evaluate("document.getElementById('sidebar').scrollTop = 0")
+        page.wait_for_function("document.querySelector('#sec-edit').parentElement.id === 'sidebar'")
+        for sel in ("#sidebar", "#inspector", "#bottom", "#layer-toolbar", "#sec-edit"):
+            assert page.is_visible(sel), sel
+        assert page.is_hidden("#phone-bar") and page.is_hidden("#view-bar")
+        assert page.evaluate(LAYOUT)["scrollWidth"] == 1440
+        shot(page, artifacts, "desktop-1440x900")
         assert not [p for p in problems if "page error" in p], problems
     finally:
         ctx.close()
@@ -578,12 +646,23 @@ def test_team_mode_login_members_share_links_and_roles(browser, team_server, art
         wait_for(page, "document.body?.dataset.model")
         page.click("#plan-new summary")
         page.select_option("#plan-template", "orbit")
-        page.fill("#plan-radius_m", "12")
-        page.fill("#plan-height_m", "3")
+        # two rings, a radius and a height a row: a third row added and removed again
+        page.fill("#plan-radius_m-1", "12")
+        page.fill("#plan-height_m-1", "3")
+        page.click("#plan-add-ring")
+        page.click("#plan-add-ring")
+        page.fill("#plan-radius_m-3", "16")
+        page.fill("#plan-height_m-3", "6")
+        page.click("#plan-rows-ring tbody tr:nth-child(2) button")
+        assert page.input_value("#plan-radius_m-2") == "16" and page.locator("#plan-rows-ring tbody tr").count() == 2
         page.fill("#plan-step_deg", "90")
         page.click("#plan-create")
-        wait_for(page, "window.sightplanTest.view.planFrames() === 4")
+        wait_for(page, "window.sightplanTest.view.planFrames() === 8")
         plan = page.evaluate("window.sightplanTest.planId()")
+        v1 = page.request.get(f"{server.url}/api/projects/{project}/plans/{plan}/versions/1").json()
+        assert (v1["parameters"]["radii_m"], v1["parameters"]["heights_m"]) == ([12, 16], [3, 6])
+        rings = [(round(float(np.hypot(x - 3, y - 2)), 3), z) for x, y, z in (f["position"] for f in v1["frames"])]
+        assert sorted(rings) == [(12, 3)] * 4 + [(16, 6)] * 4  # around the cube's centre (3, 2)
 
         # Victor joins as a viewer
         assert page.locator("#members-table tr[data-member=olivia][data-role=owner]").count() == 1
@@ -619,10 +698,10 @@ def test_team_mode_login_members_share_links_and_roles(browser, team_server, art
             assert other.goto(url).status == 200
             wait_for(other, "document.body?.dataset.state === 'ready' && window.sightplanTest.evaluationId() !== null"
                             " && window.sightplanTest.view.modelTriangles() === 12")
-            assert other.evaluate("window.sightplanTest.view.planFrames()") == 4
+            assert other.evaluate("window.sightplanTest.view.planFrames()") == 8
             assert "Shared plan “orbit plan”" in other.inner_text("#topbar")
             row = other.inner_text("#metrics-table tbody tr")
-            assert row.startswith("orbit plan v1") and "\t4\t" in row
+            assert row.startswith("orbit plan v1") and "\t8\t" in row
             other.click("button[data-tab=checks]")
             other.wait_for_selector("#missions-table tbody tr")
             other.click("button[data-tab=metrics]")
@@ -639,7 +718,7 @@ def test_team_mode_login_members_share_links_and_roles(browser, team_server, art
             assert all("/api/projects" not in u for _, u in sent)
             assert other.context.request.get(f"{server.url}/api/projects/{project}").status == 401  # no account
             shared = other.context.request.get(url.replace("/shared/", "/api/shared/")).json()  # the JSON stays
-            assert shared["plan"]["id"] == plan and shared["plan"]["versions"][0]["frames"] == 4
+            assert shared["plan"]["id"] == plan and shared["plan"]["versions"][0]["frames"] == 8
             page.click(f"#share-links li[data-link='{link}'] button")
             page.wait_for_selector(f"#share-links li[data-link='{link}'][data-state=revoked]")
             other.goto(url)
@@ -659,7 +738,7 @@ def test_team_mode_login_members_share_links_and_roles(browser, team_server, art
         page.wait_for_function("document.body?.dataset.state === 'ready' && document.body?.dataset.model", timeout=30_000)
         assert page.inner_text("#user-name") == "victor" and page.inner_text("#user-role") == "viewer"
         assert page.locator("#project-select option").all_inner_texts() == ["Team site"]
-        page.wait_for_function("window.sightplanTest.view.planFrames() === 4", timeout=30_000)
+        page.wait_for_function("window.sightplanTest.view.planFrames() === 8", timeout=30_000)
         for sel in ("#model-upload", "#model-delete", "#eval-start", "#member-add"):
             assert page.is_disabled(sel) or page.is_hidden(sel), sel
         for sel in ("#plan-new", "#plan-upload-box", "#sec-edit", "#share-box", "#schedule-new", "#reality-file",

@@ -207,6 +207,8 @@ class TemplateFieldOut(BaseModel):
     le: float | None = None
     lt: float | None = None
     choices: list[str] = Field(default_factory=list)
+    pair: str = Field("", description="Lists with the same pair name go together index by index, one row each (an "
+                                      "orbit's ring: radius_m[i] with height_m[i]); '' for none")
 
 
 class TemplateOut(BaseModel):

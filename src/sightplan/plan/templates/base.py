@@ -49,6 +49,7 @@ class ParamInfo:
     cli: str | None = None  # the option's name without dashes; default: the field's name without its unit
     web: bool = True  # False: command line only (a local file)
     label: str = ""  # the form's label; default from the name
+    pair: str = ""  # lists with the same pair name go together index by index (an orbit's ring: radius, height)
 
     def bounds_text(self) -> str:
         parts = [f"≥ {self.ge:g}" if self.ge is not None else "", f"> {self.gt:g}" if self.gt is not None else "",
@@ -82,12 +83,12 @@ def cli_name(name: str, info: ParamInfo) -> str:
 
 def param(default: Any, help: str, *, ge: float | None = None, gt: float | None = None, le: float | None = None,
           lt: float | None = None, choices: tuple[str, ...] = (), kind: Kind | None = None, cli: str | None = None,
-          web: bool = True, label: str = "") -> Any:
+          web: bool = True, label: str = "", pair: str = "") -> Any:
     """A dataclass field holding a template parameter; a list or tuple default becomes an empty-tuple default."""
     if kind is None:
         kind = "choice" if choices else "flag" if isinstance(default, bool) else "number"
     info = ParamInfo(help=help, ge=ge, gt=gt, le=le, lt=lt, kind=kind, choices=tuple(choices), cli=cli, web=web,
-                     label=label)
+                     label=label, pair=pair)
     return dataclasses.field(default=default, metadata={"param": info})
 
 

@@ -135,9 +135,11 @@ def nearest_surface_points(scene: Scene, points: NDArray) -> NDArray[np.float64]
 class OrbitParams(Params):
     overlap: float = param(0.8, "image overlap l between neighbouring frames", ge=0, le=0.95)
     radius_m: tuple[float, ...] = param((), "ring radius, once per ring (default: the targets' half-diagonal + the "
-                                        "safety distance)", gt=0, kind="numbers", label="Radii")
+                                        "safety distance)", gt=0, kind="numbers", label="Radii",
+                                        pair="ring")
     height_m: tuple[float, ...] = param((), "ring height, once per ring (default: layers by overlap from the minimum "
-                                        "height to the safety distance above the top)", kind="numbers", label="Heights")
+                                        "height to the safety distance above the top)", kind="numbers", label="Heights",
+                                        pair="ring")
     step_deg: float | None = param(None, "degrees between frames (default: by overlap)", ge=0.01, le=180, cli="step",
                                    label="Step")
     aim: str = param("centre", "aim at the model's 'centre' or its nearest 'surface'", choices=("centre", "surface"))

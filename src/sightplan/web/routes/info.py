@@ -42,7 +42,8 @@ def templates() -> list[TemplateOut]:
     for t in TEMPLATES.values():
         fields = [TemplateFieldOut(name=name, label=label_of(name, info), kind=info.kind,
                                    unit=unit_of(name), help=info.help, default=default if default != () else None,
-                                   ge=info.ge, gt=info.gt, le=info.le, lt=info.lt, choices=list(info.choices))
+                                   ge=info.ge, gt=info.gt, le=info.le, lt=info.lt, choices=list(info.choices),
+                                   pair=info.pair)
                   for name, info, default in t.web_fields()]
         out.append(TemplateOut(name=t.name, summary=t.summary, walked=t.walked,
                                safety_distance_m=default_flight(t.walked)["safety_distance_m"], fields=fields))

@@ -700,6 +700,7 @@
  * @property {(number|null)} [le] Le
  * @property {(number|null)} [lt] Lt
  * @property {Array<string>} [choices] Choices
+ * @property {string} [pair] Lists with the same pair name go together index by index, one row each (an orbit's ring: radius_m[i] with height_m[i]); '' for none
  */
 
 /**

@@ -1,7 +1,8 @@
 // sightplan's web page: projects, model upload, plans from templates (with points picked in the 3D view), frame
 // editing, evaluation with live progress (at a capture date, with a reality capture as occluders), feedback coloured
 // by metric, simulated views, comparisons and flight-app exports, 4D schedules with the date slider, reality captures,
-// and in team mode the login, members, roles and share links, on top of the REST API.
+// and in team mode the login, members, roles and share links, on top of the REST API; on a phone or a tablet, the
+// panels as sheets over the 3D view.
 //
 // The entry point: it makes the 3D viewer, wires each area of the page (one module each, around the state of
 // store.js), draws the page once, then reads the server, the user and the project last opened.
@@ -23,6 +24,7 @@ import { renderAll, set, state } from './store.js';
 import { openShared, shareToken } from './share.js';
 import { bindTeam } from './team.js';
 import { bindOptimize } from './optimize.js';
+import { bindPhoneLayout } from './phone.js';
 import { bindTemplateForm } from './templates.js';
 import { installTestHook } from './testhook.js';
 import { bindView } from './view.js';
@@ -55,6 +57,7 @@ async function init() {
   bindTemplateForm({ planCreated: addPlan });
   bindOptimize({ planCreated: addPlan });
   bindMap();
+  bindPhoneLayout();
   renderAll();
   const token = shareToken();
   if (token) {

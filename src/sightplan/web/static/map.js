@@ -122,8 +122,8 @@ function style() {
   for (const name of ['grid', 'footprint', 'vlos', 'flight', 'paths', 'frames', 'pilots']) {
     sources[name] = { type: 'geojson', data: drawn[name] || EMPTY };
   }
+  if (!sources.basemap) layers.push({ id: 'grid', type: 'line', source: 'grid', paint: { 'line-color': '#c9c4b8', 'line-width': 1 } });
   layers.push(
-    { id: 'grid', type: 'line', source: 'grid', paint: { 'line-color': '#c9c4b8', 'line-width': 1 } },
     { id: 'footprint-fill', type: 'fill', source: 'footprint', paint: { 'fill-color': '#5b6b82', 'fill-opacity': 0.35 } },
     { id: 'footprint', type: 'line', source: 'footprint', paint: { 'line-color': '#2f3b4d', 'line-width': 1.5 } },
     { id: 'vlos', type: 'line', source: 'vlos', paint: { 'line-color': hex(TAKEOFF_COLOUR), 'line-width': 1.5, 'line-dasharray': [3, 2] } },
@@ -262,6 +262,11 @@ export function bindMap() {
   $('#layer-map').checked = Boolean(localStorage.getItem('sightplan.map'));
   $('#layer-map').addEventListener('change', () => act('Opening the map', () => showMap($('#layer-map').checked)));
   $('#map-fit').addEventListener('click', fitSite);
+  // the phone layout's 3D | Map switch: the map shown full screen there
+  $('#view-switch [data-view=map]')?.addEventListener('click', () => act('Opening the map', async () => {
+    $('#layer-map').checked = true;
+    await showMap(true);
+  }));
   subscribe(['model'], () => act('Reading where the model stands', loadSite));
   subscribe(['site', 'info'], renderSite);
   subscribe(['geom', 'checks', 'selectedFrame'], drawPlan);

@@ -1,7 +1,9 @@
 // The "New plan from a template" form (#plan-form), built from the server's description of every template
 // (GET /api/templates: each parameter's name with its unit, kind, bounds, default and help, declared once in the
 // library), the request body it makes, the points picked in the 3D view for it (a bridge's axis, a route's points,
-// the ground stations) and drawn there while the form is open, and the plan it creates.
+// the ground stations) and drawn there while the form is open, and the plan it creates. An overlap is typed in
+// percent and sent as the fraction the API takes; lists the server pairs index by index (an orbit's ring radii and
+// heights) are typed as the rows of one table.
 //
 // Interface, all it shares with the rest of the page:
 //   bindTemplateForm({ planCreated })  wires the form once; planCreated(plan) (async) is given each plan created
@@ -30,14 +32,16 @@ function templateBody() {
     safety_distance_m: num($('#plan-safety')), split: $('#plan-split').checked,
   };
   for (const f of t.fields) {
+    if (f.kind === 'numbers' && f.pair) continue;  // below, with the lists it is paired with
     const node = $(`#plan-${f.name}`);
-    if (f.kind === 'number') body[f.name] = num(node);
+    if (f.kind === 'number') body[f.name] = percent(f) && node.value !== '' ? Number(node.value) / 100 : num(node);
     else if (f.kind === 'numbers') body[f.name] = node.value.split(/[,;\s]+/).filter(Boolean).map(Number);
     else if (f.kind === 'choice') body[f.name] = node.value;
     else if (f.kind === 'flag') body[f.name] = node.checked;
     else body[f.name] = parsePoints(node.value, f.kind === 'points2' ? 2 : 3, f.label.toLowerCase());
     if (Array.isArray(body[f.name]) && !body[f.name].length) delete body[f.name];
   }
+  for (const [pair, fields] of pairs(t)) Object.assign(body, pairedBody(pair, fields));
   Object.assign(body, flightBody());
   for (const [k, v] of Object.entries(body)) if (v === null || Number.isNaN(v)) delete body[k];
   return body;
@@ -89,13 +93,17 @@ function addMyPosition() {
     : ' (a browser gives it only to https pages and localhost)'}`)), { enableHighAccuracy: true, timeout: 20000 }));
 }
 
-const bounds = (f) => [f.ge !== null ? `≥ ${f.ge}` : '', f.gt !== null ? `> ${f.gt}` : '', f.le !== null ? `≤ ${f.le}` : '',
-  f.lt !== null ? `< ${f.lt}` : ''].filter(Boolean).join(', ');
+// an overlap is a fraction to the API and a percentage on the form
+const percent = (f) => f.kind === 'number' && /(^|_)overlap$/.test(f.name);
+const shown = (f, v) => (v === null || v === undefined || !percent(f) ? v : Number((v * 100).toPrecision(12)));
+const bounds = (f) => [f.ge !== null ? `≥ ${shown(f, f.ge)}` : '', f.gt !== null ? `> ${shown(f, f.gt)}` : '',
+  f.le !== null ? `≤ ${shown(f, f.le)}` : '', f.lt !== null ? `< ${shown(f, f.lt)}` : ''].filter(Boolean).join(', ');
 
 /** One field of the form for a template parameter. @param {TemplateFieldOut} f */
 function paramField(f) {
   const id = `plan-${f.name}`;
-  const label = f.unit ? `${f.label} (${f.unit})` : f.label;
+  const unit = percent(f) ? '%' : f.unit;
+  const label = unit ? `${f.label} (${unit})` : f.label;
   const title = [f.help, bounds(f)].filter(Boolean).join('; ');
   if (f.kind === 'points2' || f.kind === 'points3') {
     const xyz = f.kind === 'points2' ? 'x, y' : 'x, y, z';
@@ -116,24 +124,103 @@ function paramField(f) {
   } else if (f.kind === 'numbers') {
     input = el('input', { id, placeholder: 'default; or values, comma-separated' });
   } else {
-    const min = f.ge ?? f.gt;
-    const max = f.le ?? f.lt;
+    const min = shown(f, f.ge ?? f.gt);
+    const max = shown(f, f.le ?? f.lt);
     input = el('input', { id, type: 'number', step: 'any', min: min ?? undefined, max: max ?? undefined,
-      placeholder: f.default === null ? 'default' : undefined, value: f.default ?? undefined });
+      placeholder: f.default === null ? 'default' : undefined, value: shown(f, f.default) ?? undefined });
   }
   input.title = title;
   return el('label', {}, `${label} `, input);
 }
 
-// the chosen template's fields (what was typed for it before, back in place)
+// ------------------------------------------------------------------------------------- lists paired index by index
+/** The template's paired lists: pair name → its fields, in declaration order. @param {TemplateOut} t */
+function pairs(t) {
+  const out = new Map();
+  for (const f of t.fields.filter((g) => g.kind === 'numbers' && g.pair)) out.set(f.pair, [...(out.get(f.pair) || []), f]);
+  return out;
+}
+
+const bare = (name) => name.replace(/_(m_px|deg|m)$/, '').replace(/_/g, ' ');  // "radius_m" → "radius"
+const column = (f) => `${bare(f.name)}${f.unit ? ` (${f.unit})` : ''}`;
+
+// one row of a paired table: a number for each list (ids plan-<field>-<row>, from 1)
+function pairRow(fields) {
+  return el('tr', {}, el('th', {}),
+    ...fields.map((f) => el('td', {}, el('input', { type: 'number', step: 'any', placeholder: 'default', title: f.help,
+      min: f.ge ?? f.gt ?? undefined, max: f.le ?? f.lt ?? undefined, dataset: { field: f.name } }))),
+    el('td', {}, el('button', { type: 'button', class: 'icon', title: 'remove this row', onclick: (ev) => {
+      const table = ev.currentTarget.closest('table');
+      ev.currentTarget.closest('tr').remove();
+      numberRows(table);
+    } }, '✕')));
+}
+
+// rows numbered 1, 2, …; each input's id names its field and row
+function numberRows(table) {
+  table.querySelectorAll('tbody tr').forEach((tr, k) => {
+    tr.firstChild.textContent = String(k + 1);
+    for (const input of tr.querySelectorAll('input')) {
+      input.id = `plan-${input.dataset.field}-${k + 1}`;
+      input.setAttribute('aria-label', `${table.dataset.pair} ${k + 1} ${bare(input.dataset.field)}`);
+    }
+  });
+}
+
+/** A table of paired lists (an orbit's rings: radius and height), a row each, with add and remove buttons. */
+function pairTable(pair, fields, rows = 1) {
+  const table = el('table', { id: `plan-rows-${pair}`, class: 'table compact pair-rows', dataset: { pair } },
+    el('thead', {}, el('tr', {}, el('th', {}, pair), ...fields.map((f) => el('th', { title: f.help }, column(f))),
+      el('th', {}))),
+    el('tbody', {}, ...Array.from({ length: rows }, () => pairRow(fields))));
+  numberRows(table);
+  const add = el('button', { type: 'button', id: `plan-add-${pair}`, onclick: () => {
+    table.tBodies[0].append(pairRow(fields));
+    numberRows(table);
+  } }, `+ ${pair}`);
+  return el('div', { class: 'pair-field' },
+    el('span', {}, `${pair[0].toUpperCase()}${pair.slice(1)}s, one a row; a column left empty takes the default`), table, add);
+}
+
+// the paired lists typed: each field's column, rows left empty skipped; a column left empty is the server's default
+function pairedBody(pair, fields) {
+  const rows = $$(`#plan-rows-${pair} tbody tr`).map((tr, k) => ({ k, v: fields.map((f) => {
+    const input = tr.querySelector(`input[data-field="${f.name}"]`);
+    return input.value === '' ? null : Number(input.value);
+  }) })).filter((row) => row.v.some((v) => v !== null));
+  const body = {};
+  fields.forEach((f, j) => {
+    if (rows.every((row) => row.v[j] === null)) return;
+    const gap = rows.find((row) => row.v[j] === null);
+    if (gap) throw new Error(`${pair} ${gap.k + 1} has no ${column(f)}: give one, or leave the column empty for the default`);
+    body[f.name] = rows.map((row) => row.v[j]);
+  });
+  return body;
+}
+
+// --------------------------------------------------------------------------------------------------------- the form
+// the chosen template's fields, a paired table in place of its first list (what was typed for it before, back in place)
 function renderParams() {
   const t = chosen();
   const box = $('#plan-params');
   const previous = box.dataset.template;
   if (previous) {
-    typed.set(previous, new Map($$('#plan-params [id^="plan-"]').map((n) => [n.id, n.type === 'checkbox' ? n.checked : n.value])));
+    const values = $$('#plan-params :is(input, select, textarea)[id^="plan-"]')
+      .map((n) => [n.id, n.type === 'checkbox' ? n.checked : n.value]);
+    const rows = $$('#plan-params table.pair-rows').map((n) => [`rows:${n.dataset.pair}`, n.tBodies[0].rows.length]);
+    typed.set(previous, new Map([...rows, ...values]));
   }
-  box.replaceChildren(...(t ? t.fields.map(paramField) : []));
+  const fields = [];
+  if (t) {
+    const paired = pairs(t);
+    for (const f of t.fields) {
+      if (!(f.kind === 'numbers' && f.pair)) fields.push(paramField(f));
+      else if (paired.get(f.pair)[0] === f) {
+        fields.push(pairTable(f.pair, paired.get(f.pair), (typed.get(t.name) || new Map()).get(`rows:${f.pair}`)));
+      }
+    }
+  }
+  box.replaceChildren(...fields);
   box.dataset.template = t ? t.name : '';
   for (const [id, v] of (t && typed.get(t.name)) || []) {
     const node = document.getElementById(id);
