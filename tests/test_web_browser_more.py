@@ -746,6 +746,11 @@ def test_team_mode_login_members_share_links_and_roles(browser, team_server, art
             assert page.is_hidden(sel), sel
         assert page.is_visible("#members-table") and page.locator("#members-table select").count() == 0
         assert page.is_visible("#export-qgc") and page.is_enabled("#export-qgc")  # reading stays
+        page.click("button[data-tab=frames]")
+        page.click("#frame-list tbody tr[data-frame='0']")
+        page.wait_for_function("window.sightplanTest.selectedFrame() === 0")
+        page.keyboard.press("Delete")  # the edit keys do nothing for a viewer
+        assert page.evaluate("window.sightplanTest.frameCount()") == 4 and not page.evaluate("window.sightplanTest.dirty()")
         refused = page.request.post(f"{server.url}/api/projects/{project}/plans",
                                     data={"model_id": 1, "template": "orbit", "radius_m": [9], "height_m": [2]})
         assert refused.status == 403  # what the page does not offer, the API refuses
@@ -814,7 +819,9 @@ def test_account_dialog_tokens_and_password(browser, team_server, artifacts):
 # --------------------------------------------------------------------------- (f) true north
 def test_headings_and_the_north_button_follow_true_north(browser, server, artifacts, tmp_path):
     """A site whose model +Y points to 310° true (its TrueNorth is 50° off the y axis): the frame card shows the
-    heading the exported WPL flies, to 0.1°, and N moves a frame toward true north, not along +Y."""
+    heading the exported WPL flies, to 0.1°, and N moves a frame toward true north, not along +Y. Then the frame
+    edits are undone and redone (Ctrl+Z, Ctrl+Y, Ctrl+Shift+Z, the Undo button), each back to the exact pose, and
+    Delete deletes the selected frame, except while typing in a field."""
     import math
     import urllib.request
 
@@ -851,6 +858,39 @@ def test_headings_and_the_north_button_follow_true_north(browser, server, artifa
         after = json.loads(page.get_attribute("#frame-info dd[data-field='position (m)']", "data-value"))
         assert np.subtract(after, before) == pytest.approx([math.sin(a), math.cos(a), 0.0], abs=1e-6)
         shot(page, artifacts, "26-true-north")
+
+        # undo and redo of frame edits (keys and buttons), and the Delete key
+        def pose(i: int = 0) -> dict:
+            return page.evaluate(f"window.sightplanTest.framePose({i})")
+
+        n = page.evaluate("window.sightplanTest.frameCount()")
+        moved = pose()
+        page.keyboard.press("Control+z")  # the focus is on the N button
+        wait_for(page, "!window.sightplanTest.dirty()")  # back to the version saved: not edited
+        assert pose()["position"] == before and page.is_disabled("#edit-undo") and page.is_enabled("#edit-redo")
+        page.keyboard.press("Control+y")
+        wait_for(page, "window.sightplanTest.dirty()")
+        assert pose() == moved
+        page.click("#edit-undo")
+        wait_for(page, "!window.sightplanTest.dirty()")
+        saved, second = pose(), pose(1)
+        page.keyboard.press("Delete")
+        wait_for(page, f"window.sightplanTest.frameCount() === {n - 1}")
+        now = pose()  # the next frame, selected (drawn from the edited plan file, not the server's geometry)
+        assert np.allclose(now["position"] + now["rotation"], second["position"] + second["rotation"], atol=1e-9)
+        assert page.evaluate("window.sightplanTest.selectedFrame()") == 0
+        page.keyboard.press("Control+z")
+        wait_for(page, f"window.sightplanTest.frameCount() === {n} && !window.sightplanTest.dirty()")
+        assert pose() == saved and pose(1) == second
+        page.keyboard.press("Control+Shift+z")
+        wait_for(page, f"window.sightplanTest.frameCount() === {n - 1} && window.sightplanTest.dirty()")
+        page.keyboard.press("Control+z")
+        wait_for(page, f"window.sightplanTest.frameCount() === {n}")
+        page.fill("#move-dx", "12")
+        page.press("#move-dx", "Control+a")
+        page.press("#move-dx", "Delete")  # deletes the text, not the frame
+        assert page.input_value("#move-dx") == "" and page.evaluate("window.sightplanTest.frameCount()") == n
+        assert not page.evaluate("window.sightplanTest.dirty()") and page.is_disabled("#edit-undo")
         assert not [p for p in problems if "page error" in p], problems
     finally:
         ctx.close()

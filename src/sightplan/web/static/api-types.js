@@ -4,6 +4,12 @@
 
 
 /**
+ * @typedef {object} BasemapOut
+ * @property {string} url XYZ tile URL template ({z}, {x}, {y} or {-y})
+ * @property {string} attribution The credit to show on the map
+ */
+
+/**
  * @typedef {object} BestFrameOut
  * @property {number} frame Frame
  * @property {string} name Name
@@ -296,6 +302,7 @@
  * @property {Object<string, string>} [export_format_help] What each export format is for: name → a few words (the page's menu)
  * @property {Object<string, Object<string, string>>} [metric_help] What each metric means (label, unit, one sentence with the default thresholds): the page's labels
  * @property {Object<string, string>} [aircraft] Aircraft and rover presets of the plan form: id → name
+ * @property {(BasemapOut|null)} [basemap] The map's background tiles set by whoever runs the server; none: a plain grid
  */
 
 /**
@@ -316,6 +323,15 @@
  * @property {string} created_at Created At
  * @property {(string|null)} started_at Started At
  * @property {(string|null)} finished_at Finished At
+ */
+
+/**
+ * lat, lon = origin_lat_lon + matrix · ([x, y] − origin_xy), within max_error_m of the exact transform.
+ * @typedef {object} LatLonFitOut
+ * @property {Array<number>} origin_xy Model x, y (m) the fit is centred on
+ * @property {Array<number>} origin_lat_lon Latitude, longitude (°) there
+ * @property {Array<Array<number>>} matrix [[dlat/dx, dlat/dy], [dlon/dx, dlon/dy]] (° per m)
+ * @property {number} max_error_m Largest distance between the fit and the exact transform over the site (m)
  */
 
 /**
@@ -423,7 +439,8 @@
  * @property {string} created_at Created At
  * @property {(string|null)} revoked_at Revoked At
  * @property {string} token The link's secret, shown once
- * @property {string} url Read-only address of the shared plan (no login needed)
+ * @property {string} url The share view: a read-only page of the plan (its model, map, metrics, feedback and checks), no login needed
+ * @property {string} api_url The same plan as JSON (GET), with its versions and evaluations below it
  */
 
 /**
@@ -676,6 +693,22 @@
  * @typedef {object} SharedPlanOut
  * @property {PlanOut} plan
  * @property {Array<EvaluationOut>} evaluations Evaluations
+ * @property {(ModelOut|null)} [model] The plan's model, if it has one
+ */
+
+/**
+ * Where a model stands on the earth, for the map.
+ * @typedef {object} SiteOut
+ * @property {number} model_id Model Id
+ * @property {boolean} georeferenced Whether the model carries its own georeference; if not, the map is drawn about 0° N 0° E with model +Y as north
+ * @property {string} source Where the georeference comes from (IfcMapConversion, the site's latitude)
+ * @property {string} note Why the model counts as not georeferenced, if it does
+ * @property {Array<number>} centre_lat_lon Latitude, longitude (°) of the model's centre
+ * @property {number} north_offset_deg True heading of model +Y at the centre (°)
+ * @property {Array<Array<number>>} bounds The model's [min, max] corners, model frame (m)
+ * @property {Array<Array<Array<number>>>} footprint_xy Outer rings of the footprint, [x, y] (m), closed
+ * @property {Array<Array<Array<number>>>} footprint_lat_lon The same rings as [latitude, longitude] (°)
+ * @property {LatLonFitOut} to_lat_lon
  */
 
 /**

@@ -1,8 +1,8 @@
 // sightplan's web page: projects, model upload, plans from templates (with points picked in the 3D view), frame
-// editing, evaluation with live progress (at a capture date, with a reality capture as occluders), feedback coloured
-// by metric, simulated views, comparisons and flight-app exports, 4D schedules with the date slider, reality captures,
-// and in team mode the login, members, roles and share links, on top of the REST API; on a phone or a tablet, the
-// panels as sheets over the 3D view.
+// editing with undo and redo, evaluation with live progress (at a capture date, with a reality capture as
+// occluders), feedback coloured by metric, simulated views, comparisons and flight-app exports, 4D schedules with the
+// date slider, reality captures, and in team mode the login, members, roles and share links, on top of the REST API;
+// a map of the site; a plan shared by a link, read-only; on a phone or a tablet, the panels as sheets over the view.
 //
 // The entry point: it makes the 3D viewer, wires each area of the page (one module each, around the state of
 // store.js), draws the page once, then reads the server, the user and the project last opened.
@@ -11,6 +11,7 @@ import { bindAuth, readSession, showLogin } from './auth.js';
 import { setViewer, viewer } from './context.js';
 import { $, act, errorText, showMessage } from './dom.js';
 import { bindEvaluations } from './evaluations.js';
+import { bindFrameEdit } from './frameedit.js';
 import { bindFrames, selectFrame } from './frames.js';
 import { selectElement } from './inspector.js';
 import { bindMap } from './map.js';
@@ -47,6 +48,7 @@ async function init() {
   bindProjects();
   bindModels({ reopenProject: () => selectProject(state.project.id) });
   bindPlans();
+  bindFrameEdit();
   bindFrames();
   bindView();
   bindEvaluations({ openVersion: (plan, version) => selectPlan(plan, version, { keepEvaluation: true }) });

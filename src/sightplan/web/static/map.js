@@ -13,7 +13,7 @@ import { canEdit, projectUrl } from './context.js';
 import { $, act, el, fillSelect, showMessage } from './dom.js';
 import { TAKEOFF_COLOUR, RETURN_COLOUR } from './flight3d.js';
 import { selectFrame } from './frames.js';
-import { editDraft } from './plans.js';
+import { editDraft } from './frameedit.js';
 import { set, state, subscribe } from './store.js';
 
 const STATION_HEIGHT_M = 1.5;  // a pilot's station above the ground, as the server places a latitude/longitude one

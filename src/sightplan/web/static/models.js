@@ -7,7 +7,7 @@ import { set, state, subscribe } from './store.js';
 import { barProgress, onJob, trackJob, uploadInto } from './jobs.js';
 import { loadSchedules } from './schedule.js';
 import { frameColours } from './view.js';
-import { parseGeometry } from './viewer3d.js';
+import { parseGeometry } from './model3d.js';
 
 function renderModels() {
   fillSelect($('#model-select'), state.models.map((m) => [m.id, `${m.original_name}${m.status === 'ready' ? '' : ` (${m.status})`}`]),

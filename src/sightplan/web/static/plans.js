@@ -1,17 +1,17 @@
 // Plans: the plan list and its versions, uploading a plan file, opening a version (its geometry drawn, its flight
-// checked, its evaluation shown), editing its frames (move, turn, delete, copy) and saving the edits as a new
-// version, and the flight-app exports. New plans from a template are templates.js's.
+// checked, its evaluation shown), and the flight-app exports. New plans from a template are templates.js's; the
+// edits of a version's frames (saved as a new version) are frameedit.js's.
 import * as api from './api.js';
 import { formatNumber } from './charts.js';
-import { $, $$, act, el, errorText, fillSelect, showMessage } from './dom.js';
+import { $, act, el, errorText, fillSelect, showMessage } from './dom.js';
 import { projectUrl, viewer } from './context.js';
 import { set, state, subscribe } from './store.js';
 import { clearFeedback, selectEvaluation } from './evaluations.js';
-import { selectFrame, showFrameView, showSelection } from './frames.js';
+import { selectFrame, showSelection } from './frames.js';
 import { selectModel } from './models.js';
 import { loadLinks } from './team.js';
 import { frameColours } from './view.js';
-import { clonePlan, copyFrame, deleteFrame, moveFrame, planGeometry, turnFrame } from './planedit.js';
+import { clonePlan } from './planedit.js';
 
 let checksToken = null;  // the flight checks asked last: an older answer is dropped
 
@@ -53,7 +53,7 @@ export async function selectPlan(id, version = null, { keepEvaluation = false } 
   await loadVersion(number, { keepEvaluation });
 }
 
-async function loadVersion(number, { keepEvaluation = false } = {}) {
+export async function loadVersion(number, { keepEvaluation = false } = {}) {
   if (state.dirty) showMessage('The unsaved edits were discarded.', 'info');
   set({ version: number });
   const base = projectUrl(`/plans/${state.plan.id}/versions/${number}`);
@@ -100,7 +100,8 @@ function renderExportMissions() {
 }
 
 // ---------------------------------------------------------------------------------------------- flight checks
-async function loadChecks() {
+// the flight checks of the version shown (dropped if it is edited meanwhile)
+export async function loadChecks() {
   const token = Symbol('checks');
   checksToken = token;
   $('#checks-summary').textContent = 'Checking the flight (safety distance, line of sight, altitude, battery)…';
@@ -114,7 +115,7 @@ async function loadChecks() {
     viewer.setChecks(checks);
     set({ checks });
   } catch (err) {
-    if (checksToken !== token) return;
+    if (checksToken !== token || state.dirty) return;
     $('#checks-summary').textContent = `The flight checks could not run: ${errorText(err)}`;
   }
 }
@@ -143,68 +144,6 @@ function renderChecks() {
     const m = /waypoints? (\d+)/.exec(text);
     return el('li', { onclick: () => m && selectFrame(Number(m[1]), { scroll: true }) }, text);
   }));
-}
-
-// ---------------------------------------------------------------------------------------------- editing
-function updateEditState() {
-  const hasFrame = state.selectedFrame !== null && state.draft;
-  $('#sec-edit').classList.toggle('disabled', !hasFrame);
-  $('#plan-save').disabled = !state.dirty;
-  $('#plan-discard').disabled = !state.dirty;
-  $('#edit-status').textContent = state.dirty ? 'Edited: save as a new version, then evaluate it.'
-    : hasFrame ? '' : 'Select a frame (click a camera in the 3D view or a row of the frame list).';
-  if (!hasFrame) $('#edit-frame-label').textContent = '';
-}
-
-// an edited copy of the draft (and the frame selected after the edit): drawn, not checked until saved
-function edited(draft, selectedFrame = state.selectedFrame) {
-  checksToken = null;
-  const geom = planGeometry(draft);
-  set({ draft, selectedFrame, dirty: true, checks: null, geom });
-  viewer.setPlan(geom, frameColours(), null);
-  if (state.selectedFrame !== null) {
-    viewer.select(state.selectedFrame);
-    showFrameView();
-  }
-  $('#checks-summary').textContent = 'The plan is edited: save it to check the flight again.';
-  $('#missions-table tbody').replaceChildren();
-  $('#violations').replaceChildren();
-}
-
-// an edit of the draft by another area of the page (the map places a pilot): change(draft) on a copy, then drawn
-export function editDraft(change) {
-  if (!state.draft) throw new Error('open a plan first');
-  const draft = clonePlan(state.draft);
-  change(draft);
-  edited(draft);
-}
-
-function needFrame() {
-  if (state.selectedFrame === null || !state.draft) throw new Error('select a frame first');
-  return state.selectedFrame;
-}
-
-function move(delta) {
-  const i = needFrame();
-  const draft = clonePlan(state.draft);
-  moveFrame(draft, i, delta);
-  edited(draft);
-}
-
-function turn(yaw, pitch) {
-  const i = needFrame();
-  const draft = clonePlan(state.draft);
-  turnFrame(draft, i, yaw, pitch);
-  edited(draft);
-}
-
-async function savePlan() {
-  if (!state.dirty) throw new Error('nothing to save: the plan is not edited');
-  const plan = await api.put(projectUrl(`/plans/${state.plan.id}?note=${encodeURIComponent('edited in the viewer')}`), state.draft);
-  set({ plans: state.plans.map((p) => (p.id === plan.id ? plan : p)), dirty: false });
-  showMessage(`Saved as version ${plan.latest_version} of “${plan.name}”.`, 'ok');
-  await selectPlan(plan.id, plan.latest_version);
-  if (state.selectedFrame !== null) selectFrame(state.selectedFrame);
 }
 
 // ---------------------------------------------------------------------------------------------- exports
@@ -252,52 +191,9 @@ export function bindPlans() {
   subscribe(['saved', 'draft', 'dirty'], renderPlanSummary);
   subscribe(['draft'], renderExportMissions);
   subscribe(['checks'], renderChecks);
-  subscribe(['selectedFrame', 'draft', 'dirty'], updateEditState);
   $('#plan-upload').addEventListener('click', () => act('Uploading the plan', uploadPlan));
   $('#plan-select').addEventListener('change', (ev) => act('Opening the plan', () => selectPlan(Number(ev.target.value))));
   $('#version-select').addEventListener('change', (ev) => act('Opening the version', () => loadVersion(Number(ev.target.value))));
-  for (const b of $$('[data-move]')) {
-    b.addEventListener('click', () => act('Moving the frame', async () => {
-      const step = Number($('#move-step').value) || 1;
-      const bearing = { 'y+': 0, 'x+': 90, 'y-': 180, 'x-': 270 }[b.dataset.move];
-      if (bearing !== undefined && state.northOffset !== null) {  // N, E, S, W: true directions on a georeferenced plan
-        const a = ((bearing - state.northOffset) * Math.PI) / 180;
-        move([step * Math.sin(a), step * Math.cos(a), 0]);
-        return;
-      }
-      const axis = 'xyz'.indexOf(b.dataset.move[0]);
-      const d = [0, 0, 0];
-      d[axis] = b.dataset.move[1] === '+' ? step : -step;
-      move(d);
-    }));
-  }
-  $('#move-apply').addEventListener('click', () => act('Moving the frame', async () => {
-    const d = ['#move-dx', '#move-dy', '#move-dz'].map((s) => Number($(s).value) || 0);
-    if (d.every((v) => v === 0)) throw new Error('give dx, dy or dz in metres');
-    move(d);
-  }));
-  for (const b of $$('[data-rotate]')) {
-    b.addEventListener('click', () => act('Turning the frame', async () => {
-      const step = Number($('#rot-step').value) || 5;
-      const sign = b.dataset.rotate.endsWith('+') ? 1 : -1;
-      if (b.dataset.rotate.startsWith('yaw')) turn(sign * step, 0);
-      else turn(0, sign * step);
-    }));
-  }
-  $('#frame-delete').addEventListener('click', () => act('Deleting the frame', async () => {
-    const i = needFrame();
-    const draft = clonePlan(state.draft);
-    deleteFrame(draft, i);
-    edited(draft, Math.min(i, draft.frames.length - 1));
-  }));
-  $('#frame-copy').addEventListener('click', () => act('Copying the frame', async () => {
-    const i = needFrame();
-    const draft = clonePlan(state.draft);
-    edited(draft, copyFrame(draft, i));
-  }));
-  $('#frame-look').addEventListener('click', () => act('Looking through the frame', async () => viewer.lookThrough(needFrame())));
-  $('#plan-save').addEventListener('click', () => act('Saving the plan', savePlan));
-  $('#plan-discard').addEventListener('click', () => act('Discarding the edits', () => loadVersion(state.version)));
   $('#export-wpml').addEventListener('click', () => act('Exporting for DJI Pilot 2', () => exportPlan('wpml')));
   $('#export-qgc').addEventListener('click', () => act('Exporting for QGroundControl', () => exportPlan('qgc')));
   subscribe(['info'], () => {  // the formats the server writes, besides the two with buttons of their own

@@ -14,6 +14,7 @@ const S = {
   info: null, cameras: [], templates: [], me: null, projects: [], project: null, members: [], links: [],
   models: [], model: null, elements: null, geometryModel: null, fitted: null,
   plans: [], plan: null, version: null, saved: null, draft: null, dirty: false, geom: null, checks: null,
+  undo: [], redo: [],  // the frame edits of the draft to undo and to redo (frameedit.js), the latest last
   northOffset: null,  // degrees from a model heading to the true heading (the plan's georeference), or null
   evaluations: [], evaluation: null, feedback: null, colourer: null, compareChosen: false,
   metric: 'visibility', bounds: {}, frameColourChosen: false, selectedFrame: null, selectedElement: null,

@@ -7,6 +7,7 @@
 //                        the plan and version shown (null without one)
 //   frameCount()         frames of the plan version shown, edits included (null before one is read)
 //   selectedFrame()      the frame selected (an index), or null
+//   framePose(i)         frame i of the version shown, edits included: { position, rotation (row-major, 9) }, or null
 //   flightChecked()      the flight checks of the version shown have arrived
 //   evaluationId()       the evaluation whose feedback colours the page, or null
 //   evaluation()         that evaluation: { id, planId, planVersion, modelId, settings } (a copy), or null
@@ -53,6 +54,8 @@ export function installTestHook() {
     planVersion: () => (state.plan ? state.version : null),
     frameCount: () => (state.geom ? state.geom.position.length : null),
     selectedFrame: () => state.selectedFrame,
+    framePose: (i) => (state.geom && i >= 0 && i < state.geom.position.length
+      ? { position: copy(state.geom.position[i]), rotation: copy(state.geom.rotation[i]) } : null),
     flightChecked: () => state.checks !== null,
     evaluationId: () => (state.evaluation && state.feedback ? state.evaluation.id : null),
     evaluation: () => {
