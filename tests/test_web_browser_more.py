@@ -750,7 +750,7 @@ def test_team_mode_login_members_share_links_and_roles(browser, team_server, art
         page.click("#frame-list tbody tr[data-frame='0']")
         page.wait_for_function("window.sightplanTest.selectedFrame() === 0")
         page.keyboard.press("Delete")  # the edit keys do nothing for a viewer
-        assert page.evaluate("window.sightplanTest.frameCount()") == 4 and not page.evaluate("window.sightplanTest.dirty()")
+        assert page.evaluate("window.sightplanTest.frameCount()") == 8 and not page.evaluate("window.sightplanTest.dirty()")
         refused = page.request.post(f"{server.url}/api/projects/{project}/plans",
                                     data={"model_id": 1, "template": "orbit", "radius_m": [9], "height_m": [2]})
         assert refused.status == 403  # what the page does not offer, the API refuses

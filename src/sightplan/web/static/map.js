@@ -173,6 +173,7 @@ async function ensureMap() {
   map.addControl(new gl.ScaleControl({ unit: 'metric', maxWidth: 120 }), 'bottom-left');
   map.on('load', () => {
     loaded = true;
+    map.setStyle(style());  // the site and the server's basemap may have arrived while the map loaded
     setData(drawn);
     fitSite();
   });
