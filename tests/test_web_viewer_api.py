@@ -525,3 +525,65 @@ def test_a_basemap_is_configured_checked_and_allowed(tmp_path):
         policy = r.headers["content-security-policy"]
         assert "img-src 'self' data: blob: https://tiles.example.com;" in policy
         assert "connect-src 'self' https://tiles.example.com;" in policy
+
+
+def _geotiff(path, easting: float, northing: float, epsg: int | None = 32616, size=(40, 60)) -> None:
+    """A small RGB GeoTIFF: 5 cm pixels, its top-left corner at (easting, northing) in EPSG ``epsg``."""
+    import tifffile
+
+    rgb = np.zeros((*size, 3), np.uint8)
+    rgb[..., 1] = 180
+    keys = [1, 1, 0, 3, 1024, 0, 1, 1, 1025, 0, 1, 1, 3072, 0, 1, epsg or 32767]
+    tags = [(33550, "d", 3, (0.05, 0.05, 0.0), False), (34735, "H", len(keys), keys, False),
+            (33922, "d", 6, (0.0, 0.0, 0.0, easting, northing, 0.0), False)]
+    tifffile.imwrite(path, rgb, photometric="rgb", extratags=tags)
+
+
+def test_a_project_background_from_an_orthomosaic_and_from_mbtiles(client, project, tmp_path):
+    """A GeoTIFF orthomosaic is placed by its own tags (its corners against pyproj's UTM → WGS 84); an MBTiles file is
+    served tile by tile with its rows counted from the south; a TIFF without a georeference and vector tiles are
+    refused with what to do."""
+    import sqlite3
+
+    import tifffile
+    from pyproj import Transformer
+
+    tif = tmp_path / "ortho.tif"
+    _geotiff(tif, 447000.0, 4636000.0)
+    r = client.post(f"/api/projects/{project}/basemap", files={"file": ("ortho.tif", tif.read_bytes())})
+    assert r.status_code == 200, r.text
+    bg = r.json()
+    assert bg["kind"] == "image" and (bg["width_px"], bg["height_px"]) == (60, 40)
+    to_geo = Transformer.from_crs("EPSG:32616", "EPSG:4326", always_xy=True)
+    want = [to_geo.transform(447000.0 + dx, 4636000.0 - dy) for dx, dy in ((0, 0), (3, 0), (3, 2), (0, 2))]
+    assert np.allclose(bg["corners"], want, atol=1e-9)
+    png = client.get(bg["url"])
+    assert png.status_code == 200 and png.content[:8] == b"\x89PNG\r\n\x1a\n"
+    assert client.get(f"/api/projects/{project}/basemap").json()["corners"] == bg["corners"]
+    # MBTiles: one tile at z 1, x 0, XYZ row 0 (the file's row 1)
+    mb = tmp_path / "site.mbtiles"
+    with sqlite3.connect(mb) as db:
+        db.execute("CREATE TABLE metadata (name TEXT, value TEXT)")
+        db.execute("CREATE TABLE tiles (zoom_level INTEGER, tile_column INTEGER, tile_row INTEGER, tile_data BLOB)")
+        db.executemany("INSERT INTO metadata VALUES (?, ?)", [("format", "png"), ("bounds", "-88,41,-87,42"),
+                                                              ("attribution", "drone survey")])
+        db.execute("INSERT INTO tiles VALUES (1, 0, 1, ?)", (b"\x89PNG-north-west",))
+    r = client.post(f"/api/projects/{project}/basemap", files={"file": ("site.mbtiles", mb.read_bytes())})
+    assert r.status_code == 200 and r.json()["kind"] == "tiles" and r.json()["bounds"] == [-88, 41, -87, 42]
+    assert client.get(f"/api/projects/{project}/basemap/tiles/1/0/0").content == b"\x89PNG-north-west"
+    assert client.get(f"/api/projects/{project}/basemap/tiles/1/0/1").status_code == 404
+    # refusals, and the previous background kept
+    bad = tmp_path / "plain.tif"
+    tifffile.imwrite(bad, np.zeros((8, 8, 3), np.uint8))
+    r = client.post(f"/api/projects/{project}/basemap", files={"file": ("plain.tif", bad.read_bytes())})
+    assert r.status_code == 422 and "GeoTIFF" in r.json()["detail"]
+    _geotiff(bad, 447000.0, 4636000.0, epsg=None)  # a user-defined CRS
+    r = client.post(f"/api/projects/{project}/basemap", files={"file": ("local.tif", bad.read_bytes())})
+    assert r.status_code == 422 and "EPSG code" in r.json()["detail"]
+    with sqlite3.connect(mb) as db:
+        db.execute("UPDATE metadata SET value = 'pbf' WHERE name = 'format'")
+    r = client.post(f"/api/projects/{project}/basemap", files={"file": ("vector.mbtiles", mb.read_bytes())})
+    assert r.status_code == 422 and "raster tiles" in r.json()["detail"]
+    assert client.get(f"/api/projects/{project}/basemap").json()["kind"] == "tiles"
+    assert client.delete(f"/api/projects/{project}/basemap").status_code == 204
+    assert client.get(f"/api/projects/{project}/basemap").status_code == 404

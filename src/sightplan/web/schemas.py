@@ -432,6 +432,24 @@ class LatLonFitOut(BaseModel):
     max_error_m: float = Field(description="Largest distance between the fit and the exact transform over the site (m)")
 
 
+class ProjectBasemapOut(BaseModel):
+    """A project's own map background."""
+
+    kind: Literal["image", "tiles"] = Field(description="image: an orthomosaic stretched over its corners; tiles: "
+                                                        "MBTiles served tile by tile")
+    name: str = Field(description="The uploaded file's name (or the MBTiles' own)")
+    url: str = Field(description="The image, or the tile URL template ({z}/{x}/{y})")
+    corners: list[list[float]] | None = Field(None, description="image: [lon, lat] of its top-left, top-right, "
+                                                                "bottom-right and bottom-left corners")
+    width_px: int | None = Field(None, description="image: the orthomosaic's width (px)")
+    height_px: int | None = Field(None, description="image: the orthomosaic's height (px)")
+    bounds: list[float] | None = Field(None, description="tiles: [west, south, east, north] (°), when the file says")
+    min_zoom: int | None = None
+    max_zoom: int | None = None
+    format: str | None = Field(None, description="tiles: png, jpg or webp")
+    attribution: str = ""
+
+
 class SiteOut(BaseModel):
     """Where a model stands on the earth, for the map."""
 

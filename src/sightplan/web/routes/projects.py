@@ -71,6 +71,7 @@ def delete_project(project: ProjectOwn, session: SessionDep, state: StateDep) ->
         files += [storage.schedule_path(n) for n in (sched.stored_name, sched.rules_name, sched.dates_name) if n]
     for real in session.scalars(select(Reality).where(Reality.project_id == project_id)):
         files += [storage.reality_path(n) for n in (real.stored_name, real.view_name, real.view_name + ".glb")]
+    files.append(storage.root / "basemaps" / str(project_id))  # its map background
     session.delete(project)
     session.commit()
     storage.remove(*files)

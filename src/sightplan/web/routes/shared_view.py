@@ -26,6 +26,7 @@ from ..schemas import (
     ModelDetailOut,
     PlanFileOut,
     PlanGeometryOut,
+    ProjectBasemapOut,
     SiteOut,
 )
 from . import evaluations, models, plans, site, viewer
@@ -171,3 +172,22 @@ def shared_evaluation_view(token: str, evaluation_id: int, frame: int, session: 
                            = True) -> Response:
     return viewer.evaluation_view(_evaluation_of(session, token, evaluation_id), evaluation_id, frame, session, state,
                                   metric, lo, hi, width, shading)
+
+
+@router.get("/basemap", response_model=ProjectBasemapOut, summary="The shared plan's project's map background",
+            responses=NOT_FOUND)
+def shared_basemap(token: str, session: SessionDep, state: StateDep) -> ProjectBasemapOut:
+    project, _ = _shared(session, token)
+    return site.basemap_out(site._info(state, project.id), f"/api/shared/{token}")
+
+
+@router.get("/basemap/image.png", response_class=FileResponse, summary="The project's orthomosaic (shared plan)",
+            responses={**PNG, **NOT_FOUND})
+def shared_basemap_image(token: str, session: SessionDep, state: StateDep) -> FileResponse:
+    return site.basemap_image(state, _shared(session, token)[0].id)
+
+
+@router.get("/basemap/tiles/{z}/{x}/{y}", response_class=Response, summary="One tile of the project's MBTiles "
+            "(shared plan)", responses={**site.TILE, **NOT_FOUND})
+def shared_basemap_tile(token: str, z: int, x: int, y: int, session: SessionDep, state: StateDep) -> Response:
+    return site.basemap_tile(state, _shared(session, token)[0].id, z, x, y)

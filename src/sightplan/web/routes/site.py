@@ -5,22 +5,29 @@ answer about a stand-in origin at 0° N 0° E with model +Y as north, marked as 
 
 from __future__ import annotations
 
-from typing import Any
+from pathlib import Path
+from typing import Annotated, Any
 
 import numpy as np
-from fastapi import APIRouter
+from fastapi import APIRouter, File, HTTPException, Response, UploadFile
+from fastapi.responses import FileResponse
+from starlette.concurrency import run_in_threadpool
 
 from ...geo import Georeference, GeoreferenceError
 from ...model.footprint import footprint_rings
-from ..deps import ProjectRead, SessionDep, StateDep, ready_model
-from ..schemas import SiteOut
+from ..basemap import SUFFIXES, TILE_MEDIA, prepare, read_info, read_tile
+from ..deps import ProjectEdit, ProjectRead, SessionDep, StateDep, ready_model
+from ..schemas import ErrorOut, ProjectBasemapOut, SiteOut
 from ..services import load_scene
-from .viewer import NOT_FOUND, NOT_READY, _Cache
+from ..storage import display_name
+from ..uploads import receive_upload
+from .viewer import NOT_FOUND, NOT_READY, PNG, _Cache
 
 router = APIRouter(tags=["viewer"])
 #: The affine fit covers the model and this much around it (m): the pilots' stations and a line-of-sight circle.
 SITE_MARGIN_M = 600.0
 _site_cache: _Cache = _Cache(8)
+TILE = {200: {"description": "A PNG, JPEG or WebP tile", "content": {"image/png": {}, "image/jpeg": {}, "image/webp": {}}}}
 
 
 def site_map(scene) -> dict[str, Any]:
@@ -63,3 +70,86 @@ def model_site(project: ProjectRead, model_id: int, session: SessionDep, state: 
     model = ready_model(session, project.id, model_id)
     out = _site_cache.get(model.stored_name, lambda: site_map(load_scene(state.storage, model.stored_name)[0]))
     return SiteOut(model_id=model.id, **out)
+
+
+# --------------------------------------------------------------------------- the project's own map background
+def basemap_folder(state, project_id: int) -> Path:
+    return state.storage.root / "basemaps" / str(project_id)
+
+
+def basemap_out(info: dict[str, Any], base: str) -> ProjectBasemapOut:
+    url = f"{base}/basemap/image.png" if info["kind"] == "image" else f"{base}/basemap/tiles/{{z}}/{{x}}/{{y}}"
+    return ProjectBasemapOut(url=url, **{k: v for k, v in info.items() if k in ProjectBasemapOut.model_fields})
+
+
+def _info(state, project_id: int) -> dict[str, Any]:
+    info = read_info(basemap_folder(state, project_id))
+    if info is None:
+        raise HTTPException(404, f"project {project_id} has no map background of its own")
+    return info
+
+
+@router.get("/api/projects/{project_id}/basemap", response_model=ProjectBasemapOut,
+            summary="The project's own map background (an orthomosaic or MBTiles), if it has one",
+            responses=NOT_FOUND)
+def read_basemap(project: ProjectRead, state: StateDep) -> ProjectBasemapOut:
+    return basemap_out(_info(state, project.id), f"/api/projects/{project.id}")
+
+
+@router.post("/api/projects/{project_id}/basemap", response_model=ProjectBasemapOut,
+            summary="Upload the project's map background: a GeoTIFF orthomosaic or raster MBTiles (editor or owner)",
+            description="A GeoTIFF is placed by its own georeference (EPSG code; tie point and pixel scale, or a model "
+                        "transformation) and shown at most 4096 px a side; an MBTiles file of PNG, JPEG or WebP tiles "
+                        "is served tile by tile. It replaces the project's previous one and, on the project's map, "
+                        "the server's basemap.",
+            responses={**NOT_FOUND, 415: {"model": ErrorOut, "description": "Not a .tif, .tiff or .mbtiles file"},
+                       422: {"model": ErrorOut, "description": "Not georeferenced, or not raster tiles"}})
+async def upload_basemap(project: ProjectEdit, state: StateDep,
+                         file: Annotated[UploadFile, File(description="GeoTIFF orthomosaic or MBTiles")]
+                         ) -> ProjectBasemapOut:
+    tmp, _ = await receive_upload(state, file, SUFFIXES, "map background (GeoTIFF or MBTiles)")
+    folder = basemap_folder(state, project.id)
+    staging = state.storage.temp_path("-basemap")
+    try:
+        info = await run_in_threadpool(prepare, tmp, staging, display_name(file.filename or "background"))
+        state.storage.remove(folder)
+        folder.parent.mkdir(parents=True, exist_ok=True)
+        staging.replace(folder)
+    finally:
+        state.storage.remove(tmp, staging)
+    return basemap_out(info, f"/api/projects/{project.id}")
+
+
+@router.delete("/api/projects/{project_id}/basemap", status_code=204, response_class=Response,
+               summary="Remove the project's map background (editor or owner)", responses=NOT_FOUND)
+def delete_basemap(project: ProjectEdit, state: StateDep) -> Response:
+    _info(state, project.id)
+    state.storage.remove(basemap_folder(state, project.id))
+    return Response(status_code=204)
+
+
+def basemap_image(state, project_id: int) -> FileResponse:
+    if _info(state, project_id)["kind"] != "image":
+        raise HTTPException(404, "the project's map background is tiles, not one image")
+    return FileResponse(basemap_folder(state, project_id) / "image.png", media_type="image/png",
+                        headers={"Cache-Control": "private, max-age=300"})
+
+
+def basemap_tile(state, project_id: int, z: int, x: int, y: int) -> Response:
+    info = _info(state, project_id)
+    data = read_tile(basemap_folder(state, project_id), z, x, y) if info["kind"] == "tiles" else None
+    if data is None:
+        raise HTTPException(404, f"no tile {z}/{x}/{y} in the project's map background")
+    return Response(data, media_type=TILE_MEDIA[info["format"]], headers={"Cache-Control": "private, max-age=300"})
+
+
+@router.get("/api/projects/{project_id}/basemap/image.png", response_class=FileResponse,
+            summary="The project's orthomosaic as one PNG", responses={**PNG, **NOT_FOUND})
+def read_basemap_image(project: ProjectRead, state: StateDep) -> FileResponse:
+    return basemap_image(state, project.id)
+
+
+@router.get("/api/projects/{project_id}/basemap/tiles/{z}/{x}/{y}", response_class=Response,
+            summary="One tile of the project's MBTiles (XYZ numbering)", responses={**TILE, **NOT_FOUND})
+def read_basemap_tile(project: ProjectRead, state: StateDep, z: int, x: int, y: int) -> Response:
+    return basemap_tile(state, project.id, z, x, y)

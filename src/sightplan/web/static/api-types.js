@@ -29,6 +29,11 @@
  */
 
 /**
+ * @typedef {object} Body_upload_basemap_api_projects__project_id__basemap_post
+ * @property {string} file GeoTIFF orthomosaic or MBTiles
+ */
+
+/**
  * @typedef {object} Body_upload_model_api_projects__project_id__models_post
  * @property {string} file IFC (.ifc, .ifczip) or mesh (.obj, .ply, .stl, .gltf, .glb) file
  */
@@ -584,6 +589,22 @@
  * @property {number} missions Missions
  * @property {string} note Note
  * @property {string} created_at Created At
+ */
+
+/**
+ * A project's own map background.
+ * @typedef {object} ProjectBasemapOut
+ * @property {'image'|'tiles'} kind image: an orthomosaic stretched over its corners; tiles: MBTiles served tile by tile
+ * @property {string} name The uploaded file's name (or the MBTiles' own)
+ * @property {string} url The image, or the tile URL template ({z}/{x}/{y})
+ * @property {(Array<Array<number>>|null)} [corners] image: [lon, lat] of its top-left, top-right, bottom-right and bottom-left corners
+ * @property {(number|null)} [width_px] image: the orthomosaic's width (px)
+ * @property {(number|null)} [height_px] image: the orthomosaic's height (px)
+ * @property {(Array<number>|null)} [bounds] tiles: [west, south, east, north] (°), when the file says
+ * @property {(number|null)} [min_zoom] Min Zoom
+ * @property {(number|null)} [max_zoom] Max Zoom
+ * @property {(string|null)} [format] tiles: png, jpg or webp
+ * @property {string} [attribution] Attribution
  */
 
 /**

@@ -1,7 +1,8 @@
 // The map beside the 3D view (MapLibre GL JS, loaded the first time the map is shown): the model's footprint where it
 // stands on the earth, the plan's frames and paths by mission, each pilot with the line-of-sight circle, the checked
-// flights out and home, and the pointer's latitude/longitude. True north is up. The background is the tiles the
-// server is configured with (GET /api/info: basemap), else a plain grid, with a scale bar and a north arrow.
+// flights out and home, and the pointer's latitude/longitude. True north is up. The background is the project's own
+// (an orthomosaic GeoTIFF or MBTiles uploaded from the map's bar: GET …/basemap), else the tiles the server is
+// configured with (GET /api/info: basemap), else a plain grid; with a scale bar and a north arrow.
 // A pilot can be placed by a click: for a mission of the plan shown (an edit, saved as a new version like any other)
 // or as a ground station of the new-plan form.
 //
@@ -111,9 +112,17 @@ function planData() {
 
 function style() {
   const base = state.info && state.info.basemap;
+  const own = state.background;
   const sources = {};
   const layers = [{ id: 'background', type: 'background', paint: { 'background-color': '#f3f1ec' } }];
-  if (base && state.site && state.site.georeferenced) {
+  if (own && own.kind === 'image') {
+    sources.basemap = { type: 'image', url: own.url, coordinates: own.corners };
+    layers.push({ id: 'basemap', type: 'raster', source: 'basemap' });
+  } else if (own) {
+    sources.basemap = { type: 'raster', tiles: [own.url], tileSize: 256, minzoom: own.min_zoom ?? 0,
+      maxzoom: own.max_zoom ?? 22, attribution: own.attribution || '', ...(own.bounds ? { bounds: own.bounds } : {}) };
+    layers.push({ id: 'basemap', type: 'raster', source: 'basemap' });
+  } else if (base && state.site && state.site.georeferenced) {
     const tms = base.url.includes('{-y}');
     sources.basemap = { type: 'raster', tiles: [base.url.replace('{-y}', '{y}')], tileSize: 256, scheme: tms ? 'tms' : 'xyz',
       attribution: base.attribution || '', maxzoom: 22 };
@@ -249,6 +258,34 @@ function renderSite() {
   if (map && loaded) fitSite();
 }
 
+// the project's own background: read when a project opens, uploaded or removed from the map's bar
+async function loadBackground() {
+  let background = null;
+  if (state.project) {
+    try {
+      background = await api.get(projectUrl('/basemap'));
+    } catch (err) {
+      if (err.status !== 404) throw err;
+    }
+  }
+  set({ background });
+}
+
+async function uploadBackground() {
+  const file = $('#map-bg-file').files[0];
+  if (!file) throw new Error('choose a GeoTIFF orthomosaic or an MBTiles file first');
+  const form = new FormData();
+  form.append('file', file);
+  set({ background: await api.upload(projectUrl('/basemap'), form) });
+  $('#map-bg-file').value = '';
+  showMessage(`Map background “${state.background.name}” uploaded.`, 'ok');
+}
+
+function renderBackground() {
+  $('#map-bg-remove').hidden = !state.background;
+  if (map && loaded) map.setStyle(style());
+}
+
 async function showMap(on) {
   $('#view').classList.toggle('with-map', on);
   $('#map-box').hidden = !on;
@@ -270,6 +307,13 @@ export function bindMap() {
   }));
   subscribe(['model'], () => act('Reading where the model stands', loadSite));
   subscribe(['site', 'info'], renderSite);
+  subscribe(['project'], () => act('Reading the map background', loadBackground));
+  subscribe(['background'], renderBackground);
+  $('#map-bg-upload').addEventListener('click', () => act('Uploading the map background', uploadBackground));
+  $('#map-bg-remove').addEventListener('click', () => act('Removing the map background', async () => {
+    await api.del(projectUrl('/basemap'));
+    set({ background: null });
+  }));
   subscribe(['geom', 'checks', 'selectedFrame'], drawPlan);
   subscribe(['draft'], renderPlaceOptions);
   if ($('#layer-map').checked) act('Opening the map', () => showMap(true));
@@ -287,5 +331,5 @@ export const mapHook = Object.freeze({
     return { x: r.left + p.x, y: r.top + p.y };
   },
   toLatLon: (p) => toLatLon(p),
-  basemapTiles: () => (map && map.getSource('basemap') ? true : false),
+  basemap: () => (map && map.getSource('basemap') ? map.getSource('basemap').type : null),
 });

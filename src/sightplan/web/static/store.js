@@ -19,6 +19,7 @@ const S = {
   evaluations: [], evaluation: null, feedback: null, colourer: null, compareChosen: false,
   metric: 'visibility', bounds: {}, frameColourChosen: false, selectedFrame: null, selectedElement: null,
   site: null,  // where the model shown stands (GET …/models/{id}/site), for the map
+  background: null,  // the project's own map background (GET …/basemap), or null
   allSchedules: [], dateStates: null, realities: [], realityHidden: new Set(), pick: null,
 };
 
