@@ -403,6 +403,7 @@ def test_pilot_position_take_off_and_return_and_export_anyway(browser, server, a
         page.select_option("#eval-as-flown", "px4")
         page.select_option("#eval-error", "rtk")
         page.fill("#eval-draws", "4")
+        page.fill("#eval-omega", "400")
         page.click("#eval-start")
         wait_for(page, "document.querySelector('#metrics-table tr.band') !== null", 120)
         (ev,) = [e for e in server.get(f"/api/projects/{project}/evaluations") if e["settings"].get("as_flown")]
@@ -414,11 +415,17 @@ def test_pilot_position_take_off_and_return_and_export_anyway(browser, server, a
         assert band.locator("td[data-band=VC_pct]").inner_text() == f"{vc['p5']:.2f}–{vc['p95']:.2f}"
         assert "4 draws, ±0.1 m / ±0.1 m" in band.inner_text()
         shot(page, artifacts, "23d-as-flown-with-band")
-        # every metric label of the table says what it means, as the library's glossary does
-        help_ = server.get("/api/info")["metric_help"]
+        # every metric label of the table says what it means, as the library's glossary does, with the thresholds
+        # of the evaluation shown (Ω = 400 px here, not the default 625)
+        from sightplan.metrics.glossary import glossary
+        from sightplan.metrics.params import MetricParams
+
+        wait_for(page, f"window.sightplanTest.evaluationId() === {ev['id']}")
+        help_ = glossary(MetricParams(omega=400))
         titles = page.eval_on_selector_all("#metrics-table th[data-metric]",
                                            "ths => ths.map((t) => [t.dataset.metric, t.title])")
         assert len(titles) == 8 and all(t == help_[k]["text"] for k, t in titles), titles
+        assert "400" in dict(titles)["VC_pct"] and "625" not in dict(titles)["VC_pct"]
         assert not [p for p in problems if "page error" in p], problems
     finally:
         ctx.close()

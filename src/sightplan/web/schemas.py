@@ -629,6 +629,8 @@ class FeedbackOut(BaseModel):
     cameras: list[list[float]] = Field(description="Camera centres in the viewer's frame (Y up, m)")
     frames: FeedbackFramesOut
     params: FeedbackParamsOut
+    metric_help: dict[str, dict[str, str]] = Field(default_factory=dict, description=(
+        "What each metric means with this evaluation's thresholds (Ω, k, Y, Λ): label, unit and one sentence"))
     plan_metrics: dict[str, Any] | None = Field(description="The plan metrics, as report.json's 'metrics'")
     missions: list[FeedbackMissionOut]
     evaluation_id: int

@@ -338,6 +338,7 @@ def plan_checks(project: ProjectRead, plan_id: int, number: int, session: Sessio
 
 # --------------------------------------------------------------------------- an evaluation
 def feedback_dict(state: ServerState, session: Session, ev_row: Evaluation, model: Model) -> dict[str, Any]:
+    from ...metrics.glossary import glossary
     from ...report.colours import GRADIENT, OCCLUDER, UNSEEN
     from ...report.html import viewer_data
     from ...report.overview import OBSERVED_ONLY, VISIBLE
@@ -358,6 +359,7 @@ def feedback_dict(state: ServerState, session: Session, ev_row: Evaluation, mode
                         "occluder_rgb": list(OCCLUDER),
                         "classes_rgb": [list(c) for c in (VISIBLE, OBSERVED_ONLY, UNSEEN, OCCLUDER)]}
     data["params"] = {"omega": mp.omega, "k": mp.k, "min_track": mp.min_track, "min_features": mp.min_features}
+    data["metric_help"] = glossary(mp)  # the definitions with this evaluation's thresholds
     data["plan_metrics"] = ev_row.metrics
     data["missions"] = [{"name": m.name, "start": m.start, "stop": m.stop} for m in plan.missions]
     data |= {"evaluation_id": ev_row.id, "plan_id": ev_row.plan_version.plan_id,

@@ -254,6 +254,7 @@
  * @property {Array<Array<number>>} cameras Camera centres in the viewer's frame (Y up, m)
  * @property {FeedbackFramesOut} frames
  * @property {FeedbackParamsOut} params
+ * @property {Object<string, Object<string, string>>} [metric_help] What each metric means with this evaluation's thresholds (Ω, k, Y, Λ): label, unit and one sentence
  * @property {(Object<string, *>|null)} plan_metrics The plan metrics, as report.json's 'metrics'
  * @property {Array<FeedbackMissionOut>} missions Missions
  * @property {number} evaluation_id Evaluation Id
