@@ -34,6 +34,7 @@ from .shared import _evaluation, shared_plan
 
 router = APIRouter(prefix="/api/shared/{token}", tags=["members and sharing"])
 NOT_FOUND = {404: {"model": ErrorOut, "description": "No such link (or revoked), or an id that is not the shared plan's"}}
+READ = {**NOT_FOUND, **viewer.NOT_READY, **viewer.BAD_VALUE}  # what the project's own reads answer besides
 PNG = {200: {"description": "A PNG image", "content": {"image/png": {}}}}
 
 
@@ -63,44 +64,44 @@ def _evaluation_of(session: Session, token: str, evaluation_id: int) -> Project:
 
 
 @router.get("/models/{model_id}", response_model=ModelDetailOut, summary="The shared plan's model, with its load report",
-            responses=NOT_FOUND)
+            responses=READ)
 def shared_model(token: str, model_id: int, session: SessionDep) -> Model:
     return models.read_model(_model(session, token, model_id).id, model_id, session)
 
 
 @router.get("/models/{model_id}/geometry", summary="The shared plan's model as the viewer's binary geometry",
-            response_class=Response, responses=NOT_FOUND)
+            response_class=Response, responses=READ)
 def shared_model_geometry(token: str, model_id: int, request: Request, session: SessionDep, state: StateDep) -> Response:
     return viewer.model_geometry(_model(session, token, model_id), model_id, request, session, state)
 
 
 @router.get("/models/{model_id}/elements", response_model=ElementTableOut, summary="The shared plan's model's elements",
-            responses=NOT_FOUND)
+            responses=READ)
 def shared_model_elements(token: str, model_id: int, session: SessionDep, state: StateDep) -> ElementTableOut:
     return viewer.model_elements(_model(session, token, model_id), model_id, session, state)
 
 
 @router.get("/models/{model_id}/site", response_model=SiteOut, summary="Where the shared plan's model stands",
-            responses=NOT_FOUND)
+            responses=READ)
 def shared_model_site(token: str, model_id: int, session: SessionDep, state: StateDep) -> SiteOut:
     return site.model_site(_model(session, token, model_id), model_id, session, state)
 
 
 @router.get("/plans/{plan_id}/versions/{number}", response_model=PlanFileOut, response_model_exclude_unset=True,
-            summary="A version of the shared plan (plan JSON)", responses=NOT_FOUND)
+            summary="A version of the shared plan (plan JSON)", responses=READ)
 def shared_version(token: str, plan_id: int, number: int, session: SessionDep, state: StateDep) -> dict:
     return plans.read_version(_plan(session, token, plan_id).id, plan_id, number, session, state)
 
 
 @router.get("/plans/{plan_id}/versions/{number}/geometry", response_model=PlanGeometryOut,
-            summary="A version of the shared plan for the 3D view", responses=NOT_FOUND)
+            summary="A version of the shared plan for the 3D view", responses=READ)
 def shared_version_geometry(token: str, plan_id: int, number: int, session: SessionDep, state: StateDep
                             ) -> PlanGeometryOut:
     return viewer.plan_geometry(_plan(session, token, plan_id), plan_id, number, session, state)
 
 
 @router.get("/plans/{plan_id}/versions/{number}/checks", response_model=FlightChecksOut,
-            summary="The flight checks of a version of the shared plan, against its model", responses=NOT_FOUND)
+            summary="The flight checks of a version of the shared plan, against its model", responses=READ)
 def shared_version_checks(token: str, plan_id: int, number: int, session: SessionDep, state: StateDep,
                           model_id: Annotated[int | None, Query(description="The plan's model (the only one)")] = None,
                           ) -> FlightChecksOut:
@@ -111,7 +112,7 @@ def shared_version_checks(token: str, plan_id: int, number: int, session: Sessio
 
 
 @router.get("/plans/{plan_id}/versions/{number}/export", response_class=FileResponse,
-            summary="Export a version of the shared plan for a flight app", responses=NOT_FOUND)
+            summary="Export a version of the shared plan for a flight app", responses={**plans.EXPORTED, **NOT_FOUND})
 def shared_version_export(token: str, plan_id: int, number: int, session: SessionDep, state: StateDep,
                           background: BackgroundTasks,
                           format: Annotated[ExportFormat, Query(description=export_choices())],
@@ -129,7 +130,7 @@ def shared_version_export(token: str, plan_id: int, number: int, session: Sessio
 
 
 @router.get("/plans/{plan_id}/versions/{number}/frames/{frame}/view.png", response_class=Response,
-            summary="A frame's simulated view (shared plan)", responses={**PNG, **NOT_FOUND})
+            summary="A frame's simulated view (shared plan)", responses={**PNG, **READ})
 def shared_plan_view(token: str, plan_id: int, number: int, frame: int, session: SessionDep, state: StateDep,
                      width: Annotated[int, Query(ge=16, le=2000, description="Image width (px)")] = viewer.VIEW_WIDTH_PX,
                      ) -> Response:
@@ -146,13 +147,13 @@ def shared_evaluations(token: str, session: SessionDep) -> list[EvaluationOut]:
 
 
 @router.get("/evaluations/{evaluation_id}/feedback", response_model=FeedbackOut,
-            summary="Per-element and per-frame feedback of an evaluation of the shared plan", responses=NOT_FOUND)
+            summary="Per-element and per-frame feedback of an evaluation of the shared plan", responses=READ)
 def shared_feedback(token: str, evaluation_id: int, session: SessionDep, state: StateDep) -> Response:
     return viewer.evaluation_feedback(_evaluation_of(session, token, evaluation_id), evaluation_id, session, state)
 
 
 @router.get("/evaluations/{evaluation_id}/elements/{index}", response_model=ElementDetailOut,
-            summary="One element's values in an evaluation of the shared plan", responses=NOT_FOUND)
+            summary="One element's values in an evaluation of the shared plan", responses=READ)
 def shared_element(token: str, evaluation_id: int, index: int, session: SessionDep, state: StateDep,
                    limit: Annotated[int, Query(ge=1, le=100, description="How many frames")] = 5) -> ElementDetailOut:
     return viewer.evaluation_element(_evaluation_of(session, token, evaluation_id), evaluation_id, index, session,
@@ -160,7 +161,7 @@ def shared_element(token: str, evaluation_id: int, index: int, session: SessionD
 
 
 @router.get("/evaluations/{evaluation_id}/frames/{frame}/view.png", response_class=Response,
-            summary="A frame's view coloured by a metric (shared plan)", responses={**PNG, **NOT_FOUND})
+            summary="A frame's view coloured by a metric (shared plan)", responses={**PNG, **READ})
 def shared_evaluation_view(token: str, evaluation_id: int, frame: int, session: SessionDep, state: StateDep,
                            metric: Annotated[str, Query(description="visibility, vr, ssd or orientation")]
                            = "visibility",
@@ -175,19 +176,19 @@ def shared_evaluation_view(token: str, evaluation_id: int, frame: int, session: 
 
 
 @router.get("/basemap", response_model=ProjectBasemapOut, summary="The shared plan's project's map background",
-            responses=NOT_FOUND)
+            responses=READ)
 def shared_basemap(token: str, session: SessionDep, state: StateDep) -> ProjectBasemapOut:
     project, _ = _shared(session, token)
     return site.basemap_out(site._info(state, project.id), f"/api/shared/{token}")
 
 
 @router.get("/basemap/image.png", response_class=FileResponse, summary="The project's orthomosaic (shared plan)",
-            responses={**PNG, **NOT_FOUND})
+            responses={**PNG, **READ})
 def shared_basemap_image(token: str, session: SessionDep, state: StateDep) -> FileResponse:
     return site.basemap_image(state, _shared(session, token)[0].id)
 
 
 @router.get("/basemap/tiles/{z}/{x}/{y}", response_class=Response, summary="One tile of the project's MBTiles "
-            "(shared plan)", responses={**site.TILE, **NOT_FOUND})
+            "(shared plan)", responses={**site.TILE, **READ})
 def shared_basemap_tile(token: str, z: int, x: int, y: int, session: SessionDep, state: StateDep) -> Response:
     return site.basemap_tile(state, _shared(session, token)[0].id, z, x, y)
