@@ -409,6 +409,8 @@ def test_openapi_documents_the_viewer_routes(client):
         "/api/projects/{project_id}/evaluations/{evaluation_id}/elements/{index}",
         "/api/projects/{project_id}/evaluations/{evaluation_id}/frames/{frame}/view.png",
         "/api/projects/{project_id}/plans/{plan_id}/versions/{number}/frames/{frame}/view.png",
+        "/api/projects/{project_id}/models/{model_id}/site", "/api/projects/{project_id}/basemap",
+        "/api/projects/{project_id}/basemap/image.png", "/api/projects/{project_id}/basemap/tiles/{z}/{x}/{y}",
     }
     for path in viewer:
         op = schema["paths"][path]["get"]
