@@ -5,7 +5,7 @@ BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 PORT ?= 8000
 
-.PHONY: setup demo test lint bench clean
+.PHONY: setup demo test lint bench clean wheel wheel-check
 
 # System packages, from Debian's archive when missing (as root; otherwise a note says what to install):
 # - EGL: the OpenGL engine renders headless, on a GPU's driver or on Mesa's llvmpipe;
@@ -48,6 +48,14 @@ demo: $(STAMP)
 test: $(STAMP)
 	$(BIN)/ruff check src tests benchmarks
 	$(BIN)/python -m pytest -q
+
+## A wheel that carries the page's JavaScript (copied from web/node_modules at build time), in dist/.
+wheel: $(STAMP)
+	$(BIN)/python -m pip wheel -q --no-deps -w dist .
+
+## The wheel installed alone in a fresh environment serves the page and /docs (CI runs it after the tests).
+wheel-check: $(STAMP)
+	$(BIN)/python tests/wheel_check.py
 
 bench: $(STAMP)
 	$(BIN)/python -m pytest -q -m bench

@@ -53,6 +53,14 @@ def serve_command(
     require("web", "sightplan serve")
     import uvicorn
 
+    from ..assets import AssetsMissing, check_assets
+    from ..errors import SightplanError
+
+    try:
+        check_assets()
+    except AssetsMissing as exc:  # one line, before the server starts: a page without its scripts is no page
+        raise SightplanError(str(exc)) from None
+
     from ..web.app import create_app
     from ..web.config import ServerConfig
 

@@ -3,8 +3,8 @@
 The page holds the plan metrics as in the paper's Table 2, per-element histograms and ν_f
 along the path (inline PNGs), the worst elements, and an interactive 3D view: the coloured
 GLB of :mod:`.gltf` as base64, drawn by three.js. three.js is not fetched from anywhere: its
-ES modules are read from ``web/node_modules/three`` (installed by ``make setup`` from the
-project's ``web/package.json``) and inlined as module text, wired together by an import map
+ES modules are read from the wheel's own copy, or in a checkout from ``web/node_modules/three``
+(installed by ``make setup`` from the project's ``web/package.json``), and inlined as module text, wired together by an import map
 of blob URLs. The page loads no http(s) resource.
 """
 
@@ -22,6 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..assets import vendor_root
 from ..errors import ReportError
 from ..evaluate import Evaluation
 from ..metrics.glossary import GLOSSARY, explain
@@ -45,7 +46,7 @@ from .gltf import ViewerFrame, scene_glb
 from .overview import OBSERVED_ONLY, VISIBLE
 
 REPO_ROOT = Path(__file__).resolve().parents[3]
-THREE_DIR = REPO_ROOT / "web" / "node_modules" / "three"
+THREE_DIR = vendor_root() / "three"  # a wheel's own copy, else the checkout's web/node_modules
 # The bare specifiers the viewer imports → files in the three package.
 THREE_ENTRIES = {
     "three": "build/three.module.js",

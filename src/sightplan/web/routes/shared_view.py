@@ -179,7 +179,7 @@ def shared_evaluation_view(token: str, evaluation_id: int, frame: int, session: 
             responses=READ)
 def shared_basemap(token: str, session: SessionDep, state: StateDep) -> ProjectBasemapOut:
     project, _ = _shared(session, token)
-    return site.basemap_out(site._info(state, project.id), f"/api/shared/{token}")
+    return site.basemap_out(site.basemap_info(state, project.id), f"/api/shared/{token}")
 
 
 @router.get("/basemap/image.png", response_class=FileResponse, summary="The project's orthomosaic (shared plan)",

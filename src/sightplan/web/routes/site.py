@@ -82,7 +82,7 @@ def basemap_out(info: dict[str, Any], base: str) -> ProjectBasemapOut:
     return ProjectBasemapOut(url=url, **{k: v for k, v in info.items() if k in ProjectBasemapOut.model_fields})
 
 
-def _info(state, project_id: int) -> dict[str, Any]:
+def basemap_info(state, project_id: int) -> dict[str, Any]:
     info = read_info(basemap_folder(state, project_id))
     if info is None:
         raise HTTPException(404, f"project {project_id} has no map background of its own")
@@ -93,7 +93,7 @@ def _info(state, project_id: int) -> dict[str, Any]:
             summary="The project's own map background (an orthomosaic or MBTiles), if it has one",
             responses=NOT_FOUND)
 def read_basemap(project: ProjectRead, state: StateDep) -> ProjectBasemapOut:
-    return basemap_out(_info(state, project.id), f"/api/projects/{project.id}")
+    return basemap_out(basemap_info(state, project.id), f"/api/projects/{project.id}")
 
 
 @router.post("/api/projects/{project_id}/basemap", response_model=ProjectBasemapOut,
@@ -123,20 +123,20 @@ async def upload_basemap(project: ProjectEdit, state: StateDep,
 @router.delete("/api/projects/{project_id}/basemap", status_code=204, response_class=Response,
                summary="Remove the project's map background (editor or owner)", responses=NOT_FOUND)
 def delete_basemap(project: ProjectEdit, state: StateDep) -> Response:
-    _info(state, project.id)
+    basemap_info(state, project.id)
     state.storage.remove(basemap_folder(state, project.id))
     return Response(status_code=204)
 
 
 def basemap_image(state, project_id: int) -> FileResponse:
-    if _info(state, project_id)["kind"] != "image":
+    if basemap_info(state, project_id)["kind"] != "image":
         raise HTTPException(404, "the project's map background is tiles, not one image")
     return FileResponse(basemap_folder(state, project_id) / "image.png", media_type="image/png",
                         headers={"Cache-Control": "private, max-age=300"})
 
 
 def basemap_tile(state, project_id: int, z: int, x: int, y: int) -> Response:
-    info = _info(state, project_id)
+    info = basemap_info(state, project_id)
     data = read_tile(basemap_folder(state, project_id), z, x, y) if info["kind"] == "tiles" else None
     if data is None:
         raise HTTPException(404, f"no tile {z}/{x}/{y} in the project's map background")

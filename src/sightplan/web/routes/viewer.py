@@ -21,6 +21,7 @@ from fastapi import APIRouter, HTTPException, Query, Request, Response
 from fastapi.responses import FileResponse
 from sqlalchemy.orm import Session
 
+from ...assets import PACKAGES
 from ...errors import ReportError
 from ..deps import ProjectRead, ServerState, SessionDep, StateDep, in_project, ready_model
 from ..models import Evaluation, Model, PlanVersion
@@ -48,7 +49,7 @@ COLOURS_JS = Path(__file__).resolve().parents[2] / "report" / "colours.js"
 # Only these packages of web/node_modules are served, read-only, under /vendor/<package>/ (3d-tiles-renderer streams
 # reality point clouds; its build imports nothing but three.js and its own chunks; swagger-ui-dist draws /docs;
 # maplibre-gl draws the map, with its worker beside it).
-VENDOR_PACKAGES = ("three", "three-mesh-bvh", "3d-tiles-renderer", "swagger-ui-dist", "maplibre-gl")
+VENDOR_PACKAGES = PACKAGES
 GEOMETRY_MAGIC = b"SPG1"
 GEOMETRY_MEDIA = "application/vnd.sightplan.geometry"
 NEUTRAL_TARGET = (0.78, 0.81, 0.86)  # elements of a view without an evaluation
@@ -505,9 +506,10 @@ MEDIA_TYPES = {".js": "text/javascript", ".mjs": "text/javascript", ".css": "tex
 
 
 def node_modules() -> Path:
-    from ...report.html import THREE_DIR
+    """The npm packages served under /vendor/: a wheel's own copy, else the checkout's web/node_modules."""
+    from ...assets import vendor_root
 
-    return THREE_DIR.parent
+    return vendor_root()
 
 
 def safe_file(root: Path, relative: str) -> Path:

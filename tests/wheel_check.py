@@ -1,0 +1,88 @@
+"""The wheel on its own (``make wheel-check``, run by CI after the tests): build it, install it into a fresh virtual
+environment in an empty folder with no checkout beside it, start ``sightplan serve`` from there, and open the page
+and ``/docs`` in Debian's chromium. The page must load its modules (three.js, MapLibre) and /docs draw Swagger UI,
+all from the wheel's own copy of the JavaScript.
+
+The fresh environment reaches the other dependencies through a path file naming this environment's site-packages
+(they are not what is checked, and installing them again would take minutes); sightplan itself comes only from the
+wheel: an editable install's finder is not active there.
+
+    python tests/wheel_check.py
+"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import sysconfig
+import tempfile
+import time
+import urllib.request
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO / "tests"))
+
+from browser_support import free_port, launch_browser  # noqa: E402
+
+
+def run(*cmd: str, **kw) -> str:
+    out = subprocess.run(cmd, check=True, capture_output=True, text=True, **kw)
+    return out.stdout
+
+
+def main() -> int:
+    work = Path(tempfile.mkdtemp(prefix="sightplan-wheel-"))
+    run(sys.executable, "-m", "pip", "wheel", "-q", "--no-deps", "-w", str(work / "dist"), str(REPO))
+    (wheel,) = (work / "dist").glob("sightplan-*.whl")
+    run(sys.executable, "-m", "venv", str(work / "venv"))
+    python = work / "venv" / "bin" / "python"
+    site = run(str(python), "-c", "import sysconfig; print(sysconfig.get_paths()['purelib'])").strip()
+    Path(site, "deps-from-the-test-environment.pth").write_text(sysconfig.get_paths()["purelib"] + "\n")
+    run(str(python), "-m", "pip", "install", "-q", "--no-deps", "--no-index", str(wheel))
+    empty = work / "elsewhere"
+    empty.mkdir()
+    where = run(str(python), "-c", "import sightplan, sightplan.assets as a; print(sightplan.__file__); "
+                "print(a.vendor_root())", cwd=empty).split()
+    assert where[0].startswith(str(work / "venv")), f"sightplan came from {where[0]}, not the wheel"
+    assert where[1].startswith(str(work / "venv")) and where[1].endswith("web/vendor"), where[1]
+    three = run(str(python), "-c", "from sightplan.report.html import find_three; print(find_three())", cwd=empty)
+    assert three.strip().startswith(str(work / "venv")), three
+    port = free_port()
+    server = subprocess.Popen([str(work / "venv" / "bin" / "sightplan"), "serve", "--port", str(port), "--data",
+                               str(work / "data")], cwd=empty, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                              text=True, env={**os.environ, "PYTHONUNBUFFERED": "1"})
+    url = f"http://127.0.0.1:{port}"
+    try:
+        for _ in range(150):
+            try:
+                urllib.request.urlopen(url + "/api/info", timeout=2)
+                break
+            except OSError:
+                time.sleep(0.2)
+        with launch_browser() as browser:
+            page = browser.new_page()
+            errors: list[str] = []
+            page.on("pageerror", lambda e: errors.append(str(e)))
+            page.on("response", lambda r: errors.append(f"{r.status} {r.url}") if r.status >= 400 else None)
+            page.goto(url)
+            page.wait_for_selector("body[data-state=ready]", timeout=60_000)
+            assert "could not be loaded" not in page.inner_text("body")
+            assert page.evaluate("typeof window.sightplanTest") == "object"
+            names = page.evaluate("import('maplibre-gl').then((m) => [typeof m.Map, m.getVersion()])")
+            assert names[0] == "function", names
+            page.goto(url + "/docs")
+            page.wait_for_selector(".swagger-ui .info .title", timeout=60_000)
+            assert "sightplan" in page.inner_text(".swagger-ui .info .title")
+            assert not errors, errors
+            print(f"wheel check: {wheel.name} ({wheel.stat().st_size / 1e6:.1f} MB) installed alone serves the page "
+                  f"(three.js, MapLibre {names[1]}) and /docs from its own copy of the JavaScript")
+    finally:
+        server.terminate()
+        server.wait(timeout=20)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
