@@ -5,7 +5,7 @@ BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 PORT ?= 8000
 
-.PHONY: setup demo test lint bench clean wheel wheel-check
+.PHONY: setup demo test docs lint bench clean wheel wheel-check
 
 # System packages, from Debian's archive when missing (as root; otherwise a note says what to install):
 # - EGL: the OpenGL engine renders headless, on a GPU's driver or on Mesa's llvmpipe;
@@ -44,10 +44,15 @@ demo: $(STAMP)
 	$(BIN)/sightplan evaluate sample sightplan-demo/plan.json --scale 0.25 --out sightplan-demo
 	$(BIN)/sightplan serve --data sightplan-demo/server --sample --port $(PORT)
 
-## Quick start 2: set up, lint, and run the whole test suite.
+## Quick start 2: set up, lint, build the documentation (strict: a broken link fails), and run the whole test suite.
 test: $(STAMP)
-	$(BIN)/ruff check src tests benchmarks
+	$(BIN)/ruff check src tests benchmarks mkdocs_hooks.py setup.py
+	NO_MKDOCS_2_WARNING=1 $(BIN)/mkdocs build --strict -q
 	$(BIN)/python -m pytest -q
+
+## The documentation site, from docs/ (MkDocs, Material theme) into site/.
+docs: $(STAMP)
+	NO_MKDOCS_2_WARNING=1 $(BIN)/mkdocs build --strict
 
 ## A wheel that carries the page's JavaScript (copied from web/node_modules at build time), in dist/.
 wheel: $(STAMP)
@@ -74,4 +79,4 @@ bench: $(STAMP)
 	$(BIN)/python benchmarks/robustness.py
 
 clean:
-	rm -rf $(VENV) sightplan-demo sightplan-out sightplan-progress sightplan-study sightplan-validate .pytest_cache
+	rm -rf $(VENV) site sightplan-demo sightplan-out sightplan-progress sightplan-study sightplan-validate .pytest_cache

@@ -1,4 +1,4 @@
-"""Every metric is explained, from one source (:mod:`sightplan.metrics.glossary`): the README's table, the command
+"""Every metric is explained, from one source (:mod:`sightplan.metrics.glossary`): the documentation's table, the command
 line's table, the web page's labels (every metric column of its tables) and the HTML report."""
 
 from __future__ import annotations
@@ -13,8 +13,8 @@ ROOT = Path(__file__).resolve().parents[1]
 STATIC = ROOT / "src" / "sightplan" / "web" / "static"
 
 
-def test_the_readme_states_every_definition_as_the_library_does():
-    readme = (ROOT / "README.md").read_text(encoding="utf-8")
+def test_the_documentation_states_every_definition_as_the_library_does():
+    readme = (ROOT / "docs" / "metrics.md").read_text(encoding="utf-8")
     for d in GLOSSARY:
         assert f"| {d.label} | {d.unit} | {explain(d.key)} |" in readme, d.key
 
