@@ -7,6 +7,10 @@ from __future__ import annotations
 import io
 import os
 import shutil
+import signal
+import subprocess
+import sys
+import textwrap
 import threading
 import time
 from pathlib import Path
@@ -133,8 +137,19 @@ def _stuck(path, cache_dir):
     raise SightplanError("released by the test")
 
 
+def _gone(scheduler, prefix: str, timeout_s: float = 10.0) -> bool:
+    deadline = time.monotonic() + timeout_s
+    while any(str(k).startswith(prefix) for k in scheduler.tasks):
+        if time.monotonic() > deadline:
+            return False
+        time.sleep(0.05)
+    return True
+
+
 def test_cancelling_a_preparation_cancels_its_task_and_the_server_answers_meanwhile(server, cluster, monkeypatch):
     monkeypatch.setattr(sp_distributed, "prepare_model", _stuck)
+    RELEASE.clear()
+    STOPPED.clear()
     pid = server.post("/api/projects", json={"name": "cancel"}).json()["id"]
     try:
         r = server.post(f"/api/projects/{pid}/models", files={"file": ("box.obj", _box_obj())})
@@ -151,12 +166,40 @@ def test_cancelling_a_preparation_cancels_its_task_and_the_server_answers_meanwh
         job = wait_job(server, job_id, timeout_s=10)
         assert job["status"] == "failed" and job["error"] == "cancelled"
         assert STOPPED.wait(10)  # the task saw its cancellation at its next progress step
-        scheduler = cluster[0].scheduler
-        while any(str(k).startswith("prepare_model-") for k in scheduler.tasks):
-            assert time.monotonic() < deadline
-            time.sleep(0.05)
+        assert _gone(cluster[0].scheduler, "prepare_model-")
     finally:
         RELEASE.set()
+
+
+def test_a_stopping_server_interrupts_its_cluster_job_and_cancels_the_task(cluster, tmp_path, monkeypatch):
+    from sightplan.web.worker import INTERRUPTED
+
+    monkeypatch.setattr(sp_distributed, "prepare_model", _stuck)
+    RELEASE.clear()
+    STOPPED.clear()
+    try:
+        with TestClient(create_app(ServerConfig(data_dir=tmp_path / "d", cluster=cluster[0].scheduler_address))) as c:
+            state = c.app.state.sightplan
+            assert state.cluster.workers() == 1 and state.cluster.workers_without(tmp_path / "d") == []
+            assert len(state.cluster.workers_without(tmp_path / "absent")) == 1  # named at start by sightplan serve
+            pid = c.post("/api/projects", json={"name": "p"}).json()["id"]
+            job_id = c.post(f"/api/projects/{pid}/models", files={"file": ("box.obj", _box_obj())}).json()["job"]["id"]
+            deadline = time.monotonic() + 30
+            while c.get(f"/api/jobs/{job_id}").json()["progress_done"] != 0.5:
+                assert time.monotonic() < deadline
+                time.sleep(0.05)
+            state.worker.shutdown(grace_s=2.0)  # what SIGTERM does, after the open streams' grace
+            job = c.get(f"/api/jobs/{job_id}").json()
+            assert job["status"] == "failed" and job["error"] == INTERRUPTED
+            assert STOPPED.wait(10) and _gone(cluster[0].scheduler, "prepare_model-")
+        assert cluster[1].status == "running"  # the server closed its own client, not the cluster
+    finally:
+        RELEASE.set()
+
+
+def test_a_worker_without_the_data_folder_says_so(tmp_path):
+    with pytest.raises(SightplanError, match=f"does not see the server's data folder {tmp_path / 'd'}: mount it"):
+        sp_distributed.prepare_model(tmp_path / "d" / "models" / "a.ifc", tmp_path / "d" / "cache")
 
 
 def test_an_unreachable_scheduler_is_one_line_at_start(tmp_path, monkeypatch):
@@ -173,3 +216,64 @@ def test_an_unreachable_scheduler_is_one_line_at_start(tmp_path, monkeypatch):
     assert ServerConfig(data_dir=tmp_path, cluster=" ").cluster is None
     with pytest.raises(ServerConfigError, match="local:N"):
         ServerConfig(data_dir=tmp_path, cluster="tcp://a b")
+
+
+# a server on `--cluster local:1` whose model loads wait on a task that sleeps on the worker process
+SERVER = textwrap.dedent("""
+    import sys, time
+    from sightplan.web import worker
+    worker.Worker._load_model = lambda self, job_id: self._wait(job_id, self.cluster.client.submit(time.sleep, 600,
+                                                                                                   pure=False))
+    from sightplan.cli.main import app
+    sys.argv = ["sightplan", "serve", "--data", sys.argv[1], "--port", sys.argv[2], "--workers", "1",
+                "--cluster", "local:1"]
+    app()
+""")
+
+
+@pytest.mark.bench  # a server process and a local cluster of one worker process (about 10 s)
+def test_sigterm_stops_a_server_on_a_local_cluster_with_its_workers(tmp_path):
+    import httpx
+    import psutil
+
+    from sightplan.web.db import Database
+    from sightplan.web.models import Job
+    from sightplan.web.worker import INTERRUPTED
+
+    data, port = tmp_path / "data", free_port()
+    proc = subprocess.Popen([sys.executable, "-c", SERVER, str(data), str(port)], stdout=subprocess.PIPE,
+                            stderr=subprocess.STDOUT, text=True)
+    try:
+        base = f"http://127.0.0.1:{port}"
+        for _ in range(600):
+            try:
+                if httpx.get(f"{base}/api/projects", timeout=2).status_code == 200:
+                    break
+            except httpx.HTTPError:
+                time.sleep(0.1)
+        headers = {"Origin": base, "X-Sightplan-Request": "1"}
+        pid = httpx.post(f"{base}/api/projects", json={"name": "p"}, headers=headers).json()["id"]
+        r = httpx.post(f"{base}/api/projects/{pid}/models", headers=headers, files={"file": ("box.obj", _box_obj())})
+        job_id = r.json()["job"]["id"]
+        for _ in range(300):
+            if httpx.get(f"{base}/api/jobs/{job_id}").json()["status"] == "running":
+                break
+            time.sleep(0.1)
+        children = psutil.Process(proc.pid).children(recursive=True)
+        assert children  # the local cluster's worker process
+        t0 = time.monotonic()
+        proc.send_signal(signal.SIGTERM)
+        out, _ = proc.communicate(timeout=30)
+        assert time.monotonic() - t0 < 12, out  # the streams' 4 s, the jobs' 3 s, then the cluster's close
+        assert "Jobs run on the dask cluster at local:1 (1 worker(s) now)" in out, out
+        gone, alive = psutil.wait_procs(children, timeout=10)
+        assert not alive  # stopped with the server
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    db = Database(f"sqlite:///{data / 'sightplan.db'}")
+    with db.session() as s:
+        job = s.get(Job, job_id)
+        assert job.status == "failed" and job.error == INTERRUPTED
+    db.dispose()
