@@ -1,4 +1,4 @@
-"""Evaluate a plan on a dask cluster: consecutive batches of frames cast on the workers.
+"""Evaluate a plan on a dask cluster: consecutive batches of frames cast on the workers; prepare a model file there.
 
 The scene and the feature set go to each worker once; each worker process keeps one
 engine per scene and settings, so the BVH is built once per worker, not per batch.
@@ -7,15 +7,19 @@ with the same settings and features (the engines must use the same number of thr
 which ``settings.threads`` fixes; left at None it is the machine's core count).
 With a per-frame cache, the frames found in it are read here and only the others are cast
 on the cluster; what the workers cast is then stored in the cache.
+
+:func:`prepare_model` tessellates a model file into a scene cache on a worker: the file and the cache are named by
+their paths, so the worker must see them at the same paths (a shared folder).
 """
 
 from __future__ import annotations
 
+import socket
 import threading
 import time
 from collections import OrderedDict
 from contextlib import ExitStack
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -36,6 +40,7 @@ from .evaluate import (
 from .extras import require
 from .metrics import compute_metrics
 from .model.scene import Scene
+from .model.summary import LoadReport
 from .observations.cache import FrameCache
 from .observations.features import FeatureSet
 from .observations.table import FrameObservation, Observations
@@ -45,6 +50,9 @@ if TYPE_CHECKING:
     from distributed import Client
 
 CONNECT_TIMEOUT_S = 5.0
+#: the event topic on which :func:`prepare_model` reports ``(task key, share done)``
+PROGRESS_TOPIC = "sightplan-progress"
+PROGRESS_EVERY_S = 0.5
 _ENGINE_CACHE_SIZE = 2
 _engines: OrderedDict[tuple, Engine] = OrderedDict()
 _engines_lock = threading.Lock()
@@ -84,7 +92,8 @@ def observe_batch(scene: Scene, features: FeatureSet, plan: Plan, settings: Eval
 
 
 def connect(cluster: str, stack: ExitStack) -> Client:
-    """A client for ``cluster``: ``local:N`` starts a LocalCluster of N worker processes (closed with ``stack``)."""
+    """A client for ``cluster``: ``local:N`` starts a LocalCluster of N worker processes; both are closed with
+    ``stack``, which may be closed from another thread than this one."""
     require("cluster", "--cluster")
     from distributed import Client, LocalCluster
 
@@ -96,14 +105,18 @@ def connect(cluster: str, stack: ExitStack) -> Client:
             n = 0
         if n < 1:
             raise SightplanError(f"--cluster local:N needs N ≥ 1 worker processes, got {cluster!r}")
-        lc = stack.enter_context(LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
-                                              dashboard_address=None))
-        return stack.enter_context(Client(lc))
+        lc = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None)
+        stack.callback(lc.close)
+        client = Client(lc)
+        stack.callback(client.close)  # not the client's `with`, whose exit must run in the thread that entered it
+        return client
     try:
-        return stack.enter_context(Client(cluster, timeout=CONNECT_TIMEOUT_S))
+        client = Client(cluster, timeout=CONNECT_TIMEOUT_S)
     except (OSError, TimeoutError, ValueError) as exc:
         raise SightplanError(f"cannot reach the dask scheduler at {cluster} within {CONNECT_TIMEOUT_S:g} s "
                              f"({type(exc).__name__}: {exc})") from None
+    stack.callback(client.close)
+    return client
 
 
 def evaluate_distributed(
@@ -125,7 +138,8 @@ def evaluate_distributed(
     none. With a cache, ``auto`` is resolved to a worker's best engine before anything is cast (the
     cache is keyed by the engine), the cached frames are read here, only the others go to the cluster
     (which is contacted only to resolve ``auto`` when every frame is cached), and what it casts is stored.
-    progress: called with (frames done, frames) after the cache is read and as batches complete.
+    progress: called with (frames done, frames) after the cache is read and as batches complete; what it raises
+    cancels the batches not yet done on the cluster and ends the evaluation.
     """
     settings = settings or EvaluationSettings()
     if len(plan) == 0:
@@ -179,18 +193,22 @@ def evaluate_distributed(
                                      features.key, pure=False) for batch in batches]
             index = {f.key: i for i, f in enumerate(futures)}
             done = n - len(todo)
-            for fut in as_completed(futures):
-                batch = batches[index[fut.key]]
-                cast, name, cast_s = fut.result()
-                engines.add(name)
-                timings["worker_cast_s"] += cast_s
-                for i, fo in zip(batch, cast):
-                    frames[i] = fo
-                    if cache is not None:
-                        cache.put(context, keys[i], fo)
-                done += len(batch)
-                if progress is not None:
-                    progress(done, n)
+            try:
+                for fut in as_completed(futures):
+                    batch = batches[index[fut.key]]
+                    cast, name, cast_s = fut.result()
+                    engines.add(name)
+                    timings["worker_cast_s"] += cast_s
+                    for i, fo in zip(batch, cast):
+                        frames[i] = fo
+                        if cache is not None:
+                            cache.put(context, keys[i], fo)
+                    done += len(batch)
+                    if progress is not None:
+                        progress(done, n)
+            except BaseException:  # a failed batch, or a progress callback that stops the run: the rest is dropped
+                client.cancel(futures)
+                raise
             timings["cast_s"] = time.perf_counter() - t0
             timings["workers"] = len(client.nthreads())
             del scene_f, features_f, futures
@@ -209,3 +227,71 @@ def evaluate_distributed(
     timings["frames"] = n
     timings["batches"] = len(batches)
     return Evaluation(obs, metrics, settings, engine, obs.n_features, timings, cache.hits if cache is not None else 0)
+
+
+@dataclass(frozen=True)
+class PreparedModel:
+    """What the preparation of a model file found: its counts, load report and whether it is georeferenced (the
+    scene itself stays in the cache)."""
+
+    elements: int
+    targets: int
+    triangles: int
+    report: LoadReport
+    georeferenced: bool
+
+    @classmethod
+    def of(cls, scene: Scene, report: LoadReport) -> PreparedModel:
+        from .geo import Georeference
+
+        try:
+            geo = Georeference.from_scene_metadata(scene.metadata) is not None
+        except SightplanError:
+            geo = False
+        return cls(int(scene.n_elements), int(scene.targets.sum()), int(len(scene.faces)), report, geo)
+
+
+class PreparationCancelled(SightplanError):
+    """Raised on a worker when the task preparing a model was cancelled."""
+
+
+def _task_progress():
+    """A progress callback for the dask task running this (None outside one): it sends ``(key, share)`` on
+    :data:`PROGRESS_TOPIC` at most every :data:`PROGRESS_EVERY_S`, and raises :class:`PreparationCancelled` once the
+    task is cancelled."""
+    try:
+        from distributed import get_worker
+
+        worker = get_worker()
+        key = worker.get_current_task()
+    except (ImportError, ValueError, AttributeError):
+        return None
+    last = [0.0]
+
+    def report(share: float) -> None:
+        ts = worker.state.tasks.get(key)
+        if ts is None or ts.state in ("cancelled", "released", "forgotten"):
+            raise PreparationCancelled("cancelled")
+        now = time.monotonic()
+        if now - last[0] >= PROGRESS_EVERY_S:
+            last[0] = now
+            worker.log_event(PROGRESS_TOPIC, (key, float(share)))
+
+    return report
+
+
+def prepare_model(path: str | Path, cache_dir: str | Path) -> PreparedModel:
+    """Load (tessellate) the model file at ``path`` into the scene cache ``cache_dir``; made to run on a dask worker,
+    where it reports its progress (:data:`PROGRESS_TOPIC`) and stops at its next step when cancelled. The paths are
+    the server's: the worker must see its data folder at the same path."""
+    from .model.formats import IFC_EXTENSIONS
+    from .model.load import load_model
+
+    path = Path(path)
+    if not path.is_file():
+        raise SightplanError(f"the dask worker on {socket.gethostname()} does not see the server's data folder "
+                             f"{path.parent.parent}: mount it at the same path on every worker")
+    progress = _task_progress() if path.suffix.lower() in IFC_EXTENSIONS else None
+    scene, report = load_model(path, cache=True, cache_dir=cache_dir,
+                               **({"progress": progress} if progress is not None else {}))
+    return PreparedModel.of(scene, report)

@@ -45,6 +45,10 @@ def serve_command(
     basemap_attribution: Annotated[str, typer.Option(
         envvar="SIGHTPLAN_BASEMAP_ATTRIBUTION", help="The credit the basemap's licence asks for, shown on the map")]
     = "",
+    cluster: Annotated[str | None, typer.Option(
+        envvar="SIGHTPLAN_CLUSTER", help="Run evaluations, optimisations and model preparation on a dask cluster: a "
+                                         "scheduler address (tcp://host:8786) or local:N for N local worker "
+                                         "processes; its workers need the data folder at the same path")] = None,
 ) -> None:
     """Serve the web application and its REST API (OpenAPI docs at /docs).
 
@@ -67,8 +71,12 @@ def serve_command(
     config = ServerConfig(data_dir=data, database_url=database, host=host, port=port,
                           max_upload_bytes=int(max_upload_mb * 1024 * 1024), workers=workers, team=team,
                           allowed_origins=tuple(allowed_origin or ()), basemap_url=basemap,
-                          basemap_attribution=basemap_attribution)
+                          basemap_attribution=basemap_attribution, cluster=cluster)
+    if config.cluster is not None:
+        require("cluster", "sightplan serve --cluster")
     web_app = create_app(config)
+    if config.cluster is not None:
+        _cluster_line(web_app.state.sightplan)
     if sample:
         _sample_project(web_app.state.sightplan, config.team)
     where = "embedded SQLite in the data folder" if config.embedded else f"database {database}"
@@ -85,6 +93,18 @@ def serve_command(
     console.print(f"Open http://{host}:{port}/ in a browser (API docs at http://{host}:{port}/docs)", highlight=False)
     # open progress streams get a few seconds, then the jobs their grace period: SIGTERM stops it within 10 s
     uvicorn.run(web_app, host=host, port=port, log_level="info", timeout_graceful_shutdown=GRACEFUL_SHUTDOWN_S)
+
+
+def _cluster_line(state) -> None:
+    """Where the jobs go, and the workers that would fail a model's preparation for not seeing the data folder."""
+    cluster = state.cluster
+    console.print(f"Jobs run on the dask cluster at {cluster.address} ({cluster.workers()} worker(s) now).",
+                  highlight=False)
+    missing = cluster.workers_without(state.config.data_dir)
+    if missing:
+        console.print(f"[yellow]{len(missing)} worker(s) do not see the data folder {state.config.data_dir}[/] "
+                      f"({', '.join(missing[:3])}{', …' if len(missing) > 3 else ''}): models prepared there fail; "
+                      "mount it at the same path on every worker", highlight=False)
 
 
 def _sample_project(state, team: bool) -> None:

@@ -28,15 +28,26 @@ UNPACKED_PER_UPLOAD = 10  # an archive's contents may be this many times the upl
 
 
 def open_state(config: ServerConfig) -> ServerState:
-    """Create the data folder and the database schema (Alembic), fail the jobs a previous process left unfinished,
-    and start the worker."""
-    config.data_dir.mkdir(parents=True, exist_ok=True)
-    storage = Storage(config.data_dir)
-    storage.clear_tmp()
-    db = Database(config.url)
-    upgrade_database(db.engine)
-    recover_interrupted(db)
-    return ServerState(config=config, db=db, storage=storage, worker=Worker(db, storage, config.workers))
+    """Connect to the cluster (when there is one), create the data folder and the database schema (Alembic), fail
+    the jobs a previous process left unfinished, and start the worker."""
+    cluster = None
+    if config.cluster is not None:
+        from .cluster import ServerCluster
+
+        cluster = ServerCluster(config.cluster)
+    try:
+        config.data_dir.mkdir(parents=True, exist_ok=True)
+        storage = Storage(config.data_dir)
+        storage.clear_tmp()
+        db = Database(config.url)
+        upgrade_database(db.engine)
+        recover_interrupted(db)
+    except BaseException:
+        if cluster is not None:
+            cluster.close()
+        raise
+    return ServerState(config=config, db=db, storage=storage, worker=Worker(db, storage, config.workers, cluster),
+                       cluster=cluster)
 
 
 def create_app(config: ServerConfig | None = None) -> FastAPI:
@@ -208,7 +219,9 @@ class BodyLimit:
 
 
 def close_state(state: ServerState) -> None:
-    """Stop the worker (running jobs stop at their next progress step, or are failed after a grace period) and close
-    the database."""
+    """Stop the worker (running jobs stop at their next progress step, or are failed after a grace period), close
+    the cluster's client (and a ``local:N`` cluster) and the database."""
     state.worker.shutdown()
+    if state.cluster is not None:
+        state.cluster.close()
     state.db.dispose()

@@ -39,7 +39,9 @@ class ServerConfig:
     allowed_origins: origins besides the server's own whose pages may send changes (``https://host`` of a reverse
     proxy that ends TLS in front of the server); basemap_url: the map's background tiles, an XYZ template such as
     ``https://tiles.example.com/{z}/{x}/{y}.png`` (``{-y}`` for TMS rows), fetched by the browser; basemap_attribution:
-    the credit its licence asks for, shown on the map."""
+    the credit its licence asks for, shown on the map; cluster: a dask scheduler's address (``tcp://host:8786``) or
+    ``local:N`` (N worker processes started with the server) where evaluations, optimisations and model preparations
+    run, None to run them in the server's threads."""
 
     data_dir: Path = DEFAULT_DATA_DIR
     database_url: str | None = None
@@ -51,6 +53,7 @@ class ServerConfig:
     allowed_origins: tuple[str, ...] = ()
     basemap_url: str | None = None
     basemap_attribution: str = ""
+    cluster: str | None = None
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "data_dir", Path(self.data_dir).expanduser().resolve())
@@ -68,6 +71,11 @@ class ServerConfig:
                                         f"not {origin!r}")
             origins.append(o)
         object.__setattr__(self, "allowed_origins", tuple(origins))
+        cluster = (self.cluster or "").strip()
+        if cluster and any(c.isspace() for c in cluster):
+            raise ServerConfigError(f"a cluster is a dask scheduler's address, like tcp://scheduler:8786, or local:N, "
+                                    f"not {self.cluster!r}")
+        object.__setattr__(self, "cluster", cluster or None)
         if self.basemap_url is not None:
             url = self.basemap_url.strip()
             if not re.fullmatch(r"https?://[^/\s]+/\S*", url) or not all(

@@ -17,6 +17,7 @@ from .storage import Storage
 from .worker import Worker
 
 if TYPE_CHECKING:
+    from .cluster import ServerCluster
     from .models import Model
 
 
@@ -26,6 +27,7 @@ class ServerState:
     db: Database
     storage: Storage
     worker: Worker
+    cluster: ServerCluster | None = None
 
 
 def get_state(request: Request) -> ServerState:

@@ -1,5 +1,7 @@
 """The background worker: model loads and evaluations run on worker threads inside the server process, never in a
-request. Progress goes to the database as it happens, so a page reload (or a new client) sees it.
+request. Progress goes to the database as it happens, so a page reload (or a new client) sees it. With a dask
+cluster (:mod:`.cluster`), evaluations and optimisations cast their frames on its workers and model preparations run
+there as tasks, while the job threads here write the progress and stop them when the job is cancelled.
 
 The threads are daemon threads: when the server stops, a job that does not reach its next progress step within
 the shutdown's grace period is marked failed and does not keep the process alive."""
@@ -11,8 +13,10 @@ import logging
 import queue
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from dataclasses import replace
+from typing import TYPE_CHECKING
 
 from sqlalchemy import select
 
@@ -33,6 +37,9 @@ from .services import (
     save_element_dates,
 )
 from .storage import Storage
+
+if TYPE_CHECKING:
+    from .cluster import ServerCluster
 
 log = logging.getLogger("sightplan.web")
 
@@ -92,14 +99,33 @@ def recover_interrupted(db: Database) -> int:
 
 
 SHUTDOWN_GRACE_S = 3.0  # how long a stopping server waits for its running jobs to reach a progress step
+CLUSTER_BATCH_FRAMES = 16  # frames per task on a cluster: a cancelled job stops after its workers' current batches
+CLUSTER_POLL_S = 0.2  # how often a job waiting on a cluster task checks for its cancellation
+
+
+@contextmanager
+def cluster_errors() -> Iterator[None]:
+    """A task the cluster dropped or whose workers died, as one line on the job."""
+    from concurrent.futures import CancelledError
+
+    try:
+        yield
+    except CancelledError:
+        raise SightplanError("the dask cluster dropped the job's tasks (its scheduler or workers went away)") from None
+    except Exception as exc:
+        if type(exc).__name__ == "KilledWorker":
+            raise SightplanError(f"the dask workers running the job died: {exc}") from None
+        raise
 
 
 class Worker:
-    """Runs jobs by id on ``workers`` daemon threads."""
+    """Runs jobs by id on ``workers`` daemon threads; with a ``cluster``, their casting and model preparation run on
+    its workers."""
 
-    def __init__(self, db: Database, storage: Storage, workers: int) -> None:
+    def __init__(self, db: Database, storage: Storage, workers: int, cluster: ServerCluster | None = None) -> None:
         self.db = db
         self.storage = storage
+        self.cluster = cluster
         self._queue: queue.SimpleQueue[int | None] = queue.SimpleQueue()
         self._stopping = threading.Event()
         self._cancelled: set[int] = set()
@@ -268,29 +294,56 @@ class Worker:
             model = s.get(Model, job.model_id)
             assert model is not None
             model.status = "loading"
-            job.message = f"tessellating {model.original_name}"
+            job.message = f"tessellating {model.original_name}" + (" on the dask cluster" if self.cluster else "")
             job.progress_total = 1.0
             stored = model.stored_name
             model_id = model.id
-        scene, report = load_scene(self.storage, stored, progress=self._progress(job_id, 1.0))
-        from ..geo import Georeference
+        from ..distributed import PreparedModel, prepare_model
 
-        try:
-            geo = Georeference.from_scene_metadata(scene.metadata) is not None
-        except SightplanError:
-            geo = False
+        progress = self._progress(job_id, 1.0)
+        if self.cluster is None:
+            facts = PreparedModel.of(*load_scene(self.storage, stored, progress=progress))
+        else:  # tessellated on a worker into the data folder's cache, which the next load here reads
+            future = self.cluster.client.submit(prepare_model, str(self.storage.model_path(stored)),
+                                                str(self.storage.cache), key=f"prepare_model-{Storage.new_name()}",
+                                                pure=False)
+            facts = self._wait(job_id, future, progress)
         with self.db.session() as s:
             model = s.get(Model, model_id)
             job = s.get(Job, job_id)
             if model is None or job is None:
                 return
             model.status = "ready"
-            model.elements, model.targets = int(scene.n_elements), int(scene.targets.sum())
-            model.triangles, model.skipped = int(len(scene.faces)), len(report.skipped)
-            model.load_report = report_summary(report)
-            model.georeferenced = geo
+            model.elements, model.targets = facts.elements, facts.targets
+            model.triangles, model.skipped = facts.triangles, len(facts.report.skipped)
+            model.load_report = report_summary(facts.report)
+            model.georeferenced = facts.georeferenced
             job.progress_done = job.progress_total = 1.0
             job.message = f"{model.elements} elements, {model.triangles:,} triangles"
+
+    def _wait(self, job_id: int, future, progress: Callable[[float], None] | None = None):
+        """The result of a cluster task, waited for in steps that check the job's cancellation and the server's stop
+        (either cancels the task) and report the progress the task sends."""
+        from distributed import wait
+
+        assert self.cluster is not None
+        try:
+            with cluster_errors():
+                while not future.done():
+                    share = self.cluster.progress_of(future.key)
+                    if progress is not None and share is not None:
+                        progress(share)
+                    self._check(job_id)
+                    try:
+                        wait(future, timeout=CLUSTER_POLL_S)
+                    except TimeoutError:
+                        pass
+                return future.result()
+        except BaseException:
+            future.cancel()
+            raise
+        finally:
+            self.cluster.forget(future.key)
 
     def _evaluate(self, job_id: int) -> None:
         from ..evaluate import evaluate
@@ -321,7 +374,16 @@ class Worker:
         if settings_json.get(AS_FLOWN_KEY):
             plan = self._as_flown(job_id, plan, scene, settings_json[AS_FLOWN_KEY])
         progress = self._progress(job_id, len(plan), evaluation_id)
-        result = evaluate(scene, plan, settings, cache_dir=self.storage.frame_cache, progress=lambda i, n: progress(i))
+        if self.cluster is None:
+            result = evaluate(scene, plan, settings, cache_dir=self.storage.frame_cache,
+                              progress=lambda i, n: progress(i))
+        else:
+            from ..distributed import evaluate_distributed
+
+            with cluster_errors():
+                result = evaluate_distributed(scene, plan, settings, cluster=self.cluster.client,
+                                              batch_frames=CLUSTER_BATCH_FRAMES, cache_dir=self.storage.frame_cache,
+                                              progress=lambda i, n: progress(i))
         out = self.storage.evaluation_dir(result_name)
         out.mkdir(parents=True, exist_ok=True)
         report = report_dict(result, scene, plan, model_path=model_label, plan_path=plan_label)
@@ -382,6 +444,7 @@ class Worker:
     def _optimize(self, job_id: int) -> None:
         """An optimised plan (``sightplan optimize``) around the job's model, saved as a new plan of one version."""
         from ..camera.catalogue import get_camera
+        from ..camera.models import PinholeCamera
         from ..optimize import Budget, OptimizeSettings, Targets, optimize
 
         with self.db.session() as s:
@@ -397,9 +460,14 @@ class Worker:
         targets = Targets(k=p["k"], max_ssd_m_px=p.get("max_ssd_m_px"), max_angle_deg=p["max_angle_deg"])
         budget = Budget(frames=p.get("budget_frames"), minutes=p.get("budget_minutes"), batteries=p.get("batteries"))
         progress = staged_progress(self._progress(job_id, 1.0), OPTIMIZE_STAGES)
-        result = optimize(scene, get_camera(p["camera"]), targets, budget, flight=flight,
-                          settings=OptimizeSettings(scale=p["scale"], cache_dir=self.storage.frame_cache),
-                          progress=progress)
+        camera = get_camera(p["camera"])
+        # a 360° camera's indoor plan is cast here (the indoor optimiser refuses a cluster)
+        cluster = self.cluster.client if self.cluster is not None and isinstance(camera, PinholeCamera) else None
+        with cluster_errors():
+            result = optimize(scene, camera, targets, budget, flight=flight,
+                              settings=OptimizeSettings(scale=p["scale"], cache_dir=self.storage.frame_cache,
+                                                        cluster=cluster, batch_frames=CLUSTER_BATCH_FRAMES),
+                              progress=progress)
         summary = result.summary()
         made = replace(result.plan, parameters={**result.plan.parameters, FLIGHT_KEY: p["flight"]})  # as a template's
         path = None
