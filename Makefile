@@ -58,9 +58,9 @@ docs: $(STAMP)
 wheel: $(STAMP)
 	$(BIN)/python -m pip wheel -q --no-deps -w dist .
 
-## The wheel installed alone in a fresh environment serves the page and /docs (CI runs it after the tests).
+## The wheel installed alone in a fresh environment serves the page and /docs (a test of make test, alone).
 wheel-check: $(STAMP)
-	$(BIN)/python tests/wheel_check.py
+	$(BIN)/python -m pytest -q -m wheel tests/test_wheel.py
 
 bench: $(STAMP)
 	$(BIN)/python -m pytest -q -m bench

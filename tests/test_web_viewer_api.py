@@ -561,7 +561,7 @@ def test_a_project_background_from_an_orthomosaic_and_from_mbtiles(client, proje
     assert np.allclose(bg["corners"], want, atol=1e-9)
     png = client.get(bg["url"])
     assert png.status_code == 200 and png.content[:8] == b"\x89PNG\r\n\x1a\n"
-    assert client.get(f"/api/projects/{project}/basemap").json()["corners"] == bg["corners"]
+    assert client.get(f"/api/projects/{project}/basemap").json()["basemap"]["corners"] == bg["corners"]
     # MBTiles: one tile at z 1, x 0, XYZ row 0 (the file's row 1)
     mb = tmp_path / "site.mbtiles"
     with sqlite3.connect(mb) as db:
@@ -586,6 +586,6 @@ def test_a_project_background_from_an_orthomosaic_and_from_mbtiles(client, proje
         db.execute("UPDATE metadata SET value = 'pbf' WHERE name = 'format'")
     r = client.post(f"/api/projects/{project}/basemap", files={"file": ("vector.mbtiles", mb.read_bytes())})
     assert r.status_code == 422 and "raster tiles" in r.json()["detail"]
-    assert client.get(f"/api/projects/{project}/basemap").json()["kind"] == "tiles"
+    assert client.get(f"/api/projects/{project}/basemap").json()["basemap"]["kind"] == "tiles"
     assert client.delete(f"/api/projects/{project}/basemap").status_code == 204
-    assert client.get(f"/api/projects/{project}/basemap").status_code == 404
+    assert client.get(f"/api/projects/{project}/basemap").json() == {"basemap": None}

@@ -450,6 +450,10 @@ class ProjectBasemapOut(BaseModel):
     attribution: str = ""
 
 
+class ProjectBackgroundOut(BaseModel):
+    basemap: ProjectBasemapOut | None = Field(description="The project's own map background; null when it has none")
+
+
 class SiteOut(BaseModel):
     """Where a model stands on the earth, for the map."""
 

@@ -14,6 +14,7 @@ from sqlalchemy import select
 from sqlalchemy.orm import Session
 
 from ...formats.registry import ExportFormat, export_choices
+from ..basemap import read_info
 from ..deps import SessionDep, StateDep
 from ..models import Evaluation, Model, Plan, PlanVersion, Project
 from ..schemas import (
@@ -26,7 +27,7 @@ from ..schemas import (
     ModelDetailOut,
     PlanFileOut,
     PlanGeometryOut,
-    ProjectBasemapOut,
+    ProjectBackgroundOut,
     SiteOut,
 )
 from . import evaluations, models, plans, site, viewer
@@ -175,11 +176,12 @@ def shared_evaluation_view(token: str, evaluation_id: int, frame: int, session: 
                                   metric, lo, hi, width, shading)
 
 
-@router.get("/basemap", response_model=ProjectBasemapOut, summary="The shared plan's project's map background",
-            responses=READ)
-def shared_basemap(token: str, session: SessionDep, state: StateDep) -> ProjectBasemapOut:
+@router.get("/basemap", response_model=ProjectBackgroundOut,
+            summary="The shared plan's project's map background; null when it has none", responses=NOT_FOUND)
+def shared_basemap(token: str, session: SessionDep, state: StateDep) -> ProjectBackgroundOut:
     project, _ = _shared(session, token)
-    return site.basemap_out(site.basemap_info(state, project.id), f"/api/shared/{token}")
+    info = read_info(site.basemap_folder(state, project.id))
+    return ProjectBackgroundOut(basemap=None if info is None else site.basemap_out(info, f"/api/shared/{token}"))
 
 
 @router.get("/basemap/image.png", response_class=FileResponse, summary="The project's orthomosaic (shared plan)",

@@ -17,7 +17,7 @@ from ...geo import Georeference, GeoreferenceError
 from ...model.footprint import footprint_rings
 from ..basemap import SUFFIXES, TILE_MEDIA, prepare, read_info, read_tile
 from ..deps import ProjectEdit, ProjectRead, SessionDep, StateDep, ready_model
-from ..schemas import ErrorOut, ProjectBasemapOut, SiteOut
+from ..schemas import ErrorOut, ProjectBackgroundOut, ProjectBasemapOut, SiteOut
 from ..services import load_scene
 from ..storage import display_name
 from ..uploads import receive_upload
@@ -89,11 +89,12 @@ def basemap_info(state, project_id: int) -> dict[str, Any]:
     return info
 
 
-@router.get("/api/projects/{project_id}/basemap", response_model=ProjectBasemapOut,
-            summary="The project's own map background (an orthomosaic or MBTiles), if it has one",
+@router.get("/api/projects/{project_id}/basemap", response_model=ProjectBackgroundOut,
+            summary="The project's own map background (an orthomosaic or MBTiles); null when it has none",
             responses=NOT_FOUND)
-def read_basemap(project: ProjectRead, state: StateDep) -> ProjectBasemapOut:
-    return basemap_out(basemap_info(state, project.id), f"/api/projects/{project.id}")
+def read_basemap(project: ProjectRead, state: StateDep) -> ProjectBackgroundOut:
+    info = read_info(basemap_folder(state, project.id))
+    return ProjectBackgroundOut(basemap=None if info is None else basemap_out(info, f"/api/projects/{project.id}"))
 
 
 @router.post("/api/projects/{project_id}/basemap", response_model=ProjectBasemapOut,

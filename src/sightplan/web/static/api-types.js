@@ -593,6 +593,11 @@
  */
 
 /**
+ * @typedef {object} ProjectBackgroundOut
+ * @property {(ProjectBasemapOut|null)} basemap The project's own map background; null when it has none
+ */
+
+/**
  * A project's own map background.
  * @typedef {object} ProjectBasemapOut
  * @property {'image'|'tiles'} kind image: an orthomosaic stretched over its corners; tiles: MBTiles served tile by tile

@@ -260,15 +260,7 @@ function renderSite() {
 
 // the project's own background: read when a project opens, uploaded or removed from the map's bar
 async function loadBackground() {
-  let background = null;
-  if (state.project) {
-    try {
-      background = await api.get(projectUrl('/basemap'));
-    } catch (err) {
-      if (err.status !== 404) throw err;
-    }
-  }
-  set({ background });
+  set({ background: state.project ? (await api.get(projectUrl('/basemap'))).basemap : null });
 }
 
 async function uploadBackground() {

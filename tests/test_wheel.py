@@ -1,13 +1,11 @@
-"""The wheel on its own (``make wheel-check``, run by CI after the tests): build it, install it into a fresh virtual
-environment in an empty folder with no checkout beside it, start ``sightplan serve`` from there, and open the page
-and ``/docs`` in Debian's chromium. The page must load its modules (three.js, MapLibre) and /docs draw Swagger UI,
-all from the wheel's own copy of the JavaScript.
+"""The wheel on its own (in ``make test``; alone: ``pytest -m wheel`` or ``make wheel-check``): build it, install it
+into a fresh virtual environment in an empty folder with no checkout beside it, start ``sightplan serve --sample``
+from there, and open the page and ``/docs`` in Debian's chromium. The page must load its modules (three.js, MapLibre)
+and draw the sample Duplex, and /docs list the operations, all from the wheel's own copy of the JavaScript.
 
 The fresh environment reaches the other dependencies through a path file naming this environment's site-packages
 (they are not what is checked, and installing them again would take minutes); sightplan itself comes only from the
 wheel: an editable install's finder is not active there.
-
-    python tests/wheel_check.py
 """
 
 from __future__ import annotations
@@ -16,15 +14,15 @@ import os
 import subprocess
 import sys
 import sysconfig
-import tempfile
 import time
 import urllib.request
 from pathlib import Path
 
-REPO = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(REPO / "tests"))
+import pytest
 
-from browser_support import free_port, launch_browser  # noqa: E402
+from browser_support import free_port, launch_browser
+
+REPO = Path(__file__).resolve().parents[1]
 
 
 def run(*cmd: str, **kw) -> str:
@@ -32,8 +30,9 @@ def run(*cmd: str, **kw) -> str:
     return out.stdout
 
 
-def main() -> int:
-    work = Path(tempfile.mkdtemp(prefix="sightplan-wheel-"))
+@pytest.mark.wheel
+def test_the_wheel_alone_serves_the_page_and_the_docs(tmp_path):
+    work = tmp_path
     run(sys.executable, "-m", "pip", "wheel", "-q", "--no-deps", "-w", str(work / "dist"), str(REPO))
     (wheel,) = (work / "dist").glob("sightplan-*.whl")
     run(sys.executable, "-m", "venv", str(work / "venv"))
@@ -50,17 +49,19 @@ def main() -> int:
     three = run(str(python), "-c", "from sightplan.report.html import find_three; print(find_three())", cwd=empty)
     assert three.strip().startswith(str(work / "venv")), three
     port = free_port()
-    server = subprocess.Popen([str(work / "venv" / "bin" / "sightplan"), "serve", "--port", str(port), "--data",
-                               str(work / "data")], cwd=empty, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+    server = subprocess.Popen([str(work / "venv" / "bin" / "sightplan"), "serve", "--sample", "--port", str(port),
+                               "--data", str(work / "data")], cwd=empty, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
                               text=True, env={**os.environ, "PYTHONUNBUFFERED": "1"})
     url = f"http://127.0.0.1:{port}"
     try:
-        for _ in range(150):
+        deadline = time.monotonic() + 180  # --sample makes the sample project first
+        while True:
             try:
                 urllib.request.urlopen(url + "/api/info", timeout=2)
                 break
             except OSError:
-                time.sleep(0.2)
+                assert server.poll() is None and time.monotonic() < deadline, server.stdout.read()
+                time.sleep(0.3)
         with launch_browser() as browser:
             page = browser.new_page()
             errors: list[str] = []
@@ -69,20 +70,15 @@ def main() -> int:
             page.goto(url)
             page.wait_for_selector("body[data-state=ready]", timeout=60_000)
             assert "could not be loaded" not in page.inner_text("body")
-            assert page.evaluate("typeof window.sightplanTest") == "object"
+            page.wait_for_function("window.sightplanTest.view.modelTriangles() > 20000", timeout=120_000)  # the Duplex
             names = page.evaluate("import('maplibre-gl').then((m) => [typeof m.Map, m.getVersion()])")
             assert names[0] == "function", names
             page.goto(url + "/docs")
             page.wait_for_selector(".swagger-ui .info .title", timeout=60_000)
             assert "sightplan" in page.inner_text(".swagger-ui .info .title")
+            page.wait_for_selector(".opblock-summary-path")
+            assert page.locator(".opblock-summary-path").count() > 50  # the operations, listed
             assert not errors, errors
-            print(f"wheel check: {wheel.name} ({wheel.stat().st_size / 1e6:.1f} MB) installed alone serves the page "
-                  f"(three.js, MapLibre {names[1]}) and /docs from its own copy of the JavaScript")
     finally:
         server.terminate()
         server.wait(timeout=20)
-    return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())
