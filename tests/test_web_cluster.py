@@ -277,3 +277,40 @@ def test_sigterm_stops_a_server_on_a_local_cluster_with_its_workers(tmp_path):
         job = s.get(Job, job_id)
         assert job.status == "failed" and job.error == INTERRUPTED
     db.dispose()
+
+
+def _jobs_on(server, project_name: str) -> tuple[dict, list]:
+    """An evaluation of an orbit around the Duplex and an optimisation of a box, as a user runs them on ``server``:
+    the evaluation's metrics and the optimised plan's frame positions."""
+    pid = server.post("/api/projects", json={"name": project_name}).json()["id"]
+    model = upload_model(server, pid, sample_model_path(), name="duplex.ifc")
+    plan = server.post(f"/api/projects/{pid}/plans", json={"name": "orbit", "model_id": model, "template": "orbit",
+                                                           "radius_m": [25], "height_m": [12.0], "step_deg": 30})
+    r = server.post(f"/api/projects/{pid}/evaluations",
+                    json={"plan_id": plan.json()["id"], "settings": {"scale": SCALE, "engine": "embree"}})
+    assert wait_job(server, r.json()["job"]["id"])["status"] == "done"
+    metrics = server.get(f"/api/projects/{pid}/evaluations/{r.json()['evaluation']['id']}").json()["metrics"]
+    box = upload_model(server, pid, "box.obj", data=_box_obj())
+    r = server.post(f"/api/projects/{pid}/plans/optimize", json={"model_id": box, "k": 2, "scale": SCALE})
+    job = wait_job(server, r.json()["id"])
+    assert job["status"] == "done", job
+    frames = server.get(f"/api/projects/{pid}/plans/{job['plan_id']}/versions/1").json()["frames"]
+    return metrics, [f["position"] for f in frames]
+
+
+@pytest.mark.bench
+def test_serve_on_local_two_worker_processes_equals_the_threaded_server(tmp_path):
+    """``sightplan serve --cluster local:2``: two worker processes cast an evaluation and an optimisation (seen in
+    the task stream, on workers outside this process) whose results equal the threaded server's."""
+    with TestClient(create_app(ServerConfig(data_dir=tmp_path / "here"))) as here:
+        want = _jobs_on(here, "here")
+    app = create_app(ServerConfig(data_dir=tmp_path / "cluster", cluster="local:2"))
+    with TestClient(app) as there:
+        client = app.state.sightplan.cluster.client
+        with distributed.get_task_stream(client) as stream:
+            got = _jobs_on(there, "cluster")
+        workers = {t["worker"] for t in stream.data if str(t["key"]).startswith("observe_frames")}
+        pids = client.run(os.getpid)
+    assert got[0] == want[0] and np.allclose(got[1], want[1])
+    assert len(_keys(stream, "observe_frames")) > 2 and len(_keys(stream, "prepare_model-")) == 2
+    assert workers and all(pids[w] != os.getpid() for w in workers)  # cast in the worker processes
