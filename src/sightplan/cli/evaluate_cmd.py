@@ -310,9 +310,9 @@ def evaluate(
         write_plan(the_plan, save_plan)
     feature_set = FeatureSet.load(features) if features is not None else None
     if save_features is not None:
-        from ..observations.features import cached_features
+        from ..evaluate import scene_features
 
-        feature_set = feature_set or cached_features(scene, feature_density, seed)
+        feature_set = feature_set or scene_features(scene, settings, None, cache=cache)
         feature_set.save(save_features)
     with Progress(TextColumn("[bold]casting frames"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
                   TimeRemainingColumn(), console=console, transient=False) as bar:
@@ -321,7 +321,8 @@ def evaluate(
             from ..distributed import evaluate_distributed
 
             ev = evaluate_distributed(scene, the_plan, settings, cluster=cluster, batch_frames=batch_frames,
-                                      features=feature_set, progress=lambda i, n: bar.update(task, completed=i))
+                                      features=feature_set, feature_cache=cache,
+                                      progress=lambda i, n: bar.update(task, completed=i))
         else:
             ev = run_evaluation(scene, the_plan, settings, features=feature_set,
                                 cache_dir=None if cache else False,

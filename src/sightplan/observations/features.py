@@ -24,7 +24,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import ObservationsError
-from ..model.cache import atomic_write, default_cache_dir
+from ..model.cache import atomic_write, cache_root
 from ..model.scene import Scene
 
 CORNER_ANGLE_DEG = 30.0
@@ -203,10 +203,11 @@ def cached_features(scene: Scene, density_per_m2: float = 1.0, seed: int = 0, ca
                     ) -> FeatureSet:
     """:func:`sample_features` of ``scene``, sampled once and kept beside the scene cache.
 
-    The file is keyed by the scene's key (model, loader options, capture date) and the
-    sampling parameters; an unreadable or stale file is sampled again and replaced.
+    The file, under ``cache_dir`` (default ``features`` under :func:`~sightplan.model.cache.cache_root`), is keyed
+    by the scene's key (model, loader options, capture date) and the sampling parameters; an unreadable or stale
+    file is sampled again and replaced.
     """
-    directory = Path(cache_dir) if cache_dir is not None else default_cache_dir()
+    directory = Path(cache_dir) if cache_dir is not None else cache_root() / "features"
     name = hashlib.sha256(json.dumps([SAMPLING_VERSION, scene.key, float(density_per_m2), int(seed)]).encode())
     path = directory / f"features-{name.hexdigest()[:40]}.npz"
     if path.is_file():
