@@ -142,7 +142,6 @@ def observe_plan(
         keys = plan.frame_keys()
         frames = [cache.get(context, key) for key in keys]
     done = sum(fo is not None for fo in frames)
-    _stage(stages, "frames", done, n)
     if progress is not None and done:
         progress(done, n)
     timings["cache_read_s"] = time.perf_counter() - t0
@@ -155,6 +154,7 @@ def observe_plan(
         engine.feature_index  # noqa: B018  (built now, inside the stage that names it)
         _stage(stages, "engine", 1, 1)
         timings["engine_build_s"] = time.perf_counter() - t0
+        _stage(stages, "frames", done, n)
         t0 = time.perf_counter()
         with engine:
             for i in range(n):
@@ -170,6 +170,8 @@ def observe_plan(
                 if progress is not None:
                     progress(done, n)
         timings["cast_s"] = time.perf_counter() - t0
+    else:
+        _stage(stages, "frames", done, n)
     timings["frames_cast"] = cast
     obs = Observations.from_frames(frames, scene.targets, scene.present, len(features),
                                    observation_meta(engine_name, settings, scene.key, features_key, features.params))

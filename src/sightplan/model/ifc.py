@@ -249,12 +249,13 @@ def _tessellate(f: ifcopenshell.file, skip_classes: list[str], num_threads: int,
                 shapes[shape.id] = (verts @ m[:3, :3].T + m[:3, 3], placed)
                 if n_faces > len(faces):
                     oversize[shape.id] = n_faces
+            last = f"last done: {shape.type} {(shape.name or shape.guid)[:40]!r}"
             more = it.next()
             share = it.progress() / 100.0
         except Exception as exc:
             raise ModelError(f"IfcOpenShell could not tessellate the model: {exc}") from exc
         done += 1
-        tracker.update("tessellating", min(done, total), total, share)
+        tracker.update("tessellating", min(done, total), total, share, last)
         if not more:
             break
     # the kernel's own count includes products it skips, so it may stop short of 100 %

@@ -89,6 +89,9 @@ def load_model(
             scene, report = hit
             return scene, replace(report, elapsed_s=time.perf_counter() - t0, from_cache=True,
                                   peak_rss_mb=round(peak_rss_mb(), 1))
+    if status is not None and path.suffix.lower() not in IFC_EXTENSIONS:  # the IFC loader tells its own phases
+        status(LoadProgress("reading", 0, 0, 0.0, time.perf_counter() - t0, None,
+                            f"{path.name}, {path.stat().st_size / 2**20:,.1f} MB"))
     scene, report = loader(path, **options)
     if status is not None:
         status(LoadProgress("ties", 0, len(scene.faces), 1.0, time.perf_counter() - t0, None,
