@@ -28,7 +28,7 @@ ProgressCallback = Callable[[int, int], None]
 StageCallback = Callable[[str, int, int], None]
 
 # Bump when what a frame's observation means changes (kernels, tolerances): cached frames are then recast.
-OBSERVATION_RULES = f"v2 occlusion={OCCLUSION_TOLERANCE_M} ties={TIE_TOL_M}"
+OBSERVATION_RULES = f"v3 occlusion={OCCLUSION_TOLERANCE_M} ties={TIE_TOL_M}"
 
 
 @dataclass(frozen=True)
