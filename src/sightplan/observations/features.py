@@ -77,7 +77,7 @@ class FeatureSet:
         return fs
 
 
-@nb.njit(cache=True)
+@nb.njit(nogil=True, cache=True)
 def _corner_groups(order, group_start, normals, cos_limit):
     """For each group (sorted incidences of one merged vertex in one element): any pair of face normals apart by > limit."""
     n_groups = len(group_start) - 1
@@ -100,7 +100,7 @@ def _corner_groups(order, group_start, normals, cos_limit):
 
 
 #: Faces per block of whole elements that the sampling handles at once: its memory grows with the block, not the model.
-BLOCK_FACES = 1 << 17
+BLOCK_FACES = 1 << 16
 
 
 def element_blocks(face_element: NDArray, block_faces: int = BLOCK_FACES) -> list[NDArray[np.int64]]:
@@ -201,24 +201,34 @@ def corner_features(scene: Scene, angle_deg: float = CORNER_ANGLE_DEG, block_fac
         _, vid = np.unique(np.round(scene.vertices / MERGE_GRID_M).astype(np.int64), axis=0, return_inverse=True)
         vid = vid.ravel().astype(np.int64)
     cos_limit = float(np.cos(np.radians(angle_deg)))
-    parts = [p for idx in element_blocks(scene.face_element, block_faces)
-             if (p := _block_corners(scene, idx, grid, vid, cos_limit)) is not None]
-    if not parts:
+    fields: list[list[NDArray]] = [[] for _ in range(6)]  # key, element, normal sum, angle sum, position sum, count
+    for idx in element_blocks(scene.face_element, block_faces):
+        part = _block_corners(scene, idx, grid, vid, cos_limit)
+        if part is not None:
+            for store, column in zip(fields, part):
+                store.append(column)
+    if not fields[0]:
         return empty
-    key = np.concatenate([p[0] for p in parts])
-    elem = np.concatenate([p[1] for p in parts])
-    nsum = np.concatenate([p[2] for p in parts]).astype(np.float64)
-    wsum = np.concatenate([p[3] for p in parts])
-    psum = np.concatenate([p[4] for p in parts])
-    count = np.concatenate([p[5] for p in parts])
-    del parts
+
+    def joined(k: int) -> NDArray:
+        """One field of every block in one array, its pieces let go at once (so two copies never coexist)."""
+        out = np.concatenate(fields[k])
+        fields[k].clear()
+        return out
+
+    key = joined(0)
     order = np.argsort(key, kind="stable")
-    key, elem, nsum, wsum, psum, count = key[order], elem[order], nsum[order], wsum[order], psum[order], count[order]
+    key = key[order]
     starts = np.flatnonzero(np.r_[True, key[1:] != key[:-1]])
-    nrm = np.add.reduceat(nsum, starts, axis=0)
-    weight = np.add.reduceat(wsum, starts)
-    pos = np.add.reduceat(psum, starts, axis=0) / np.add.reduceat(count, starts)[:, None]
+    del key
+    nrm = np.add.reduceat(joined(2)[order].astype(np.float64), starts, axis=0)
+    weight = np.add.reduceat(joined(3)[order], starts)
+    pos = np.add.reduceat(joined(4)[order], starts, axis=0)
+    pos /= np.add.reduceat(joined(5)[order], starts)[:, None]
+    elem = joined(1)[order]
+    del order
     owner = np.where(np.minimum.reduceat(elem, starts) == np.maximum.reduceat(elem, starts), elem[starts], -1)
+    del elem
     length = np.linalg.norm(nrm, axis=1)
     keep = length > 1e-6 * weight  # normals that cancel (a zero-thickness sheet's rim) leave float32 noise: none
     return pos[keep], nrm[keep] / length[keep, None], owner[keep].astype(np.int32)
