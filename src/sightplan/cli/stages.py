@@ -1,5 +1,6 @@
 """Progress of a command's stages: live bars on a terminal, plain lines anywhere else (a CI log, ``nohup``).
 
+Progress goes to standard error, so standard output holds only what the command prints (its tables, its JSON).
 Every stage is named. Where the output is not a terminal a line is written when a stage starts and ends, as it
 advances (at most one a second), and, while a stage is silent (one long product, a kernel running), a heartbeat
 line at least every :data:`HEARTBEAT_S` seconds that says what runs and for how long.
@@ -7,6 +8,7 @@ line at least every :data:`HEARTBEAT_S` seconds that says what runs and for how 
 
 from __future__ import annotations
 
+import sys
 import threading
 import time
 from collections.abc import Iterator, Mapping
@@ -28,7 +30,7 @@ class StageDisplay:
 
     def __init__(self, console: Console, names: Mapping[str, str] | None = None, *, transient: bool = True,
                  heartbeat_s: float = HEARTBEAT_S) -> None:
-        self.console = console
+        self.console = progress_console(console)
         self.names = dict(names or {})
         self.plain = not console.is_terminal
         self.heartbeat_s = heartbeat_s
@@ -108,9 +110,17 @@ class StageDisplay:
                 self._line(stage, done, total, note, now, heartbeat=True)
 
 
+def progress_console(console: Console) -> Console:
+    """Where progress goes: standard error when ``console`` writes to standard output, else ``console`` itself."""
+    from .base import err_console
+
+    return err_console if console.file is sys.stdout else console
+
+
 @contextmanager
 def step(console: Console, text: str) -> Iterator[None]:
     """One step without a count ("drawing the overview"): a spinner on a terminal, else a line and heartbeats."""
+    console = progress_console(console)
     if console.is_terminal:
         with console.status(text):
             yield
