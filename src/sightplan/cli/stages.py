@@ -1,9 +1,10 @@
 """Progress of a command's stages: live bars on a terminal, plain lines anywhere else (a CI log, ``nohup``).
 
 Progress goes to standard error, so standard output holds only what the command prints (its tables, its JSON).
-Every stage is named. Where the output is not a terminal a line is written when a stage starts and ends, as it
-advances (at most one a second), and, while a stage is silent (one long product, a kernel running), a heartbeat
-line at least every :data:`HEARTBEAT_S` seconds that says what runs and for how long.
+Every stage is named. Where it is not a terminal, a quick command writes nothing; once :data:`HEARTBEAT_S` passes
+without a line, a line says which stage runs, how far it is (with its note: the product tessellated last, an ETA)
+and for how long, and so on at least every :data:`HEARTBEAT_S` seconds, even while a stage itself says nothing
+(one long product, a kernel running); a stage that was shown gets a last line when it ends.
 """
 
 from __future__ import annotations
@@ -17,22 +18,21 @@ from contextlib import contextmanager
 from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
-HEARTBEAT_S = 1.0  # a silent stage gets a line this often (well under the 2 s a reader waits at most)
-_MIN_LINE_S = 1.0  # an advancing stage writes at most a line this often
+HEARTBEAT_S = 1.0  # the longest silence where the output is not a terminal (well under the 2 s a reader waits)
 
 
 class StageDisplay:
     """A ``progress(stage, done, total, note='')`` callback for a command's stages; use it as a context manager.
 
     ``names`` maps a stage's key to the words shown (the key itself otherwise). ``total`` 0 means a stage without
-    a count. ``note``: a few words shown after the count (the product tessellated last, an ETA).
+    a count. ``note``: a few words shown after the count.
     """
 
     def __init__(self, console: Console, names: Mapping[str, str] | None = None, *, transient: bool = True,
                  heartbeat_s: float = HEARTBEAT_S) -> None:
         self.console = progress_console(console)
         self.names = dict(names or {})
-        self.plain = not console.is_terminal
+        self.plain = not self.console.is_terminal
         self.heartbeat_s = heartbeat_s
         self._transient = transient
         self._lock = threading.Lock()
@@ -42,7 +42,7 @@ class StageDisplay:
         self._tasks: dict[str, int] = {}
         self._current: tuple[str, int, int, str] | None = None
         self._started = self._last_line = time.monotonic()
-        self._finished: set[str] = set()
+        self._shown = False  # whether the current stage has had a line
 
     def __enter__(self) -> StageDisplay:
         if self.plain:
@@ -68,32 +68,28 @@ class StageDisplay:
     def __call__(self, stage: str, done: int, total: int, note: str = "") -> None:
         now = time.monotonic()
         with self._lock:
-            new = self._current is None or self._current[0] != stage
-            if new:
-                self._started = now
-                self._finished.discard(stage)
-            self._current = (stage, done, total, note)
             if self._bar is not None:
                 if stage not in self._tasks:
                     self._tasks[stage] = self._bar.add_task(self.name(stage), total=total or None, note=note)
                 self._bar.update(self._tasks[stage], completed=done, total=total or None, note=note)
                 return
-            finished = total > 0 and done >= total
-            if finished and stage in self._finished:
-                return
-            if new or finished or now - self._last_line >= _MIN_LINE_S:
-                if finished:
-                    self._finished.add(stage)
-                self._line(stage, done, total, note, now)
+            if self._current is None or self._current[0] != stage:
+                self._started, self._shown = now, False
+            was_done = self._current is not None and self._current[0] == stage and self._current[2] > 0 and \
+                self._current[1] >= self._current[2]
+            self._current = (stage, done, total, note)
+            if self._shown and total > 0 and done >= total and not was_done:
+                self._line(now)  # a stage that was shown ends with a line of its own
 
-    def _line(self, stage: str, done: int, total: int, note: str, now: float, heartbeat: bool = False) -> None:
-        """One plain line (the lock is held)."""
+    def _line(self, now: float) -> None:
+        """The current stage's line (the lock is held)."""
+        assert self._current is not None
+        stage, done, total, note = self._current
         count = f" {done:,}/{total:,}" if total > 0 else ""
         tail = (f" — {note}" if count else f" {note}") if note else ""
-        running = f" ({now - self._started:.0f} s)" if heartbeat or (total > 0 and done >= total) else ""
-        self.console.print(f"{self.name(stage)}:{count}{tail}{running}", highlight=False, markup=False,
-                           soft_wrap=True)
-        self._last_line = now
+        self.console.print(f"{self.name(stage)}:{count}{tail} ({now - self._started:.0f} s)", highlight=False,
+                           markup=False, soft_wrap=True)
+        self._last_line, self._shown = now, True
 
     def _beat(self) -> None:
         while not self._stop.wait(min(0.25, self.heartbeat_s / 4)):
@@ -101,13 +97,13 @@ class StageDisplay:
             with self._lock:
                 if self._current is None or now - self._last_line < self.heartbeat_s:
                     continue
-                stage, done, total, note = self._current
+                stage, done, total, _ = self._current
                 if total > 0 and done >= total:  # between stages: what runs has no name of its own
                     self.console.print(f"after {self.name(stage)}: working ({now - self._started:.0f} s)",
                                        highlight=False, markup=False, soft_wrap=True)
                     self._last_line = now
-                    continue
-                self._line(stage, done, total, note, now, heartbeat=True)
+                else:
+                    self._line(now)
 
 
 def progress_console(console: Console) -> Console:
