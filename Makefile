@@ -66,6 +66,7 @@ bench: $(STAMP)
 	$(BIN)/python -m pytest -q -m bench
 	$(BIN)/python benchmarks/speed.py
 	$(BIN)/python benchmarks/load.py
+	$(BIN)/python benchmarks/lean.py
 	$(BIN)/python benchmarks/run.py
 	$(BIN)/python benchmarks/planning.py
 	$(BIN)/python benchmarks/checks.py

@@ -321,3 +321,18 @@ def test_feature_visibility_on_cube(engine):
     assert corner_front.sum() == 4 and surf_front.sum() > 5
     expected = set(np.flatnonzero(surf_front | corner_front).tolist())
     assert set(np.asarray(fo.features).tolist()) == expected
+
+
+def test_corners_streamed_in_small_element_blocks_equal_one_block():
+    """Sampled a few elements at a time, the corners (merged across elements) are those of one pass."""
+    from sightplan.observations.features import corner_features, element_blocks
+
+    scene = scene_of([cube_mesh((x, 0, 0)) for x in (0.0, 1.0, 1.0002, 3.0)])
+    assert [len(b) for b in element_blocks(scene.face_element, 20)] == [12, 12, 12, 12]
+    whole = corner_features(scene, block_faces=10**6)
+    for block in (1, 20, 30):
+        part = corner_features(scene, block_faces=block)
+        np.testing.assert_allclose(part[0], whole[0], atol=1e-12)
+        np.testing.assert_allclose(part[1], whole[1], atol=1e-6)
+        assert np.array_equal(part[2], whole[2])
+    assert len(whole[0]) == 20 and (whole[2] == -1).sum() == 8  # the two touching and the two coincident cubes

@@ -88,8 +88,11 @@ def test_key_is_file_bytes_plus_options(tmp_path):
 
 
 def test_default_cache_dir(monkeypatch, tmp_path):
+    """One layout whatever the environment says: scenes, features and frames each in a folder under the root."""
+    from sightplan.observations.cache import default_cache_dir as frames_dir
+
     monkeypatch.setenv("SIGHTPLAN_CACHE", str(tmp_path / "c"))
-    assert default_cache_dir() == tmp_path / "c"
+    assert default_cache_dir() == tmp_path / "c" / "scenes" and frames_dir() == tmp_path / "c" / "frames"
     monkeypatch.delenv("SIGHTPLAN_CACHE")
     assert default_cache_dir().parts[-3:] == (".cache", "sightplan", "scenes")
 

@@ -129,6 +129,7 @@ def evaluate_distributed(
     features: FeatureSet | None = None,
     cache_dir: str | Path | None | bool = False,
     progress: ProgressCallback | None = None,
+    feature_cache: bool = True,
 ) -> Evaluation:
     """Evaluate ``plan`` against ``scene`` on a dask cluster, ``batch_frames`` frames per task.
 
@@ -140,6 +141,7 @@ def evaluate_distributed(
     (which is contacted only to resolve ``auto`` when every frame is cached), and what it casts is stored.
     progress: called with (frames done, frames) after the cache is read and as batches complete; what it raises
     cancels the batches not yet done on the cluster and ends the evaluation.
+    feature_cache: read and write the feature cache when the features are sampled here.
     """
     settings = settings or EvaluationSettings()
     if len(plan) == 0:
@@ -152,7 +154,7 @@ def evaluate_distributed(
     timings: dict[str, float] = {}
     t_start = time.perf_counter()
     scene_key = scene.key
-    features = scene_features(scene, settings, features)
+    features = scene_features(scene, settings, features, cache=feature_cache)
     timings["features_s"] = time.perf_counter() - t_start
     with ExitStack() as stack:
         reached: list[Client] = []

@@ -155,7 +155,8 @@ def evaluate_under_error(
     cast_plan = perturbed_plan(plan, error, pool, rng)
     picks = draw_picks(int(draws), pool, n, rng)
     wall, cpu = time.perf_counter(), time.process_time()
-    obs, _, cast_timings = observe_plan(scene, cast_plan, settings, features, cache=None, progress=progress)
+    obs, _, cast_timings = observe_plan(scene, cast_plan, settings, features, cache=None, progress=progress,
+                                       feature_cache=cache_dir is not False)
     timings["cast_s"], timings["cpu_cast_s"] = time.perf_counter() - wall, time.process_time() - cpu
     timings["frames_cast"] = cast_timings["frames_cast"]
     wall, cpu = time.perf_counter(), time.process_time()

@@ -7,7 +7,6 @@ from typing import TYPE_CHECKING, Annotated
 
 import numpy as np
 import typer
-from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 from rich.table import Table
 
 from ..engines.base import EngineName
@@ -29,7 +28,11 @@ from .fourd import (
     with_reality,
 )
 from .loading import georef_kwargs, load_with_progress, print_warnings, warn_if_far
+from .stages import StageDisplay, step
 
+#: an evaluation's stages as the progress lines name them
+EVALUATION_STAGES = {"ties": "finding tie pairs", "features": "simulated features", "engine": "building the engine",
+                     "frames": "casting frames", "report": "writing the report"}
 MAX_RING_FRAMES = 100_000  # as many as a route may have: a ring plan is built before anything is cast
 
 if TYPE_CHECKING:
@@ -76,7 +79,7 @@ def flown_plan(console, path: str, plan, scene, autopilot: str | None):
         autopilot = resolve_autopilot(autopilot)
     geo = resolve_georeference(plan.parameters.get("georeference"), Georeference.from_scene_metadata(scene.metadata),
                                what="--as-flown")
-    with console.status("replaying the mission…"):
+    with step(console, "replaying the mission"):
         flown, rep = as_flown_plan(path, plan, geo, autopilot)
     d, a = deviations(plan, flown)
     console.print(f"as flown ({rep.autopilot}): {len(flown)} photos in {rep.time_s / 60:.1f} min; off their frames "
@@ -310,34 +313,33 @@ def evaluate(
         write_plan(the_plan, save_plan)
     feature_set = FeatureSet.load(features) if features is not None else None
     if save_features is not None:
-        from ..observations.features import cached_features
+        from ..evaluate import scene_features
 
-        feature_set = feature_set or cached_features(scene, feature_density, seed)
+        feature_set = feature_set or scene_features(scene, settings, None, cache=cache)
         feature_set.save(save_features)
-    with Progress(TextColumn("[bold]casting frames"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
-                  TimeRemainingColumn(), console=console, transient=False) as bar:
-        task = bar.add_task("frames", total=len(the_plan))
+    with StageDisplay(console, EVALUATION_STAGES, transient=False) as display:
         if cluster is not None:
             from ..distributed import evaluate_distributed
 
+            display("features", 0, 0)
             ev = evaluate_distributed(scene, the_plan, settings, cluster=cluster, batch_frames=batch_frames,
-                                      features=feature_set, progress=lambda i, n: bar.update(task, completed=i))
+                                      features=feature_set, feature_cache=cache,
+                                      progress=lambda i, n: display("frames", i, n))
         else:
             ev = run_evaluation(scene, the_plan, settings, features=feature_set,
-                                cache_dir=None if cache else False,
-                                progress=lambda i, n: bar.update(task, completed=i))
-    paths = write_report(ev, scene, the_plan, out, model_path=str(model), plan_path=str(plan or ""))
+                                cache_dir=None if cache else False, stages=display)
+        display("report", 0, 0)
+        paths = write_report(ev, scene, the_plan, out, model_path=str(model), plan_path=str(plan or ""))
     robust = None
     if pose_error is not None:
         from ..robustness import evaluate_under_error, write_robustness
 
-        with Progress(TextColumn("[bold]draws"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
-                      TimeRemainingColumn(), console=console, transient=False) as bar:
-            task = bar.add_task("draws", total=n_draws)
+        with StageDisplay(console, {"draws": "casting the draws"}, transient=False) as display:
+            display("draws", 0, n_draws)
             robust = evaluate_under_error(scene, the_plan, settings, pose_error, n_draws,
                                           seed if draw_seed is None else draw_seed, pool=n_pool, nominal=ev,
-                                          features=feature_set,
-                                          progress=lambda i, n: bar.update(task, completed=n_draws * i / n))
+                                          features=feature_set, cache_dir=None if cache else False,
+                                          progress=lambda i, n: display("draws", int(n_draws * i / n), n_draws))
         paths.update(write_robustness(robust, scene, out))
     if picture:
         from ..engines import make_engine
@@ -346,7 +348,7 @@ def evaluate(
 
         vc = ev.metrics.plan.VC
         title = f"{Path(str(model)).name} — {plan_label}: VC {cell(None if vc is None else 100 * vc, '.1f')} %"
-        with console.status("drawing the overview…"), make_engine(ev.engine, scene, threads=threads) as eng:
+        with step(console, "drawing the overview"), make_engine(ev.engine, scene, threads=threads) as eng:
             view = overview_view(eng, the_plan.C_world)
             storeys = storey_views(scene, ev.engine, threads)
         colours = visibility_colours(ev.metrics.elements)
@@ -357,12 +359,12 @@ def evaluate(
     if gltf is not None:
         from ..report.gltf import write_gltf
 
-        with console.status("writing the glTF…"):
+        with step(console, "writing the glTF"):
             paths["gltf"] = write_gltf(scene, ev.metrics, gltf, colour, colour_bounds)
     if html is not None:
         from ..report.html import write_html
 
-        with console.status("writing the HTML report…"):
+        with step(console, "writing the HTML report"):
             paths["html"] = write_html(ev, scene, the_plan, html, model_label=str(model), plan_label=plan_label,
                                        colour_by=colour, bounds=colour_bounds)
     console.print(summary_table(ev, f"{Path(str(model)).name} × {plan_label} — engine {ev.engine}, "

@@ -1,4 +1,4 @@
-"""Loading a model from the CLI, with a progress bar while IfcOpenShell tessellates."""
+"""Loading a model from the CLI, with its stages named as they come (:mod:`.stages`)."""
 
 from __future__ import annotations
 
@@ -6,7 +6,11 @@ from collections.abc import Callable, Iterator, Mapping
 from contextlib import contextmanager
 
 from rich.console import Console
-from rich.progress import BarColumn, MofNCompleteColumn, Progress, TaskProgressColumn, TextColumn, TimeElapsedColumn
+
+from .stages import StageDisplay
+
+LOAD_STAGES = {"reading": "reading", "tessellating": "tessellating products", "assembling": "assembling the scene",
+               "ties": "finding tie pairs", "loading": "loading"}
 
 
 def _eta(seconds: float | None) -> str:
@@ -19,45 +23,31 @@ def _eta(seconds: float | None) -> str:
 @contextmanager
 def stage_bars(console: Console, names: Mapping[str, str] | None = None
                ) -> Iterator[Callable[[str, int, int], None]]:
-    """A progress(stage, done, total) callback that shows one bar per stage (titled ``names[stage]`` or the stage),
-    cleared when the block ends."""
-    with Progress(TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
-                  console=console, transient=True) as bar:
-        tasks: dict[str, int] = {}
-
-        def progress(stage: str, done: int, total: int) -> None:
-            if stage not in tasks:
-                tasks[stage] = bar.add_task((names or {}).get(stage, stage), total=max(total, 1))
-            bar.update(tasks[stage], completed=done, total=max(total, 1))
-
-        yield progress
+    """A progress(stage, done, total) callback that shows each stage (titled ``names[stage]`` or the stage): a bar
+    each on a terminal, cleared when the block ends; plain lines elsewhere."""
+    with StageDisplay(console, names) as display:
+        yield display
 
 
 def load_with_progress(console: Console, model: str, cache: bool, mesh_elements: str = "objects",
                        mesh_scale: float = 1.0, patch_area: float | None = None):
-    """(scene, report) of ``model``; a cache hit shows no bar. ``mesh_*`` apply to mesh files only; ``patch_area``
+    """(scene, report) of ``model``; a cache hit shows nothing. ``mesh_*`` apply to mesh files only; ``patch_area``
     (m²) to meshes grouped in patches and to point clouds.
 
-    An IFC file shows its phases as they come: reading the file (from the first second), then products
-    tessellated / total with an ETA, then assembling the scene."""
+    The phases show as they come: reading the file, then for an IFC the products tessellated / total with an
+    ETA and the last product done, the scene assembled, then the tie pairs found."""
     from ..model.load import MESH_EXTENSIONS, load_model, resolve_model_path
     from ..model.pointcloud import is_point_cloud
 
     name = resolve_model_path(model).name
-    with Progress(TextColumn("[bold]{task.description}"), BarColumn(), TaskProgressColumn(),
-                  TextColumn("{task.fields[count]}"), TimeElapsedColumn(), TextColumn("{task.fields[eta]}"),
-                  console=console, transient=True) as bar:
-        task = bar.add_task(f"loading {name}", total=1.0, count="", eta="")
-        is_ifc = name.lower().endswith((".ifc", ".ifczip"))
-
+    with StageDisplay(console, LOAD_STAGES) as display:
         def status(s) -> None:  # a LoadProgress
             if s.phase == "tessellating":
-                bar.update(task, description=f"tessellating {name}", total=max(s.total, 1), completed=s.done,
-                           count=f"{s.done:,}/{s.total:,} products", eta=_eta(s.eta_s))
-            elif s.phase in ("reading", "assembling"):  # no count: a pulsing bar
-                bar.update(task, description=f"{s.phase} {s.message}", total=None, count="", eta="")
+                display("tessellating", s.done, s.total, "; ".join(x for x in (_eta(s.eta_s), s.message) if x))
+            elif s.phase != "done":
+                display(s.phase, 0, 0, s.message)
 
-        extra: dict = {"status": status} if is_ifc else {}
+        extra: dict = {}
         if name.lower().endswith(tuple(MESH_EXTENSIONS)):
             extra = {"elements": mesh_elements, "scale": mesh_scale}
             if patch_area is not None and mesh_elements == "patches":
@@ -66,7 +56,7 @@ def load_with_progress(console: Console, model: str, cache: bool, mesh_elements:
                                                              and is_point_cloud(resolve_model_path(model)))
         if cloud:
             extra = {"scale": mesh_scale} | ({"patch_area_m2": patch_area} if patch_area is not None else {})
-        return load_model(model, cache=cache, **extra)
+        return load_model(model, cache=cache, status=status, **extra)
 
 
 def georef_kwargs(scene) -> dict:

@@ -55,6 +55,7 @@ from ..errors import EngineError
 from ..extras import install_hint
 from ..model.ties import TIE_TOL_M
 from ..observations.table import FrameObservation
+from . import kernels
 from .base import OCCLUSION_TOLERANCE_M, Engine
 
 FeatureTest = Literal["rays", "depth"]
@@ -185,7 +186,8 @@ int face_texel(vec3 c, out ivec2 tex, out vec3 axis) {
 
 _REDUCE = _COMMON + """
 layout(std430, binding = 2) readonly buffer FaceInfo { ivec2 face_info[]; };  // element, first tie entry
-// 4 per entry (kernels.tie_table): 3 inward edges, then (lo, hi, element bits, 0); a face's header: (axis, span)
+// 7 per entry (kernels.tie_table): 3 inward edges, (lo, hi, element bits, 0), 3 vertices with the normal in w;
+// a face's header: (axis, span)
 layout(std430, binding = 12) readonly buffer Ties { vec4 tie[]; };
 layout(std430, binding = 3) coherent buffer Acc { uint acc[]; };          // 5 per element
 layout(std430, binding = 4) coherent buffer Touched { uint n_touched; uint touched[]; };
@@ -200,19 +202,33 @@ shared int s_el[%(LN)d];
 shared uint s_t[%(LN)d];
 shared uint s_a[%(LN)d];
 
-// tie entry j's triangle holds x (within tie_tol of its edges), s = x along the hit face's axis
+// tie entry j's triangle holds x (x in its plane within tie_tol of the triangle), s = x along the hit face's axis
 bool holds(int j, float s, vec3 x) {
-    return tie[4 * j + 3].y >= s && dot(tie[4 * j].xyz, x) - tie[4 * j].w >= -tie_tol
-        && dot(tie[4 * j + 1].xyz, x) - tie[4 * j + 1].w >= -tie_tol
-        && dot(tie[4 * j + 2].xyz, x) - tie[4 * j + 2].w >= -tie_tol;
+    if (tie[7 * j + 3].y < s) return false;
+    vec3 sk = vec3(dot(tie[7 * j].xyz, x) - tie[7 * j].w, dot(tie[7 * j + 1].xyz, x) - tie[7 * j + 1].w,
+                   dot(tie[7 * j + 2].xyz, x) - tie[7 * j + 2].w);
+    if (min(sk.x, min(sk.y, sk.z)) < -tie_tol) return false;
+    if (min(sk.x, min(sk.y, sk.z)) >= 0.0) return true;
+    vec3 n = vec3(tie[7 * j + 4].w, tie[7 * j + 5].w, tie[7 * j + 6].w);
+    float best = 1.0 / 0.0;
+    for (int k = 0; k < 3; k++) {  // near a corner: the distance to the nearest edge x lies outside of
+        if (sk[k] >= 0.0) continue;
+        vec3 a = tie[7 * j + 4 + k].xyz;
+        vec3 e = tie[7 * j + 4 + ((k == 2) ? 0 : k + 1)].xyz - a;
+        vec3 w = x - a;
+        w -= dot(n, w) * n;
+        float t = clamp(dot(w, e) / max(dot(e, e), 1e-30), 0.0, 1.0);
+        best = min(best, length(w - t * e));
+    }
+    return best <= tie_tol;
 }
 
 // entry j's element when it holds x and no earlier entry of the window of the same element does; else -1
 int tied_owner(int j, int start, float s, vec3 x) {
     if (!holds(j, s, x)) return -1;
-    int eg = floatBitsToInt(tie[4 * j + 3].z);
+    int eg = floatBitsToInt(tie[7 * j + 3].z);
     for (int i = start; i < j; i++) {
-        if (floatBitsToInt(tie[4 * i + 3].z) == eg && holds(i, s, x)) return -1;
+        if (floatBitsToInt(tie[7 * i + 3].z) == eg && holds(i, s, x)) return -1;
     }
     return eg;
 }
@@ -290,13 +306,13 @@ void main() {
                 // coincident surfaces: the pixel counts for every element whose tied face holds the hit too
                 int h = face_info[p].y, j1 = face_info[p + 1].y;
                 vec3 x = C + t * d;
-                float s = (h < j1) ? dot(tie[4 * h].xyz, x) : 0.0;
+                float s = (h < j1) ? dot(tie[7 * h].xyz, x) : 0.0;
                 int a = h + 1, b = j1;
                 while (a < b) {  // the first entry starting at or after s - span
                     int mid = (a + b) / 2;
-                    if (tie[4 * mid + 3].x < s - tie[4 * h].w) a = mid + 1; else b = mid;
+                    if (tie[7 * mid + 3].x < s - tie[7 * h].w) a = mid + 1; else b = mid;
                 }
-                for (int j = a; j < j1 && tie[4 * j + 3].x <= s; j++) {
+                for (int j = a; j < j1 && tie[7 * j + 3].x <= s; j++) {
                     int eg = tied_owner(j, a, s, x);
                     if (eg < 0 || eg == e) continue;
                     owner = min(owner, eg);
@@ -572,7 +588,7 @@ class GLEngine(Engine):
         info[:-1, 0] = self._face_element
         info[:, 1] = tie_ptr
         self._face_el = ctx.buffer(info.tobytes())
-        ties = np.zeros((max(1, len(tie_elem)), 4, 4), np.float32)
+        ties = np.zeros((max(1, len(tie_elem)), kernels.TIE_ROWS, 4), np.float32)
         ties[: len(tie_elem)] = tie_edge
         ties[: len(tie_elem), 3, 2] = tie_elem.view(np.float32)  # the element's bits, read back with floatBitsToInt
         self._ties_buf = ctx.buffer(ties.tobytes())

@@ -17,6 +17,7 @@ from ..model.ties import TIE_TOL_M
 
 MODE_PINHOLE = 0
 MODE_EQUIRECT = 1
+TIE_ROWS = 7  # rows of 4 per tie entry (:func:`tie_table`)
 
 
 @nb.njit(nogil=True, cache=True)
@@ -90,14 +91,15 @@ def tie_table(pairs: np.ndarray, local_vertices: np.ndarray, faces: np.ndarray, 
               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Per face, the faces of other elements it is tied to (coincident surfaces, METRICS.md §2), for :func:`add_hit`.
 
-    Returns ``tie_ptr`` (F + 1,) int64, ``tie_elem`` (k,) int32 and ``tie_edge`` (k, 4, 4) float64, in the engine
+    Returns ``tie_ptr`` (F + 1,) int64, ``tie_elem`` (k,) int32 and ``tie_edge`` (k, 7, 4) float64, in the engine
     frame. A face f with ties has the entries ``tie_ptr[f]:tie_ptr[f + 1]`` (most faces have none): first a header
     (element −1; row 0: the unit axis u along f's longest edge and the longest span of its tied triangles along u),
-    then one entry per tied face, sorted by where it starts along u: its element; rows 0–2 its three edges as in-plane
-    inward unit normals m and offsets m·a (a point X lies inside the triangle, within the tolerance of its edges,
-    when m·X − offset ≥ −tolerance for all three); row 3 its span [lo, hi] along u, widened by the tolerance. A hit
-    at u·X = s then tests only the entries with s − span ≤ lo ≤ s (:func:`tie_window`): a long flange tied to many
-    small plates costs a few tests per hit, not one per plate.
+    then one entry per tied face, sorted by where it starts along u: its element; rows 0–2 its three edges (vertex k
+    to k + 1) as in-plane inward unit normals m and offsets m·a (m·X − offset is X's distance inside the edge's
+    line); row 3 its span [lo, hi] along u, widened by the tolerance; rows 4–6 its vertices, and in their fourth
+    column its unit normal, for the distance to a corner (:func:`inside_tied`). A hit at u·X = s then tests only the
+    entries with s − span ≤ lo ≤ s (:func:`tie_window`): a long flange tied to many small plates costs a few tests
+    per hit, not one per plate.
     """
     n_faces = len(faces)
     faces = np.asarray(faces)
@@ -106,7 +108,7 @@ def tie_table(pairs: np.ndarray, local_vertices: np.ndarray, faces: np.ndarray, 
     dst = np.r_[pairs[:, 1], pairs[:, 0]]
     elem = np.asarray(face_element, np.int64)
     if len(src) == 0:
-        return np.zeros(n_faces + 1, np.int64), np.zeros(0, np.int32), np.zeros((0, 4, 4))
+        return np.zeros(n_faces + 1, np.int64), np.zeros(0, np.int32), np.zeros((0, TIE_ROWS, 4))
     own = local_vertices[faces[src]]  # the hit face's axis: its longest edge
     edges = np.stack([own[:, 1] - own[:, 0], own[:, 2] - own[:, 1], own[:, 0] - own[:, 2]], axis=1)
     longest = np.argmax(np.linalg.norm(edges, axis=2), axis=1)
@@ -124,7 +126,7 @@ def tie_table(pairs: np.ndarray, local_vertices: np.ndarray, faces: np.ndarray, 
     np.cumsum(counts, out=ptr[1:])
     slot = np.arange(len(src)) + np.cumsum(first)  # each entry after its own face's header and every earlier one
     out_elem = np.full(ptr[-1], -1, np.int32)
-    out_edge = np.zeros((ptr[-1], 4, 4))
+    out_edge = np.zeros((ptr[-1], TIE_ROWS, 4))
     out_elem[slot] = elem[dst]
     normal = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
     normal /= np.maximum(np.linalg.norm(normal, axis=1, keepdims=True), 1e-300)
@@ -134,6 +136,8 @@ def tie_table(pairs: np.ndarray, local_vertices: np.ndarray, faces: np.ndarray, 
         m /= np.maximum(np.linalg.norm(m, axis=1, keepdims=True), 1e-300)
         out_edge[slot, j, :3] = m
         out_edge[slot, j, 3] = np.einsum("ij,ij->i", m, a)
+        out_edge[slot, 4 + j, :3] = a
+        out_edge[slot, 4 + j, 3] = normal[:, j]
     out_edge[slot, 3, 0] = lo
     out_edge[slot, 3, 1] = hi
     head = ptr[src[first]]
@@ -144,11 +148,40 @@ def tie_table(pairs: np.ndarray, local_vertices: np.ndarray, faces: np.ndarray, 
 
 @nb.njit(nogil=True, cache=True, inline="always")
 def inside_tied(edge, j, x0, x1, x2):
-    """Whether point x lies inside tie entry j's triangle, within :data:`TIE_TOL_M` of its edges."""
+    """Whether point x, projected into the plane of tie entry j's triangle, lies within :data:`TIE_TOL_M` of the
+    triangle (METRICS.md §2): inside its three edges, or no farther than that from its nearest edge or corner (never
+    the wedge beyond a sharp corner that widening each edge would add)."""
+    s0 = edge[j, 0, 0] * x0 + edge[j, 0, 1] * x1 + edge[j, 0, 2] * x2 - edge[j, 0, 3]
+    s1 = edge[j, 1, 0] * x0 + edge[j, 1, 1] * x1 + edge[j, 1, 2] * x2 - edge[j, 1, 3]
+    s2 = edge[j, 2, 0] * x0 + edge[j, 2, 1] * x1 + edge[j, 2, 2] * x2 - edge[j, 2, 3]
+    if s0 < -TIE_TOL_M or s1 < -TIE_TOL_M or s2 < -TIE_TOL_M:
+        return False
+    if s0 >= 0.0 and s1 >= 0.0 and s2 >= 0.0:
+        return True
+    return corner_distance(edge, j, x0, x1, x2, s0, s1, s2) <= TIE_TOL_M
+
+
+@nb.njit(nogil=True, cache=True)
+def corner_distance(edge, j, x0, x1, x2, s0, s1, s2):
+    """In-plane distance from x to tie entry j's triangle, for a point outside some edge (s_k < 0): the nearest
+    point lies on one of those edges."""
+    n0, n1, n2 = edge[j, 4, 3], edge[j, 5, 3], edge[j, 6, 3]
+    best = np.inf
     for k in range(3):
-        if edge[j, k, 0] * x0 + edge[j, k, 1] * x1 + edge[j, k, 2] * x2 - edge[j, k, 3] < -TIE_TOL_M:
-            return False
-    return True
+        sk = s0 if k == 0 else (s1 if k == 1 else s2)
+        if sk >= 0.0:
+            continue
+        a0, a1, a2 = edge[j, 4 + k, 0], edge[j, 4 + k, 1], edge[j, 4 + k, 2]
+        b = 4 + (k + 1) % 3
+        e0, e1, e2 = edge[j, b, 0] - a0, edge[j, b, 1] - a1, edge[j, b, 2] - a2
+        w0, w1, w2 = x0 - a0, x1 - a1, x2 - a2
+        h = n0 * w0 + n1 * w1 + n2 * w2  # out of the plane: not part of the in-plane distance
+        w0, w1, w2 = w0 - h * n0, w1 - h * n1, w2 - h * n2
+        ee = e0 * e0 + e1 * e1 + e2 * e2
+        t = 0.0 if ee == 0.0 else min(1.0, max(0.0, (w0 * e0 + w1 * e1 + w2 * e2) / ee))
+        d0, d1, d2 = w0 - t * e0, w1 - t * e1, w2 - t * e2
+        best = min(best, math.sqrt(d0 * d0 + d1 * d1 + d2 * d2))
+    return best
 
 
 @nb.njit(nogil=True, cache=True, inline="always")

@@ -60,13 +60,17 @@ def ray_engine_name(name: EngineName | str) -> str:
     return str(name)
 
 
-def make_engine(name: EngineName | str, scene, features=None, **kwargs) -> Engine:
-    """An engine by name; ``auto`` picks the fastest available one."""
+def resolve_engine(name: EngineName | str) -> str:
+    """The engine ``name`` means here (``auto``: :func:`best_engine`), without building anything."""
     valid = get_args(EngineName)
     if name not in valid:
         raise EngineError(f"unknown engine {name!r}; choose one of {', '.join(valid)}")
-    if name == "auto":
-        name = best_engine()
+    return best_engine() if name == "auto" else str(name)
+
+
+def make_engine(name: EngineName | str, scene, features=None, **kwargs) -> Engine:
+    """An engine by name; ``auto`` picks the fastest available one."""
+    name = resolve_engine(name)
     if name == "embree":
         from .embree import EmbreeEngine
 

@@ -15,6 +15,7 @@ import os
 import tempfile
 import zipfile
 import zlib
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -24,7 +25,7 @@ from .scene import ElementTable, Scene
 from .summary import LoadReport
 
 #: Bump when the tessellation or the element rules change, so old entries are not reused.
-CACHE_FORMAT = 5
+CACHE_FORMAT = 6
 _COLUMNS = ("global_id", "name", "ifc_class", "discipline", "storey")
 
 
@@ -39,10 +40,16 @@ def content_hash(path: str | Path, options: dict) -> str:
     return h.hexdigest()
 
 
-def default_cache_dir() -> Path:
-    """``$SIGHTPLAN_CACHE`` if set, else ``~/.cache/sightplan/scenes``."""
+def cache_root() -> Path:
+    """``$SIGHTPLAN_CACHE`` if set, else ``~/.cache/sightplan``. Every cache has its own folder under it:
+    ``scenes`` (tessellated models), ``features`` (simulated feature sets) and ``frames`` (per-frame observations)."""
     env = os.environ.get("SIGHTPLAN_CACHE")
-    return Path(env).expanduser() if env else Path.home() / ".cache" / "sightplan" / "scenes"
+    return Path(env).expanduser() if env else Path.home() / ".cache" / "sightplan"
+
+
+def default_cache_dir() -> Path:
+    """Where tessellated scenes are cached: ``scenes`` under :func:`cache_root`."""
+    return cache_root() / "scenes"
 
 
 def _paths(key: str, cache_dir: Path) -> tuple[Path, Path]:
@@ -89,8 +96,10 @@ def save_scene(scene: Scene, report: LoadReport, cache_dir: str | Path | None = 
     return npz_path
 
 
-def load_scene(key: str, cache_dir: str | Path | None = None) -> tuple[Scene, LoadReport] | None:
-    """The cached (scene, report) for ``key``, or None when absent or unreadable."""
+def load_scene(key: str, cache_dir: str | Path | None = None, source: str | None = None
+               ) -> tuple[Scene, LoadReport] | None:
+    """The cached (scene, report) for ``key``, or None when absent or unreadable; ``source`` names the file it was
+    asked for (the same bytes may have been cached from another path), else the cached name is kept."""
     directory = Path(cache_dir) if cache_dir is not None else default_cache_dir()
     npz_path, json_path = _paths(key, directory)
     if not (npz_path.is_file() and json_path.is_file()):
@@ -109,12 +118,13 @@ def load_scene(key: str, cache_dir: str | Path | None = None) -> tuple[Scene, Lo
             start=np.where(a["start"] == nat, np.datetime64("NaT"), a["start"].astype("datetime64[s]")),
             finish=np.where(a["finish"] == nat, np.datetime64("NaT"), a["finish"].astype("datetime64[s]")),
         )
-        scene = Scene.from_arrays(
-            a["vertices"], a["faces"], a["face_element"], elements, meta["source"], key, meta.get("metadata") or {}
-        )
+        scene = Scene.from_arrays(a["vertices"], a["faces"], a["face_element"], elements,
+                                  meta["source"] if source is None else source, key, meta.get("metadata") or {})
         if "tie_pairs" in a:
             scene.set_tie_pairs(a["tie_pairs"])
         report = LoadReport.from_dict(meta["report"])
+        if source is not None:
+            report = replace(report, source=source)
     except (OSError, ValueError, KeyError, TypeError, EOFError, zipfile.BadZipFile, zlib.error, ModelError):
         return None  # a corrupt or foreign entry: the caller rebuilds and overwrites it
     return scene, report

@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import math
 import os
-import sys
 import tempfile
 import time
 import zipfile
@@ -41,6 +40,7 @@ from .cache import content_hash
 from .disciplines import discipline_of, lineage
 from .scene import ElementTable, Scene
 from .summary import LoadProgress, LoadReport, SkippedProduct
+from .summary import peak_rss_mb as _peak_rss_mb
 from .unpack import max_unpacked_bytes, too_big
 
 #: Left out entirely (with subtypes): no physical extent, or not a construction product.
@@ -138,25 +138,6 @@ def open_ifc(path: str | Path) -> ifcopenshell.file:
         except Exception as exc:  # ifcopenshell raises Error, OSError, RuntimeError, SchemaError, ...
             raise ModelError(f"{path.name} cannot be read as IFC: {exc}") from exc
 
-
-
-def _peak_rss_mb() -> float:
-    """This process's peak resident memory so far (MB); 0.0 where the platform does not tell.
-
-    Linux: VmHWM, which starts afresh in a new program (ru_maxrss would carry a forking parent's peak over)."""
-    try:
-        with open("/proc/self/status", "rb") as fh:
-            for line in fh:
-                if line.startswith(b"VmHWM:"):
-                    return int(line.split()[1]) / 1024.0  # kB
-    except (OSError, ValueError, IndexError):
-        pass
-    try:
-        import resource
-    except ImportError:  # Windows
-        return 0.0
-    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
-    return peak / 2**20 if sys.platform == "darwin" else peak / 1024.0  # bytes on macOS, KiB on Linux
 
 
 def _box(verts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -268,12 +249,13 @@ def _tessellate(f: ifcopenshell.file, skip_classes: list[str], num_threads: int,
                 shapes[shape.id] = (verts @ m[:3, :3].T + m[:3, 3], placed)
                 if n_faces > len(faces):
                     oversize[shape.id] = n_faces
+            last = f"last done: {shape.type} {(shape.name or shape.guid)[:40]!r}"
             more = it.next()
             share = it.progress() / 100.0
         except Exception as exc:
             raise ModelError(f"IfcOpenShell could not tessellate the model: {exc}") from exc
         done += 1
-        tracker.update("tessellating", min(done, total), total, share)
+        tracker.update("tessellating", min(done, total), total, share, last)
         if not more:
             break
     # the kernel's own count includes products it skips, so it may stop short of 100 %

@@ -14,7 +14,7 @@ from ..errors import ModelError
 from . import cache as _cache
 from .formats import IFC_EXTENSIONS, MESH_EXTENSIONS, POINT_CLOUD_EXTENSIONS, SUPPORTED_EXTENSIONS
 from .scene import Scene
-from .summary import LoadReport
+from .summary import LoadProgress, LoadReport, peak_rss_mb
 from .ties import tie_summary
 
 SAMPLE = "sample"
@@ -66,26 +66,36 @@ def load_model(
     (elements, scale, up, and patch_area_m2, normal_angle_deg for elements='patches') or, for
     .las/.laz and .ply files without faces, :func:`~sightplan.model.pointcloud.load_point_cloud`
     (patch_area_m2, normal_angle_deg, spacing_m, method, solid, scale). With ``cache``, the
-    tessellated scene is stored under ``cache_dir`` (default ``$SIGHTPLAN_CACHE`` or
-    ``~/.cache/sightplan/scenes``) keyed by the file's content and the options, and read back
-    on the next load.
+    tessellated scene and its tie pairs are stored under ``cache_dir`` (default ``scenes`` under
+    ``$SIGHTPLAN_CACHE`` or ``~/.cache/sightplan``) keyed by the file's content and the options, and
+    read back on the next load; without it nothing is read or written. ``status`` (any format) also
+    hears the 'ties' phase after the loader's own, then 'done'.
     """
     t0 = time.perf_counter()
     path = resolve_model_path(path)
     if not path.is_file():
         raise ModelError(f"model file not found: {path}")
+    status = options.get("status")
+    if status is not None and path.suffix.lower() in IFC_EXTENSIONS:
+        options["status"] = lambda s: None if s.phase == "done" else status(s)  # 'done' comes after the tie pairs
     try:
         hashed, loader = _options_and_loader(path, options)
     except TypeError as exc:
         raise ModelError(f"{path.name}: invalid loader option: {exc}") from exc
     if cache:
         key = _cache.content_hash(path, hashed)
-        hit = _cache.load_scene(key, cache_dir)
+        hit = _cache.load_scene(key, cache_dir, source=str(path))
         if hit is not None:
-            scene, report = hit  # the same bytes may have been cached from another path
-            return replace(scene, source=str(path)), replace(report, source=str(path),
-                                                             elapsed_s=time.perf_counter() - t0, from_cache=True)
+            scene, report = hit
+            return scene, replace(report, elapsed_s=time.perf_counter() - t0, from_cache=True,
+                                  peak_rss_mb=round(peak_rss_mb(), 1))
+    if status is not None and path.suffix.lower() not in IFC_EXTENSIONS:  # the IFC loader tells its own phases
+        status(LoadProgress("reading", 0, 0, 0.0, time.perf_counter() - t0, None,
+                            f"{path.name}, {path.stat().st_size / 2**20:,.1f} MB"))
     scene, report = loader(path, **options)
+    if status is not None:
+        status(LoadProgress("ties", 0, len(scene.faces), 1.0, time.perf_counter() - t0, None,
+                            f"{len(scene.faces):,} triangles"))
     tied_faces, tied_elements = tie_summary(scene.tie_pairs(), scene.face_element)
     report = replace(report, tied_faces=tied_faces, tied_elements=tied_elements)
     if cache:
@@ -93,4 +103,8 @@ def load_model(
             _cache.save_scene(scene, report, cache_dir)
         except OSError as exc:  # a read-only or full cache directory must not fail the load
             report = replace(report, warnings=report.warnings + (f"scene cache not written: {exc}",))
+    report = replace(report, elapsed_s=time.perf_counter() - t0, peak_rss_mb=round(peak_rss_mb(), 1))
+    if status is not None:
+        status(LoadProgress("done", report.n_elements, report.n_elements, 1.0, report.elapsed_s, None,
+                            f"{report.n_elements:,} elements, {len(scene.faces):,} triangles"))
     return scene, report

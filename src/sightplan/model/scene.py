@@ -168,11 +168,19 @@ class Scene:
         return h.hexdigest()[:32]
 
     def bounds(self) -> NDArray[np.float64]:
-        """(2, 3) min and max corner in metres; zeros when the scene is empty."""
-        if len(self.faces) == 0:
-            return np.zeros((2, 3))
-        used = self.vertices[np.unique(self.faces)]
-        return np.stack([used.min(0), used.max(0)])
+        """(2, 3) min and max corner of the vertices that faces use, in metres; zeros when the scene is empty.
+        Computed once per scene object (a copy is returned)."""
+        known = self.__dict__.get("_bounds")
+        if known is None:
+            if len(self.faces) == 0:
+                known = np.zeros((2, 3))
+            else:
+                used = np.zeros(len(self.vertices), bool)
+                used[self.faces.ravel()] = True
+                v = self.vertices[used] if not used.all() else self.vertices
+                known = np.stack([v.min(0), v.max(0)])
+            object.__setattr__(self, "_bounds", known)
+        return known.copy()
 
     def face_normals(self) -> NDArray[np.float64]:
         """(F, 3) unit winding normals (zero for degenerate faces)."""
@@ -195,6 +203,10 @@ class Scene:
             pairs = coincident_face_pairs(self.vertices, self.faces, self.face_element)
             self.set_tie_pairs(pairs)
         return pairs
+
+    def has_tie_pairs(self) -> bool:
+        """Whether :meth:`tie_pairs` is known already (found, cached or remapped), so asking costs nothing."""
+        return self.__dict__.get("_tie_pairs") is not None
 
     def set_tie_pairs(self, pairs: NDArray) -> None:
         """Attach pairs known for exactly these faces (from the cache, or remapped from a superset)."""

@@ -7,12 +7,32 @@ Every IFC product of the file is accounted for in exactly one place of the repor
 
 from __future__ import annotations
 
+import sys
 from collections import Counter
 from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
 from .scene import Scene
+
+
+def peak_rss_mb() -> float:
+    """This process's peak resident memory so far (MB); 0.0 where the platform does not tell.
+
+    Linux: VmHWM, which starts afresh in a new program (ru_maxrss would carry a forking parent's peak over)."""
+    try:
+        with open("/proc/self/status", "rb") as fh:
+            for line in fh:
+                if line.startswith(b"VmHWM:"):
+                    return int(line.split()[1]) / 1024.0  # kB
+    except (OSError, ValueError, IndexError):
+        pass
+    try:
+        import resource
+    except ImportError:  # Windows
+        return 0.0
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    return peak / 2**20 if sys.platform == "darwin" else peak / 1024.0  # bytes on macOS, KiB on Linux
 
 
 @dataclass(frozen=True)
@@ -30,7 +50,7 @@ class LoadProgress:
     """Where a load stands, for a progress display.
 
     phase: 'reading' (parsing the file: no count), 'tessellating' (``done`` of ``total`` products),
-        'assembling' (the scene and element table), 'done'.
+        'assembling' (the scene and element table), 'ties' (finding the coincident faces), 'done'.
     share: tessellated share 0..1 (never decreases during a load).
     elapsed_s: since the load started; eta_s: seconds left in this phase at its pace so far, None
         while unknown.
@@ -63,8 +83,8 @@ class LoadReport:
     elapsed_s: wall-clock seconds of the load (of the cache read when ``from_cache``).
     fallbacks: products whose geometry blew up (over the loader's ``max_triangles``), each with
         what was done instead (its bounding box, or skipped) in ``reason``.
-    peak_rss_mb: the loading process's peak resident memory at the end of the load (MB; the
-        first load's when ``from_cache``; 0.0 where unknown).
+    peak_rss_mb: the loading process's peak resident memory at the end of the load, the tie pairs
+        included (MB; read again on every load, cached or not; 0.0 where unknown).
     tied_faces, tied_elements: faces (and their elements) flush with another element's face
         (coincident surfaces, METRICS.md §2), whose pixels count for every element on them.
     """

@@ -13,12 +13,13 @@ from pathlib import Path
 
 import numpy as np
 
+from ..model.cache import cache_root
 from .table import FrameObservation
 
 
 def default_cache_dir() -> Path:
-    root = os.environ.get("SIGHTPLAN_CACHE") or os.path.join(os.path.expanduser("~"), ".cache", "sightplan")
-    return Path(root) / "frames"
+    """Where frames are cached: ``frames`` under :func:`~sightplan.model.cache.cache_root`."""
+    return cache_root() / "frames"
 
 
 class FrameCache:

@@ -24,7 +24,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import ObservationsError
-from ..model.cache import atomic_write, default_cache_dir
+from ..model.cache import atomic_write, cache_root
 from ..model.scene import Scene
 
 CORNER_ANGLE_DEG = 30.0
@@ -33,7 +33,7 @@ OFFSET_M = 0.001
 KIND_CORNER = 0
 KIND_SURFACE = 1
 #: Bump when the sampling changes, so cached feature sets are not reused.
-SAMPLING_VERSION = 1
+SAMPLING_VERSION = 2
 
 
 @dataclass(frozen=True)
@@ -77,7 +77,7 @@ class FeatureSet:
         return fs
 
 
-@nb.njit(cache=True)
+@nb.njit(nogil=True, cache=True)
 def _corner_groups(order, group_start, normals, cos_limit):
     """For each group (sorted incidences of one merged vertex in one element): any pair of face normals apart by > limit."""
     n_groups = len(group_start) - 1
@@ -99,63 +99,139 @@ def _corner_groups(order, group_start, normals, cos_limit):
     return out
 
 
-def corner_features(scene: Scene, angle_deg: float = CORNER_ANGLE_DEG) -> tuple[NDArray, NDArray, NDArray]:
-    """(k, 3) positions (not yet offset), (k, 3) unit normals, (k,) owning element (−1 if shared)."""
-    faces, fe = scene.faces, scene.face_element
-    if len(faces) == 0:
-        return np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0, np.int32)
-    normals = scene.face_normals()
-    tri = scene.vertices[faces]  # (F, 3, 3)
-    # interior angle of each face at each of its corners (for the angle-weighted normal)
+#: Faces per block of whole elements that the sampling handles at once: its memory grows with the block, not the model.
+BLOCK_FACES = 1 << 16
+
+
+def element_blocks(face_element: NDArray, block_faces: int = BLOCK_FACES) -> list[NDArray[np.int64]]:
+    """Face indices in blocks of whole elements, each block about ``block_faces`` faces (an element with more
+    faces is a block of its own)."""
+    fe = np.asarray(face_element)
+    if len(fe) == 0:
+        return []
+    grouped = bool(np.all(fe[1:] >= fe[:-1]))
+    order = np.arange(len(fe)) if grouped else np.argsort(fe, kind="stable")
+    sorted_fe = fe[order]
+    starts = np.r_[np.flatnonzero(np.r_[True, sorted_fe[1:] != sorted_fe[:-1]]), len(fe)]  # each element's first face
+    blocks, a = [], 0
+    while a < len(fe):
+        b = int(starts[np.searchsorted(starts, a + block_faces, side="right") - 1])  # the last start within a block
+        if b <= a:  # one element longer than a block: a block of its own
+            b = int(starts[np.searchsorted(starts, a, side="right")])
+        blocks.append(order[a:b])
+        a = b
+    return blocks
+
+
+def _grid_keys(scene: Scene) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.int64]] | None:
+    """(lowest grid cell, extents) of the vertices on the 1 mm merge grid and the strides that pack a cell into one
+    int64 in (x, y, z) lexicographic order; None when the model is too large for 63 bits (then vertices are merged
+    through one unique over every vertex)."""
+    if len(scene.vertices) == 0:
+        return None
+    lo = np.round(scene.vertices.min(axis=0) / MERGE_GRID_M).astype(np.int64)
+    hi = np.round(scene.vertices.max(axis=0) / MERGE_GRID_M).astype(np.int64)
+    span = hi - lo + 1
+    if float(span[0]) * float(span[1]) * float(span[2]) >= 2.0**62:
+        return None
+    return lo, span, np.array([span[1] * span[2], span[2], 1], np.int64)
+
+
+def _block_corners(scene: Scene, idx: NDArray, grid, vid: NDArray | None, cos_limit: float):
+    """The corner groups of the faces ``idx`` (whole elements): per (merged vertex, element) where two of the
+    element's faces meet at more than the corner angle, its vertex key, element, angle-weighted normal sum
+    (float32), sum of the angles, sum of vertex positions and incidence count."""
+    faces = scene.faces[idx]
+    tri = scene.vertices[faces]  # (b, 3, 3) float64: edges of small faces far from the origin keep their precision
     e1 = np.roll(tri, -1, axis=1) - tri
     e2 = np.roll(tri, 1, axis=1) - tri
+    del tri
+    n = np.cross(e1[:, 0], e2[:, 0])  # (b − a) × (c − a)
+    length = np.linalg.norm(n, axis=1)
+    valid = length > 0
+    normals = (n / np.where(valid, length, 1.0)[:, None]).astype(np.float32)
     l1 = np.linalg.norm(e1, axis=2)
     l2 = np.linalg.norm(e2, axis=2)
     with np.errstate(invalid="ignore", divide="ignore"):
         cosang = np.einsum("fkc,fkc->fk", e1, e2) / (l1 * l2)
-    ang = np.arccos(np.clip(np.nan_to_num(cosang, nan=1.0), -1, 1))  # (F, 3)
-    # merged vertex id per incidence
-    grid = np.round(scene.vertices / MERGE_GRID_M).astype(np.int64)
-    _, vid = np.unique(grid, axis=0, return_inverse=True)
-    vid = vid.ravel()
-    inc_vertex = vid[faces].ravel()  # (3F,)
+    del e1, e2
+    ang = np.arccos(np.clip(np.nan_to_num(cosang, nan=1.0), -1, 1)).astype(np.float32)  # (b, 3)
+    corner = faces.ravel()
+    if vid is None:
+        cell = np.round(scene.vertices[corner] / MERGE_GRID_M).astype(np.int64) - grid[0]
+        key = cell @ grid[2]
+    else:
+        key = vid[corner]
     inc_face = np.repeat(np.arange(len(faces)), 3)
-    inc_angle = ang.ravel()
-    inc_elem = fe[inc_face].astype(np.int64)
-    valid = np.linalg.norm(normals[inc_face], axis=1) > 0
-    inc_vertex, inc_face, inc_angle, inc_elem = inc_vertex[valid], inc_face[valid], inc_angle[valid], inc_elem[valid]
-    # groups of (merged vertex, element)
-    order = np.lexsort((inc_elem, inc_vertex))
-    gv, ge = inc_vertex[order], inc_elem[order]
-    new_group = np.r_[True, (gv[1:] != gv[:-1]) | (ge[1:] != ge[:-1])]
-    group_start = np.r_[np.flatnonzero(new_group), len(order)]
-    is_corner_group = _corner_groups(inc_face[order], group_start, normals, np.cos(np.radians(angle_deg)))
-    group_of = np.cumsum(new_group) - 1
-    corner_inc = is_corner_group[group_of]  # incidences (in sorted order) of corner groups
-    cv = gv[corner_inc]
-    cf = inc_face[order][corner_inc]
-    cw = inc_angle[order][corner_inc]
-    ce = ge[corner_inc]
-    if len(cv) == 0:
-        return np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0, np.int32)
-    uv, inv = np.unique(cv, return_inverse=True)
-    nsum = np.zeros((len(uv), 3))
-    np.add.at(nsum, inv, normals[cf] * cw[:, None])
-    length = np.linalg.norm(nsum, axis=1)
-    # position: the mean of the merged vertices' coordinates
-    pos = np.zeros((len(uv), 3))
-    cnt = np.bincount(inv, minlength=len(uv)).astype(float)
-    # coordinates of one original vertex per incidence
-    orig_vertex = faces.ravel()[valid][order][corner_inc]
-    np.add.at(pos, inv, scene.vertices[orig_vertex])
-    pos /= cnt[:, None]
-    emin = np.full(len(uv), np.iinfo(np.int64).max)
-    emax = np.full(len(uv), -1)
-    np.minimum.at(emin, inv, ce)
-    np.maximum.at(emax, inv, ce)
-    owner = np.where(emin == emax, emin, -1).astype(np.int32)
-    keep = length > 1e-9
-    return pos[keep], nsum[keep] / length[keep, None], owner[keep]
+    keep = valid[inc_face]
+    key, inc_face, corner = key[keep], inc_face[keep], corner[keep]
+    inc_angle = ang.ravel()[keep]
+    inc_elem = scene.face_element[idx][inc_face]
+    order = np.lexsort((key, inc_elem))
+    key, inc_elem, inc_face, corner, inc_angle = key[order], inc_elem[order], inc_face[order], corner[order], \
+        inc_angle[order]
+    new = np.r_[True, (key[1:] != key[:-1]) | (inc_elem[1:] != inc_elem[:-1])]
+    group_start = np.r_[np.flatnonzero(new), len(key)].astype(np.int64)
+    is_corner = _corner_groups(inc_face, group_start, normals, cos_limit)
+    sel = is_corner[np.cumsum(new) - 1]
+    if not sel.any():
+        return None
+    starts = np.flatnonzero(new[sel])
+    w = normals[inc_face[sel]] * inc_angle[sel, None]
+    nsum = np.add.reduceat(w, starts, axis=0)
+    wsum = np.add.reduceat(inc_angle[sel].astype(np.float64), starts)
+    psum = np.add.reduceat(scene.vertices[corner[sel]], starts, axis=0)
+    count = np.diff(np.r_[starts, sel.sum()])
+    return key[sel][starts], inc_elem[sel][starts].astype(np.int32), nsum, wsum, psum, count
+
+
+def corner_features(scene: Scene, angle_deg: float = CORNER_ANGLE_DEG, block_faces: int = BLOCK_FACES
+                    ) -> tuple[NDArray, NDArray, NDArray]:
+    """(k, 3) positions (not yet offset), (k, 3) unit normals, (k,) owning element (−1 if shared).
+
+    Streamed over blocks of whole elements (:func:`element_blocks`), so memory grows with the block, not the model:
+    each block yields its corner groups (a merged vertex of one element), and the groups of one merged vertex are
+    then summed across elements."""
+    empty = np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0, np.int32)
+    if len(scene.faces) == 0:
+        return empty
+    grid = _grid_keys(scene)
+    vid = None
+    if grid is None:  # a site kilometres wide in every axis: one unique over every vertex, in the same order
+        _, vid = np.unique(np.round(scene.vertices / MERGE_GRID_M).astype(np.int64), axis=0, return_inverse=True)
+        vid = vid.ravel().astype(np.int64)
+    cos_limit = float(np.cos(np.radians(angle_deg)))
+    fields: list[list[NDArray]] = [[] for _ in range(6)]  # key, element, normal sum, angle sum, position sum, count
+    for idx in element_blocks(scene.face_element, block_faces):
+        part = _block_corners(scene, idx, grid, vid, cos_limit)
+        if part is not None:
+            for store, column in zip(fields, part):
+                store.append(column)
+    if not fields[0]:
+        return empty
+
+    def joined(k: int) -> NDArray:
+        """One field of every block in one array, its pieces let go at once (so two copies never coexist)."""
+        out = np.concatenate(fields[k])
+        fields[k].clear()
+        return out
+
+    key = joined(0)
+    order = np.argsort(key, kind="stable")
+    key = key[order]
+    starts = np.flatnonzero(np.r_[True, key[1:] != key[:-1]])
+    del key
+    nrm = np.add.reduceat(joined(2)[order].astype(np.float64), starts, axis=0)
+    weight = np.add.reduceat(joined(3)[order], starts)
+    pos = np.add.reduceat(joined(4)[order], starts, axis=0)
+    pos /= np.add.reduceat(joined(5)[order], starts)[:, None]
+    elem = joined(1)[order]
+    del order
+    owner = np.where(np.minimum.reduceat(elem, starts) == np.maximum.reduceat(elem, starts), elem[starts], -1)
+    del elem
+    length = np.linalg.norm(nrm, axis=1)
+    keep = length > 1e-6 * weight  # normals that cancel (a zero-thickness sheet's rim) leave float32 noise: none
+    return pos[keep], nrm[keep] / length[keep, None], owner[keep].astype(np.int32)
 
 
 #: More surface features than this would take gigabytes before a frame is cast (~160 bytes each while drawn):
@@ -163,9 +239,18 @@ def corner_features(scene: Scene, angle_deg: float = CORNER_ANGLE_DEG) -> tuple[
 MAX_FEATURES = 20_000_000
 
 
+def _face_areas(scene: Scene, block_faces: int = BLOCK_FACES) -> NDArray[np.float64]:
+    """(F,) triangle areas, a block of faces at a time (never a (F, 3, 3) array)."""
+    out = np.empty(len(scene.faces))
+    for a in range(0, len(scene.faces), block_faces):
+        tri = scene.vertices[scene.faces[a:a + block_faces]]
+        out[a:a + len(tri)] = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
+    return out
+
+
 def surface_features(scene: Scene, density_per_m2: float, seed: int) -> tuple[NDArray, NDArray, NDArray]:
     """(N, 3) positions, (N, 3) winding normals, (N,) elements of area-weighted random surface points."""
-    areas = scene.face_areas()
+    areas = _face_areas(scene)
     total = float(areas.sum())
     if not total * density_per_m2 <= MAX_FEATURES:
         raise ObservationsError(f"a feature density of {density_per_m2:g} per m² over the model's {total:,.0f} m² "
@@ -176,11 +261,15 @@ def surface_features(scene: Scene, density_per_m2: float, seed: int) -> tuple[ND
         return np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0, np.int32)
     rng = np.random.default_rng(seed)
     face = rng.choice(len(areas), size=n, p=areas / total)
+    del areas
     r1, r2 = rng.random(n), rng.random(n)
     s = np.sqrt(r1)
     tri = scene.vertices[scene.faces[face]]
     pts = (1 - s)[:, None] * tri[:, 0] + (s * (1 - r2))[:, None] * tri[:, 1] + (s * r2)[:, None] * tri[:, 2]
-    return pts, scene.face_normals()[face], scene.face_element[face].astype(np.int32)
+    nrm = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    length = np.linalg.norm(nrm, axis=1, keepdims=True)
+    nrm = np.divide(nrm, length, out=np.zeros_like(nrm), where=length > 0)
+    return pts, nrm, scene.face_element[face].astype(np.int32)
 
 
 def sample_features(scene: Scene, density_per_m2: float = 1.0, seed: int = 0, corners: bool = True) -> FeatureSet:
@@ -203,10 +292,11 @@ def cached_features(scene: Scene, density_per_m2: float = 1.0, seed: int = 0, ca
                     ) -> FeatureSet:
     """:func:`sample_features` of ``scene``, sampled once and kept beside the scene cache.
 
-    The file is keyed by the scene's key (model, loader options, capture date) and the
-    sampling parameters; an unreadable or stale file is sampled again and replaced.
+    The file, under ``cache_dir`` (default ``features`` under :func:`~sightplan.model.cache.cache_root`), is keyed
+    by the scene's key (model, loader options, capture date) and the sampling parameters; an unreadable or stale
+    file is sampled again and replaced.
     """
-    directory = Path(cache_dir) if cache_dir is not None else default_cache_dir()
+    directory = Path(cache_dir) if cache_dir is not None else cache_root() / "features"
     name = hashlib.sha256(json.dumps([SAMPLING_VERSION, scene.key, float(density_per_m2), int(seed)]).encode())
     path = directory / f"features-{name.hexdigest()[:40]}.npz"
     if path.is_file():

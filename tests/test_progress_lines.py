@@ -1,0 +1,83 @@
+"""Progress where the output is not a terminal (a CI log, ``nohup``): every stage named, plain lines, and never more
+than 2 s without one, even through a stage that says nothing for longer."""
+
+from __future__ import annotations
+
+import io
+import sys
+import time
+
+from rich.console import Console
+
+from sightplan.cli.stages import StageDisplay
+from test_caches_hold import two_boxes
+from test_cli import run_cli
+
+
+class Clocked(io.StringIO):
+    """A non-terminal stream that notes when each line was written."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.lines: list[tuple[float, str]] = []
+
+    def write(self, s: str) -> int:
+        for line in s.splitlines():
+            if line.strip():
+                self.lines.append((time.monotonic(), line))
+        return super().write(s)
+
+
+def test_a_silent_stage_gets_heartbeats_that_name_it():
+    out = Clocked()
+    console = Console(file=out, width=200)
+    with StageDisplay(console, {"tessellating": "tessellating products", "ties": "finding tie pairs"},
+                      heartbeat_s=0.1) as display:
+        display("reading", 0, 0, "quick.ifc")  # over before a heartbeat: no line
+        display("tessellating", 3, 10, "last done: IfcWall 'W1'")
+        time.sleep(0.35)
+        display("tessellating", 10, 10)
+        display("ties", 0, 0)
+        time.sleep(0.15)
+    text = [line for _, line in out.lines]
+    assert not any(line.startswith("reading") for line in text)
+    beats = [line for line in text if line.startswith("tessellating products: 3/10 — last done: IfcWall 'W1' (")]
+    assert len(beats) >= 2 and "tessellating products: 10/10 (0 s)" in text
+    assert text[-1] == "finding tie pairs: (0 s)"
+
+
+def test_the_evaluate_command_writes_a_line_at_least_every_two_seconds(tmp_path, monkeypatch):
+    """A cold load made 1.2 s slow and an evaluation with features made 2.2 s slow: the progress, not on a terminal,
+    has a line at least every 2 s of the test's clock, from the command's start to its end, naming each slow stage;
+    standard output holds none of it."""
+    from sightplan.cli.base import err_console
+    from sightplan.model import mesh
+
+    evaluation = sys.modules["sightplan.evaluate"]
+    real_features, real_load = evaluation.sample_features, mesh.load_mesh
+
+    def slow_features(*args, **kwargs):
+        time.sleep(2.2)
+        return real_features(*args, **kwargs)
+
+    def slow_load(*args, **kwargs):
+        time.sleep(1.2)
+        return real_load(*args, **kwargs)
+
+    monkeypatch.setattr(evaluation, "sample_features", slow_features)
+    monkeypatch.setattr(mesh, "load_mesh", slow_load)
+    out = Clocked()
+    monkeypatch.setattr(err_console, "file", out)  # progress goes to standard error
+    model = two_boxes(tmp_path / "boxes.glb")
+    start = time.monotonic()
+    res = run_cli("evaluate", str(model), "--no-cache", "--ring-frames", "3", "--scale", "0.05", "--no-picture",
+                  "--out", str(tmp_path / "out"), cwd=tmp_path)
+    end = time.monotonic()
+    assert res.returncode == 0, res.stderr
+    assert "simulated features" not in res.stdout and "VC" in res.stdout
+    stamps = [start] + [t for t, _ in out.lines] + [end]
+    gaps = [b - a for a, b in zip(stamps, stamps[1:])]
+    text = "\n".join(line for _, line in out.lines)
+    assert max(gaps) <= 2.0, (max(gaps), text)
+    assert "reading: boxes.glb" in text and "simulated features: 0/1 (1 s)" in text, text
+    assert "simulated features: 1/1 (2 s)" in text and "\x1b[" not in text  # plain words, no bar or colour codes
