@@ -50,7 +50,9 @@ def server(cluster, duplex, tmp_path_factory):
     tessellated it before would, instead of tessellating it for 10 s)."""
     data = tmp_path_factory.mktemp("cluster") / "data"
     (data / "cache").mkdir(parents=True)
-    for path in Path(os.environ["SIGHTPLAN_CACHE"]).glob(f"{duplex.content_hash}.*"):
+    cached = list((Path(os.environ["SIGHTPLAN_CACHE"]) / "scenes").glob(f"{duplex.content_hash}.*"))
+    assert cached, "the Duplex fixture's scene cache moved"
+    for path in cached:
         shutil.copy(path, data / "cache")
     with TestClient(create_app(ServerConfig(data_dir=data, cluster=cluster[0].scheduler_address))) as c:
         yield c
