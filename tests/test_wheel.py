@@ -25,8 +25,12 @@ from browser_support import free_port, launch_browser
 REPO = Path(__file__).resolve().parents[1]
 
 
+# the fresh environment's processes see only its own sightplan: no path to a checkout's sources
+ALONE = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"} | {"PYTHONUNBUFFERED": "1"}
+
+
 def run(*cmd: str, **kw) -> str:
-    out = subprocess.run(cmd, check=True, capture_output=True, text=True, **kw)
+    out = subprocess.run(cmd, check=True, capture_output=True, text=True, env=ALONE, **kw)
     return out.stdout
 
 
@@ -51,7 +55,7 @@ def test_the_wheel_alone_serves_the_page_and_the_docs(tmp_path):
     port = free_port()
     server = subprocess.Popen([str(work / "venv" / "bin" / "sightplan"), "serve", "--sample", "--port", str(port),
                                "--data", str(work / "data")], cwd=empty, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
-                              text=True, env={**os.environ, "PYTHONUNBUFFERED": "1"})
+                              text=True, env=ALONE)
     url = f"http://127.0.0.1:{port}"
     try:
         deadline = time.monotonic() + 180  # --sample makes the sample project first
