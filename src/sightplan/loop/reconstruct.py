@@ -1,7 +1,8 @@
 """Structure from motion on a plan's renders, with pycolmap on the CPU, registered to the model.
 
 SIFT features are extracted with the renders' exact intrinsics (one PINHOLE camera per plan camera, held fixed),
-matched exhaustively (small sets) or sequentially in plan order, and the images registered by incremental mapping.
+matched exhaustively (small sets) or between the views that see the same surface (:mod:`.pairs`), and the images
+registered by incremental mapping.
 The SfM model's frame is arbitrary: a similarity (scale, rotation, translation; Umeyama's least squares) maps it
 onto the model, fitted to the registered frames' camera centres and to a point ahead of and beside each of them
 along its axes (so a row of collinear centres, as a one-layer facade flies, still fixes the rotation about the
@@ -25,13 +26,12 @@ from numpy.typing import NDArray
 
 from ..errors import SightplanError
 from .files import Reconstruction, write_reconstruction
-from .render import read_renders
+from .pairs import overlap_pairs, shared_samples
+from .render import DEPTH_FILE, read_renders
 
 MATCHERS = ("auto", "exhaustive", "spatial", "sequential")
-EXHAUSTIVE_MAX_IMAGES = 60  # "auto" matches every pair up to this many images, spatial neighbours beyond
+EXHAUSTIVE_MAX_IMAGES = 60  # "auto" matches every pair up to this many images, the views sharing surface beyond
 SEQUENTIAL_OVERLAP = 10
-SPATIAL_NEIGHBOURS = 20
-SPATIAL_MAX_ANGLE_DEG = 75.0
 MAX_FEATURES = 8192
 MIN_REGISTERED = 3
 SEED = 1  # pycolmap's random seed: the same images give the same reconstruction
@@ -82,23 +82,21 @@ def rotation_angle_deg(Ra: NDArray, Rb: NDArray) -> NDArray[np.float64]:
     return np.degrees(np.arccos(np.clip(c, -1.0, 1.0)))
 
 
-def spatial_pairs(C: NDArray, R: NDArray, k: int = SPATIAL_NEIGHBOURS, max_angle_deg: float = SPATIAL_MAX_ANGLE_DEG
-                  ) -> list[tuple[int, int]]:
-    """Image pairs (i < j) to match: each frame with its ``k`` nearest frames by camera centre among those whose
-    optical axes lie within ``max_angle_deg`` of its own, as a drone's positions and gimbal angles would choose."""
-    C = np.asarray(C, float)
-    axes = np.asarray(R, float)[:, :, 2]
-    n = len(C)
-    cos_max = math.cos(math.radians(max_angle_deg))
-    pairs: set[tuple[int, int]] = set()
-    for i in range(n):
-        d = np.linalg.norm(C - C[i], axis=1)
-        d[axes @ axes[i] < cos_max] = np.inf
-        d[i] = np.inf
-        for j in np.argsort(d, kind="stable")[:k]:
-            if np.isfinite(d[j]):
-                pairs.add((min(i, int(j)), max(i, int(j))))
-    return sorted(pairs)
+def spatial_pairs(images_dir: str | Path) -> list[tuple[int, int]]:
+    """Image pairs (i < j) of a render folder whose views see the same surface (:func:`.pairs.overlap_pairs`), from
+    the true poses and the renders' depth maps."""
+    renders = read_renders(images_dir)
+    path = Path(images_dir) / DEPTH_FILE
+    if not path.is_file():
+        raise SightplanError(f"{images_dir} has no {DEPTH_FILE}: render the plan again with `sightplan render`")
+    cams = [renders.camera(i) for i in range(len(renders))]
+    try:
+        with np.load(path) as z:
+            shared = shared_samples(cams, renders.R_world_camera, renders.C_world,
+                                    (z[f"frame_{i:05d}"] for i in range(len(renders))))
+    except (OSError, ValueError, KeyError) as exc:
+        raise SightplanError(f"{path} is not readable: {exc}") from None
+    return overlap_pairs(shared, renders.R_world_camera[:, :, 2])
 
 
 def _pycolmap():
@@ -135,10 +133,9 @@ def reconstruct(images_dir: str | Path, out_dir: str | Path, *, matcher: str = "
     """Run SfM on the renders in ``images_dir`` (a folder written by :func:`~.render.render_plan`) and register it to
     the model; the result is also written into ``out_dir``.
 
-    matcher: "exhaustive" (every pair), "spatial" (each image with its nearest frames that look the same way,
-    :func:`spatial_pairs`, from the true poses as a drone's log would give them), "sequential" (each image with
-    its next images in plan order), or "auto" (exhaustive up to :data:`EXHAUSTIVE_MAX_IMAGES` images, spatial
-    beyond). threads: CPU threads (default all).
+    matcher: "exhaustive" (every pair), "spatial" (each image with the views that see most of the same surface,
+    round corners too: :func:`spatial_pairs`), "sequential" (each image with its next images in plan order), or
+    "auto" (exhaustive up to :data:`EXHAUSTIVE_MAX_IMAGES` images, spatial beyond). threads: CPU threads (default all).
     progress(done, total): work units over the whole run: one per image extracted, one per image matched (reported
     when matching ends), one per image registered. stage(text): called as each step begins. verbose: let COLMAP
     log its progress to stderr."""
@@ -209,10 +206,13 @@ def _run(pycolmap, renders, src: Path, out: Path, matcher: str, threads: int | N
     matching = pycolmap.FeatureMatchingOptions()
     matching.num_threads = n_threads
     matching.use_gpu = False
+    n_pairs = None
     if chosen == "exhaustive":
+        n_pairs = n * (n - 1) // 2
         pycolmap.match_exhaustive(database, matching_options=matching, device=pycolmap.Device.cpu)
     elif chosen == "spatial":
-        pairs = spatial_pairs(renders.C_world, renders.R_world_camera)
+        pairs = spatial_pairs(src)
+        n_pairs = len(pairs)
         match_list = out / "pairs.txt"
         match_list.write_text("".join(f"{renders.image_names[i]} {renders.image_names[j]}\n" for i, j in pairs))
         pairing = pycolmap.ImportedPairingOptions()
@@ -287,7 +287,8 @@ def _run(pycolmap, renders, src: Path, out: Path, matcher: str, threads: int | N
     model.write(sparse)
     timings["total_s"] = time.perf_counter() - started
     info = {
-        "images": n, "registered": k, "points": len(points), "matcher": chosen, "threads": n_threads,
+        "images": n, "registered": k, "points": len(points), "matcher": chosen, "pairs": n_pairs,
+        "threads": n_threads,
         "models": len(models), "pycolmap": str(pycolmap.__version__), "images_dir": str(src),
         "engine": renders.engine, "render_scale": renders.scale,
         "timings_s": {key: round(v, 3) for key, v in timings.items()},
