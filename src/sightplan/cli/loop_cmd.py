@@ -62,7 +62,8 @@ def loop_command(
     tolerance: Annotated[float | None, typer.Option(
         help="τ: a point within this distance (m) of an element is on it; default 1.2·e + 3·ρ")] = None,
     radius: Annotated[float | None, typer.Option(
-        help="r: a point covers the surface within this distance (m); default max(τ, 20·ρ)")] = None,
+        help="r: a point covers the surface within this distance (m); default max(τ, the points' own spacing)")
+                   ] = None,
     threshold: Annotated[float, typer.Option(help="Completeness from which an element counts as reconstructed")
                          ] = 0.5,
     date: DateOpt = None,
@@ -75,7 +76,7 @@ def loop_command(
     focal_mm: FocalOpt = None,
     engine: Annotated[EngineName, typer.Option(help=ENGINE_HELP)] = "auto",
     eval_scale: Annotated[float, typer.Option(help="Resolution scale s of the evaluation's rays")] = 1.0,
-    omega: Annotated[float, typer.Option(help="Visibility threshold Ω in pixels")] = 625.0,
+    omega: Annotated[float, typer.Option(help="Visibility threshold Ω in pixels of the photographs")] = 625.0,
     cache: Annotated[bool, typer.Option(help="Reuse the model cache")] = True,
     threads: Annotated[int | None, typer.Option(help="Worker threads (default: all cores)")] = None,
 ) -> None:
@@ -112,7 +113,9 @@ def loop_command(
                   f"({100 * rec.residual_share:.3f} % of the scene's {rec.scene_size_m:.3g} m); "
                   f"{summ['points']:,} points, {summ['points_on_model']:,} on the model", highlight=False)
     console.print(f"validation: A {cell(v.A, '.4f')} m, Ce {cell(v.Ce, '.3f')}, Cv {cell(v.Cv, '.3f')}, "
-                  f"Ct {cell(v.Ct, '.3f')} (λ = {v.lam:.4g} m)", highlight=False)
+                  f"Ct {cell(v.Ct, '.3f')} (λ = {v.lam:.4g} m); points to the model: median "
+                  f"{cell(v.A_median, '.4f')} m, 90th percentile {cell(v.A_p90, '.4f')} m, {v.outliers:,} outliers "
+                  "left out", highlight=False)
     console.print(comparison_table(s, f"{s.n_elements} elements: predicted against measured completeness"))
     fit = s.logistic
     if fit is not None:

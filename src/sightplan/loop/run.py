@@ -162,8 +162,10 @@ def loop(
         pass  # no three.js here: the page keeps its pictures
     with make_engine(ray_engine_name(settings.engine), scene, threads=settings.threads) as engine:
         view = overview_view(engine)
-    facts = {"validation": "A {} m, Ce {}, Cv {}, Ct {} (λ = {:.4g} m)".format(
-        *(("—" if x is None else f"{x:.4g}") for x in (v.A, v.Ce, v.Cv, v.Ct)), v.lam)}
+    facts = {"validation": "A {} m, Ce {}, Cv {}, Ct {} (λ = {:.4g} m); points to the model: median {} m, 90th "
+             "percentile {} m, {:,} outliers left out".format(
+                 *(("—" if x is None else f"{x:.4g}") for x in (v.A, v.Ce, v.Cv, v.Ct)), v.lam,
+                 *(("—" if x is None else f"{x:.4g}") for x in (v.A_median, v.A_p90)), v.outliers)}
     title = " × ".join(x for x in ((labels or {}).get("model"), (labels or {}).get("plan")) if x)
     paths["page"] = write_loop_page(
         out / "index.html", study, m, view=view, em=ev.metrics.elements, facts=facts, links=links,
