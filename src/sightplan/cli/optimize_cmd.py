@@ -126,7 +126,8 @@ def _compare(scene, cam, goal, result, flight, settings) -> None:
 
     def cells(r: Scored) -> list[str]:
         s = r.score
-        checks = "ok" if r.report.ok else f"{len(r.report.violations)} violations"
+        n = len(r.report.violations)
+        checks = "ok" if r.report.ok else f"{n} violation{'' if n == 1 else 's'}"
         return [str(len(r.plan)), "—" if r.minutes is None else f"{r.minutes:.1f}", str(len(r.plan.missions)), checks,
                 f"{r.met} of {et.n_active}", "—" if s.VC is None else f"{100 * s.VC:.1f}",
                 "—" if s.median_R_m_px is None else f"{1000 * s.median_R_m_px:.2f}"]
