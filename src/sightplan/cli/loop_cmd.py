@@ -50,13 +50,15 @@ def loop_command(
     out: Annotated[Path, typer.Option("--out", "-o", help="Folder for the images, the reconstruction and the study")
                    ] = Path("sightplan-loop"),
     scale: Annotated[float | None, typer.Option(
-        help="Resolution scale of the rendered photographs (default 1, or the --reconstruction's own)")] = None,
+        help="Resolution scale of the rendered photographs (default: about 0.2 Mpx each, 0.1 of a 20 MP camera; "
+             "with --reconstruction, its own)")] = None,
     matcher: Annotated[str, typer.Option(help="SfM matcher: auto, sequential, spatial or exhaustive")] = "auto",
     render_engine: Annotated[str, typer.Option(help="Renderer: embree (CPU) or gl")] = "embree",
     reconstruction: Annotated[Path | None, typer.Option(
         help="An existing reconstruction of this plan's photographs: skip rendering and reconstructing")] = None,
     paper_table: Annotated[Path | None, typer.Option(
-        help="The paper's Table 2 as CSV, to set its correlations beside the study's")] = None,
+        help="The paper's Table 2 as CSV, to set its correlations beside the study's (default: the bundled table)")
+                           ] = None,
     registration_error: Annotated[float | None, typer.Option(
         "--registration-error", "-e", help="e for the validation (m); default: the reconstruction's residual")] = None,
     tolerance: Annotated[float | None, typer.Option(
@@ -100,6 +102,11 @@ def loop_command(
     print_warnings(console, the_plan.parameters.get("warnings", []))
     console.print(f"model: {scene.source or model} — {int(scene.targets.sum())} target elements; plan: "
                   f"{len(the_plan)} frames", highlight=False)
+    if reconstruction is None:
+        from ..loop.estimate import default_scale, estimate
+
+        scale = scale if scale is not None else default_scale(the_plan)
+        console.print(estimate(the_plan, scale).text(), highlight=False)
     with stage_bars(console, STAGE_NAMES) as progress:
         result = loop(scene, the_plan, out, scale=scale, matcher=matcher, render_engine=render_engine,
                       settings=settings, threads=threads, registration_error_m=registration_error,
