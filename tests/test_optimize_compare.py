@@ -85,8 +85,8 @@ def test_the_command_line_sets_the_optimiser_beside_the_best_template(tmp_path):
     mesh = trimesh.creation.box((8, 8, 8))
     mesh.apply_translation((4, 4, 4))
     mesh.export(tmp_path / "box.obj")
-    r = CliRunner().invoke(app, ["optimize", str(tmp_path / "box.obj"), "--k", "2", "--scale", "0.05", "--no-cache",
-                                 "-o", str(tmp_path / "plan.json")], env={"COLUMNS": "260"})
+    r = CliRunner().invoke(app, ["optimize", str(tmp_path / "box.obj"), "--k", "2", "--scale", "0.05",
+                                 "-o", str(tmp_path / "plan.json")], env={"COLUMNS": "260"})  # reruns read the cache
     assert r.exit_code == 0, r.output
     text = r.output
     assert "the template grid" in text and "against the best template" in text

@@ -43,7 +43,8 @@ def validation_table(v, title: str) -> Table:
           if "distances" in n else []),
         ("Ce", cell(pct(v.Ce), ".2f"), "%", f"completeness per element: mean c_i over {v.z} elements"),
         ("Cv", cell(pct(v.Cv), ".2f"), "%", f"completeness per visible element: mean c_i over {v.n_visible}"),
-        ("Ct", cell(pct(v.Ct), ".2f"), "%", f"overall completeness: {n['ct_samples']:,} points on Γ with Ψ within λ"),
+        ("Ct", cell(pct(v.Ct), ".2f"), "%", f"overall completeness: {n['ct_samples']:,} points on Γ with Ψ within "
+         + ("λ" if v.parameters["ct_radius_m"] == v.lam else f"{v.parameters['ct_radius_m']:.3g} m (its spacing)")),
         ("precision", cell(pct(v.precision), ".2f"), "%",
          f"{n['precision_samples']:,} points of Ψ in Γ's box with Γ within λ"),
         ("recall", cell(pct(v.recall), ".2f"), "%", "= Ct"),
