@@ -3,7 +3,8 @@
     python benchmarks/optimize.py [--model sample --model PATH ...] [--scale 0.25]
 
 For each model, the facade grid (box and outline footprints), the orbit and the lawn-mower are planned at the same
-camera (P4P) and safety distance (10 m), over a grid of their overlaps, split and checked; each is evaluated at the
+camera (P4P) and safety distance (10 m), over a grid of their overlaps (``sightplan.optimize.template_grid``, the
+grid ``sightplan optimize`` compares with), split and checked; each is evaluated at the
 same scale and scored against the same targets (k = 3 serving views, SSD ≤ the camera's at 10 m × 1.5, θ ≤ 45°).
 The best template is the one that passes the flight checks and meets the most targets (then the fewest minutes); a
 template that fails the checks (line of sight, battery, safety) cannot be flown as planned, so it is listed but not
@@ -32,9 +33,9 @@ import numpy as np
 from sightplan.camera.catalogue import get_camera
 from sightplan.errors import SightplanError
 from sightplan.model.load import load_model
-from sightplan.optimize import Budget, OptimizeSettings, Rule, Targets, default_ssd, optimize, score_plan
+from sightplan.optimize import Budget, OptimizeSettings, Targets, default_ssd, only_met, optimize, score_plan, template_grid
+from sightplan.optimize.compare import OVERLAPS
 from sightplan.plan.checks.feasibility import FlightSettings
-from sightplan.plan.ground import targets_only
 from sightplan.plan.templates.registry import plan_from_template
 
 HERE = Path(__file__).parent
@@ -42,7 +43,6 @@ SHARED = HERE.parent.parent / "shared" / "data"
 DEFAULT_MODELS = ["sample", str(SHARED / "ifc" / "IfcOpenHouse_IFC4.ifc"),
                   str(SHARED / "ifc" / "construction_scheduling_task.ifc"),
                   str(SHARED / "schependomlaan" / "XELLA-Begane grond.ifc")]
-OVERLAPS = (0.6, 0.7, 0.8)
 G = 10.0
 
 
@@ -55,16 +55,6 @@ def score(scene, plan, report, et, scale, cache) -> dict:
             "unstable_frames": s.unstable_frames}
 
 
-def templates(scene, cam, flight):
-    top = float(targets_only(scene).bounds()[1][2] - scene.bounds()[0][2])
-    for overlap in OVERLAPS:
-        for footprint in ("box", "outline"):
-            yield f"facade {footprint} {overlap:.0%}", "facade", {"overlap": overlap, "footprint": footprint}
-        yield f"orbit {overlap:.0%}", "orbit", {"overlap": overlap}
-        yield f"lawnmower {overlap:.0%}", "lawnmower", {"overlap": overlap, "side_overlap": overlap,
-                                                        "altitude_m": top + G}
-
-
 def run_model(model: str, scale: float, cache: Path) -> dict:
     print(f"\n== {model}")
     scene, _ = load_model(model)
@@ -73,7 +63,7 @@ def run_model(model: str, scale: float, cache: Path) -> dict:
     targets = Targets()
     et = targets.resolve(scene, default_ssd(cam, G))
     rows = {}
-    for label, name, params in templates(scene, cam, flight):
+    for label, name, params in template_grid(scene, flight):
         try:
             plan, report = plan_from_template(name, scene, cam, params, flight)
         except SightplanError as exc:
@@ -89,9 +79,9 @@ def run_model(model: str, scale: float, cache: Path) -> dict:
            "templates": {k: {kk: vv for kk, vv in v.items() if kk != "met_set"} for k, v in rows.items()},
            "best_template": best_label}
     settings = OptimizeSettings(scale=scale, cache_dir=cache)
-    gid = scene.elements.global_id
-    only_template = Targets(rules=tuple(Rule(match=(("global_id", str(gid[i])),), skip=True)
-                                        for i in np.flatnonzero(et.active) if i not in set(best["met_set"])))
+    met = np.zeros(scene.n_elements, bool)
+    met[best["met_set"]] = True
+    only_template = only_met(targets, scene, et, met)
     for mode, budget, goal in (("equal_targets", Budget(), targets), ("template_targets", Budget(), only_template),
                                ("equal_minutes", Budget(minutes=best["minutes"]), targets)):
         t = time.perf_counter()

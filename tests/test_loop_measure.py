@@ -21,7 +21,6 @@ from sightplan.evaluate import EvaluationSettings, evaluate
 from sightplan.geometry.distance import point_triangle_sq
 from sightplan.loop import Reconstruction, read_reconstruction, write_reconstruction
 from sightplan.loop.measure import (
-    RADIUS_PX,
     TOLERANCE_PX,
     measure_reconstruction,
     plan_resolution,
@@ -194,7 +193,9 @@ def test_frames_and_default_tolerance(gamma, plan, ev):
     rho = plan_resolution(ev) / 0.5
     assert m.resolution_m_px == pytest.approx(rho)
     assert m.tolerance_m == pytest.approx(1.2 * 0.01 + TOLERANCE_PX * rho)
-    assert m.radius_m == pytest.approx(max(m.tolerance_m, RADIUS_PX * rho))
+    # r: the spacing of the points on the model, about 1/√(points per m²) for these uniform points
+    spacing = m.parameters["point_spacing_m"]
+    assert spacing == pytest.approx(1 / np.sqrt(2000), rel=0.2) and m.radius_m == max(m.tolerance_m, spacing)
     # ρ is depth / focal length: the walls stand 20 m away from cameras of 800 px per radian
     assert plan_resolution(ev) == pytest.approx(20.0 / 800.0, rel=0.05)
     rows = m.frame_rows()
@@ -264,3 +265,40 @@ def test_validate_cli_with_a_reconstruction_folder(tmp_path, gamma):
     assert_clean_error(run_cli("validate", "boxes.obj", "plan.json", "cloud.ply", cwd=tmp_path),
                        "registration error")
     assert read_reconstruction(tmp_path / "recon").n_registered == 1
+
+
+def test_loop_and_validate_give_the_same_numbers_for_the_same_reconstruction(tmp_path):
+    """Photographs at a quarter of the camera's size: wall A shows 25 × 30 = 750 of their pixels, wall B 25 × 24 =
+    600, under Ω = 625 (at full size both are over 9,000). `loop` and `validate --reconstruction` both count Ω in the
+    photographs' pixels and cast them at their own size, so wall A alone is visible and A, Ce, Cv, Ct agree exactly."""
+    from dataclasses import replace
+
+    from typer.testing import CliRunner
+
+    import sightplan.cli.validate_cmd  # noqa: F401  (registers the command)
+    from sightplan.cli.main import app
+    from sightplan.loop import loop
+    from sightplan.model.load import load_model
+    from sightplan.plan.format import write_plan
+
+    the_plan = Plan.build(CAM, np.repeat(R_NORTH[None], 2, axis=0), CENTRES)
+    write_boxes_obj(tmp_path / "boxes.obj")
+    write_plan(the_plan, tmp_path / "plan.json")
+    rng = np.random.default_rng(11)
+    pts = np.concatenate([face_points(A, 1, 0, 400, rng), face_points(B, 1, 0, 300, rng)])
+    pts[::50, 1] -= 3.0  # a few SfM outliers in front of the walls
+    rec = replace(recon(pts, residual=0.03), info={"render_scale": 0.25})
+    write_reconstruction(rec, tmp_path / "recon")
+    scene, _ = load_model(tmp_path / "boxes.obj", cache=False)  # the model as the command loads it
+    looped = loop(scene, the_plan, tmp_path / "loop", reconstruction=tmp_path / "recon")
+    res = CliRunner().invoke(app, ["validate", str(tmp_path / "boxes.obj"), str(tmp_path / "plan.json"),
+                                   "--reconstruction", str(tmp_path / "recon"), "--out", str(tmp_path / "v"),
+                                   "--no-cache"], env={"COLUMNS": "200"})
+    assert res.exit_code == 0, res.output
+    a = json.loads((tmp_path / "loop" / "validation.json").read_text())
+    b = json.loads((tmp_path / "v" / "validation.json").read_text())
+    assert a["metrics"]["visible"] == 1 and a["metrics"]["Cv"] is not None
+    assert a["metrics"] == b["metrics"] and a["elements"] == b["elements"]
+    assert a["metrics"]["outliers"] == len(pts[::50]) and a["counts"]["distances"] == b["counts"]["distances"]
+    assert looped.validation.Cv == a["metrics"]["Cv"] and next(iter(looped.plan.cameras.values())).width == 80
+    assert b["inputs"]["render_scale"] == 0.25 and "outliers" in res.output

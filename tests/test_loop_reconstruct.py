@@ -194,29 +194,17 @@ def test_without_pycolmap_the_extra_is_named(tmp_path):
     assert "Traceback" not in res.stderr and "pip install 'sightplan[loop]'" in res.stderr, res.stderr
 
 
-def test_spatial_pairs_join_near_frames_that_look_the_same_way():
-    """Five frames 1 m apart on a line looking north, and one at the first's place looking south: with two
-    neighbours each, each north-looking frame pairs with the two nearest on the line (the ends with the two after or
-    before them), the south-looking one with none."""
-    from sightplan.loop.reconstruct import spatial_pairs
-
-    north = look_at(np.zeros(3), np.array([0.0, 1.0, 0.0]))
-    south = look_at(np.zeros(3), np.array([0.0, -1.0, 0.0]))
-    C = np.array([[float(x), 0.0, 0.0] for x in range(5)] + [[0.0, 0.0, 0.0]])
-    pairs = spatial_pairs(C, np.array([north] * 5 + [south]), k=2)
-    assert pairs == [(0, 1), (0, 2), (1, 2), (2, 3), (2, 4), (3, 4)]
-
-
 def test_the_reconstruct_command_prints_what_it_registered(box_run):
-    """``sightplan reconstruct images/ -o recon/`` on the orbit's renders, sequential matching this time."""
+    """``sightplan reconstruct images/ -o recon/`` on the orbit's renders, matching the views that share surface
+    this time."""
     from test_cli import run_cli
 
     root = box_run[4]
-    res = run_cli("reconstruct", "images", "-o", "recon-cli", "--matcher", "sequential", cwd=root)
+    res = run_cli("reconstruct", "images", "-o", "recon-cli", "--matcher", "spatial", cwd=root)
     assert res.returncode == 0, res.stderr
     rec = read_reconstruction(root / "recon-cli")
-    assert rec.info["matcher"] == "sequential" and rec.registered.all()
-    assert f"registered 24/24 frames, {len(rec.points):,} points (matcher sequential" in res.stdout
+    assert rec.info["matcher"] == "spatial" and rec.registered.all() and 24 <= rec.info["pairs"] < 24 * 23 // 2
+    assert f"registered 24/24 frames, {len(rec.points):,} points (matcher spatial" in res.stdout
     assert f"{100 * rec.residual_share:.3g} % of the scene's size" in res.stdout
     bad = run_cli("reconstruct", "recon-cli", "-o", "again", cwd=root)
     assert bad.returncode == 2 and "not a folder written by `sightplan render`" in bad.stderr

@@ -147,6 +147,39 @@ def test_the_study_writes_its_tables(tmp_path):
         assert paths[key].read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
+def test_the_papers_table_is_bundled_and_beside_the_study_by_default():
+    from sightplan.loop.study import PAPER_TABLE
+    from sightplan.study import read_study
+
+    if TABLE2.is_file():
+        assert PAPER_TABLE.read_bytes() == TABLE2.read_bytes()
+    ev, m = generated(z=60)
+    s = loop_study(ev, m)
+    assert s.paper is not None and s.paper.n_rows == 13
+    assert s.comparison()[0]["paper_r_Ce"] == pytest.approx(read_study(PAPER_TABLE).r("VR", "Ce")) == \
+        pytest.approx(0.65, abs=0.005)  # the paper's strongest correlation (§4.3)
+    assert loop_study(ev, m, paper_table=False).paper is None
+
+
+def test_the_default_render_scale_and_the_estimate():
+    """A 20 MP camera is photographed at 0.1 of its width (547 × 365 px); a small one at full size; the estimate is
+    its rates times the pixels and frames."""
+    from sightplan.camera.catalogue import get_camera
+    from sightplan.camera.models import PinholeCamera
+    from sightplan.loop.estimate import S_PER_FRAME, S_PER_MPX, default_scale, estimate
+    from sightplan.plan.types import Plan
+
+    big = Plan.build(get_camera("p4p"), np.repeat(np.eye(3)[None], 100, axis=0), np.zeros((100, 3)))
+    assert default_scale(big) == 0.1
+    e = estimate(big, 0.1)
+    assert (e.frames, e.width, e.height) == (100, 547, 365)
+    assert e.megapixels == pytest.approx(100 * 547 * 365 / 1e6)
+    assert e.minutes == pytest.approx((S_PER_MPX * e.megapixels + S_PER_FRAME * 100) / 60)
+    assert "100 frames × 547×365 px at render scale 0.1" in e.text()
+    small = Plan.build(PinholeCamera(320, 240, 300.0, 300.0, 160.0, 120.0), np.eye(3)[None], np.zeros((1, 3)))
+    assert default_scale(small) == 1.0
+
+
 def test_bad_threshold_and_predictor():
     ev, m = generated(z=60)
     with pytest.raises(LoopStudyError, match="threshold"):
@@ -173,7 +206,7 @@ def test_loop_from_a_reconstruction_folder(tmp_path):
     rec = recon(box_points(A, 3000, np.random.default_rng(8)), registered=(True, False))
     write_reconstruction(replace(rec, info={"render_scale": 0.5}), tmp_path / "recon")
     args = ["loop", "boxes.obj", "plan.json", "-o", "out", "--reconstruction", "recon", "--eval-scale", "0.5",
-            "--no-cache"] + (["--paper-table", str(TABLE2)] if TABLE2.is_file() else [])
+            "--no-cache"]
     res = run_cli(*args, cwd=tmp_path)
     assert res.returncode == 0, res.stdout + res.stderr
     assert "frames registered: 1 of 2" in res.stdout and "Pearson r" in res.stdout
@@ -185,6 +218,7 @@ def test_loop_from_a_reconstruction_folder(tmp_path):
     assert float(rows["E0"]["points"]) == pytest.approx(3000 * 18.3, rel=0.01)
     page = (out / "index.html").read_text()
     assert "id='comparison'" in page and "data:image/png;base64," in page and "the model coloured" in page
+    assert "Table 2 correlations over 13 data sets" in page and "+0.65" in page  # the bundled table: r(VR, Ce)
     assert "No logistic fit" in page  # three elements: too few for a fit, and the page says so
     data = json.loads((out / "study.json").read_text())
     assert data["frames"]["registered"] == 1 and data["elements"] == 3

@@ -229,8 +229,9 @@ def test_point_cloud_as_plain_array_and_removed_wall(gamma, plan, evaluation):
 
 
 def test_sparse_point_cloud(gamma, plan, evaluation):
-    """Documented behaviour: splats of one spacing fill the surfaces (c_i stays high), while Ct needs a
-    point within λ: for a uniform random sampling of density ρ that is 1 − exp(−ρπλ²) on a plane."""
+    """Documented behaviour: splats of one spacing fill the surfaces (c_i stays high), and Ct needs a point
+    within r = max(λ, spacing): for a uniform random sampling of density ρ that is 1 − exp(−ρπr²) on a plane,
+    about 1 − e^−π = 96 % at r = 1/√ρ."""
     rho, e = 25.0, 0.1
     lam = 1.2 * e
     cloud = synthetic_reality(gamma, points_per_m2=rho, seed=3)
@@ -238,7 +239,9 @@ def test_sparse_point_cloud(gamma, plan, evaluation):
     assert any("spacing" in w for w in v.warnings)
     assert v.parameters["point_spacing_m"] > lam
     assert (v.c[:2] > 0.85).all()
-    assert v.Ct == pytest.approx(1 - math.exp(-rho * math.pi * lam ** 2), abs=0.06)
+    r = v.parameters["ct_radius_m"]
+    assert r == v.parameters["point_spacing_m"] == pytest.approx(1 / math.sqrt(rho), rel=0.15)
+    assert v.Ct == pytest.approx(1 - math.exp(-rho * math.pi * r ** 2), abs=0.06)
     assert v.precision == 1.0
 
 
@@ -248,6 +251,50 @@ def test_noisy_point_cloud_accuracy(gamma, plan, evaluation):
     v = validate(gamma, plan, cloud, 0.05, SETTINGS, evaluation)
     assert 0.002 < v.A < 0.03
     assert (v.c[:2] > 0.95).all()
+
+
+def test_sparse_cloud_with_outliers_reports_and_excludes_them(gamma, plan, evaluation):
+    """An SfM-like cloud: 25 points per m² with 5 mm of noise, and one point in twenty thrown 2 m toward the cameras.
+    The thrown points are the outliers, counted and left out; the accuracy is the noise's (median 0.674 σ and 90th
+    percentile 1.645 σ of |N(0, σ)|); nothing says the cloud is badly registered."""
+    sigma = 0.005
+    cloud = synthetic_reality(gamma, points_per_m2=25.0, noise_m=sigma, seed=8).points.copy()
+    thrown = np.arange(0, len(cloud), 20)
+    cloud[thrown, 1] -= 2.0
+    v = validate(gamma, plan, cloud, 0.1, SETTINGS, evaluation)
+    assert v.outliers == len(thrown) and v.counts["distances"]["outliers"] == len(thrown)
+    assert v.A_median == pytest.approx(0.674 * sigma, rel=0.25) and v.A_p90 == pytest.approx(1.645 * sigma, rel=0.25)
+    assert v.A < 0.25 * v.lam and (v.c[:2] > 0.85).all()
+    assert not any("badly registered" in w for w in v.warnings)
+    assert v.precision == 1.0  # the thrown points lie outside Γ's box grown by λ, where precision looks
+    d = v.plan_metrics()
+    assert d["outliers"] == len(thrown) and d["A_median_m"] == v.A_median
+
+
+def test_a_cloud_off_by_more_than_lambda_warns_and_keeps_its_points(gamma, plan, evaluation):
+    """Every point 0.5 m north of where it was: the median distance (0.2–0.5 m, as the thin walls' faces come nearer
+    or farther) exceeds λ = 0.12 m, which is the warning; the bound follows the median, so no point is an outlier."""
+    cloud = synthetic_reality(gamma, points_per_m2=100.0, seed=9).points + [0.0, 0.5, 0.0]
+    v = validate(gamma, plan, cloud, 0.1, SETTINGS, evaluation)
+    assert any("median distance" in w and "badly registered" in w for w in v.warnings)
+    assert 0.2 <= v.counts["distances"]["median_all_m"] <= 0.5
+    assert v.outliers == 0
+
+
+def test_cloud_distances_on_a_plane():
+    """Points at known heights over one big square: median, 90th percentile and the points beyond the bound."""
+    from sightplan.validate import cloud_distances
+
+    v = np.array([[-50.0, -50.0, 0.0], [50.0, -50.0, 0.0], [50.0, 50.0, 0.0], [-50.0, 50.0, 0.0]])
+    square = Scene.from_arrays(v, np.array([[0, 1, 2], [0, 2, 3]]), np.zeros(2, int), ElementTable.build(["floor"]))
+    rng = np.random.default_rng(10)
+    h = np.abs(rng.normal(0.0, 0.01, 2000))
+    pts = np.column_stack([rng.uniform(-40, 40, 2000), rng.uniform(-40, 40, 2000), h])
+    pts[:10, 2] = 3.0  # ten far above
+    d = cloud_distances(pts, square, lam=0.012)
+    assert d.n_outliers == 10 and d.outlier[:10].all()
+    assert d.median_m == pytest.approx(np.median(h[10:]), rel=1e-9)
+    assert d.p90_m == pytest.approx(np.percentile(h[10:], 90), rel=1e-9)
 
 
 def test_equirectangular_point_cloud(gamma):

@@ -50,19 +50,22 @@ def loop_command(
     out: Annotated[Path, typer.Option("--out", "-o", help="Folder for the images, the reconstruction and the study")
                    ] = Path("sightplan-loop"),
     scale: Annotated[float | None, typer.Option(
-        help="Resolution scale of the rendered photographs (default 1, or the --reconstruction's own)")] = None,
+        help="Resolution scale of the rendered photographs (default: about 0.2 Mpx each, 0.1 of a 20 MP camera; "
+             "with --reconstruction, its own)")] = None,
     matcher: Annotated[str, typer.Option(help="SfM matcher: auto, sequential, spatial or exhaustive")] = "auto",
     render_engine: Annotated[str, typer.Option(help="Renderer: embree (CPU) or gl")] = "embree",
     reconstruction: Annotated[Path | None, typer.Option(
         help="An existing reconstruction of this plan's photographs: skip rendering and reconstructing")] = None,
     paper_table: Annotated[Path | None, typer.Option(
-        help="The paper's Table 2 as CSV, to set its correlations beside the study's")] = None,
+        help="The paper's Table 2 as CSV, to set its correlations beside the study's (default: the bundled table)")
+                           ] = None,
     registration_error: Annotated[float | None, typer.Option(
         "--registration-error", "-e", help="e for the validation (m); default: the reconstruction's residual")] = None,
     tolerance: Annotated[float | None, typer.Option(
         help="τ: a point within this distance (m) of an element is on it; default 1.2·e + 3·ρ")] = None,
     radius: Annotated[float | None, typer.Option(
-        help="r: a point covers the surface within this distance (m); default max(τ, 20·ρ)")] = None,
+        help="r: a point covers the surface within this distance (m); default max(τ, the points' own spacing)")
+                   ] = None,
     threshold: Annotated[float, typer.Option(help="Completeness from which an element counts as reconstructed")
                          ] = 0.5,
     date: DateOpt = None,
@@ -75,7 +78,7 @@ def loop_command(
     focal_mm: FocalOpt = None,
     engine: Annotated[EngineName, typer.Option(help=ENGINE_HELP)] = "auto",
     eval_scale: Annotated[float, typer.Option(help="Resolution scale s of the evaluation's rays")] = 1.0,
-    omega: Annotated[float, typer.Option(help="Visibility threshold Ω in pixels")] = 625.0,
+    omega: Annotated[float, typer.Option(help="Visibility threshold Ω in pixels of the photographs")] = 625.0,
     cache: Annotated[bool, typer.Option(help="Reuse the model cache")] = True,
     threads: Annotated[int | None, typer.Option(help="Worker threads (default: all cores)")] = None,
 ) -> None:
@@ -99,6 +102,11 @@ def loop_command(
     print_warnings(console, the_plan.parameters.get("warnings", []))
     console.print(f"model: {scene.source or model} — {int(scene.targets.sum())} target elements; plan: "
                   f"{len(the_plan)} frames", highlight=False)
+    if reconstruction is None:
+        from ..loop.estimate import default_scale, estimate
+
+        scale = scale if scale is not None else default_scale(the_plan)
+        console.print(estimate(the_plan, scale).text(), highlight=False)
     with stage_bars(console, STAGE_NAMES) as progress:
         result = loop(scene, the_plan, out, scale=scale, matcher=matcher, render_engine=render_engine,
                       settings=settings, threads=threads, registration_error_m=registration_error,
@@ -112,7 +120,9 @@ def loop_command(
                   f"({100 * rec.residual_share:.3f} % of the scene's {rec.scene_size_m:.3g} m); "
                   f"{summ['points']:,} points, {summ['points_on_model']:,} on the model", highlight=False)
     console.print(f"validation: A {cell(v.A, '.4f')} m, Ce {cell(v.Ce, '.3f')}, Cv {cell(v.Cv, '.3f')}, "
-                  f"Ct {cell(v.Ct, '.3f')} (λ = {v.lam:.4g} m)", highlight=False)
+                  f"Ct {cell(v.Ct, '.3f')} (λ = {v.lam:.4g} m); points to the model: median "
+                  f"{cell(v.A_median, '.4f')} m, 90th percentile {cell(v.A_p90, '.4f')} m, {v.outliers:,} outliers "
+                  "left out", highlight=False)
     console.print(comparison_table(s, f"{s.n_elements} elements: predicted against measured completeness"))
     fit = s.logistic
     if fit is not None:

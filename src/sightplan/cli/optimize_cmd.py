@@ -8,15 +8,12 @@ from typing import Annotated
 import typer
 from rich.table import Table
 
-from ..errors import PlanError
 from .base import ENGINE_HELP, app, console
 from .camera_opts import CAMERA_FORMS, FocalOpt, cli_camera
 from .errors import friendly_errors, writable_file
 from .flight import AltitudeOpt, MinHeightOpt, StationOpt, VlosOpt, default_flight_settings, print_feasibility
 from .fourd import ActualOpt, BasisOpt, DateOpt, RulesOpt, ScheduleOpt, UnscheduledOpt, dated_scene
 from .loading import load_with_progress, stage_bars
-
-COMPARED = ("facade", "orbit", "lawnmower")
 
 
 @app.command("optimize")
@@ -57,8 +54,10 @@ def optimize_command(
              "footprint at the safety distance. A 360° camera: of the grid of positions on each storey, default "
              "1.0")] = None,
     engine: Annotated[str, typer.Option(help=ENGINE_HELP)] = "auto",
-    compare: Annotated[bool, typer.Option(help="Also plan and score the facade, orbit and lawn-mower templates at the "
-                                               "same safety distance, for comparison")] = True,
+    compare: Annotated[bool, typer.Option(
+        help="Also plan, flight-check and score the template grid (facade box and outline, orbit, lawn-mower at 60, "
+             "70 and 80 % overlap) and set the optimiser beside the best one, like for like and at its minutes")
+                       ] = True,
     date: DateOpt = None,
     schedule: ScheduleOpt = None,
     rules: RulesOpt = None,
@@ -101,33 +100,63 @@ def optimize_command(
     console.print(f"{s['stability_views']} frames added so that runs register · {s['unstable_frames']} frames below "
                   f"the stability floor · {s['blind_frames']} frames that see no target", highlight=False)
     if compare and not walked:  # the templates compared are flown outside
-        _compare(scene, cam, result, flight, settings)
+        _compare(scene, cam, goal, result, flight, settings)
     console.print(f"wrote {output} — evaluate it with `sightplan evaluate {model} {output}`")
 
 
-def _compare(scene, cam, result, flight, settings) -> None:
-    """The optimised plan beside the facade, orbit and lawn-mower templates on the same model: frames, minutes,
-    targets met, VC and median R_i."""
-    from ..optimize import score_plan
-    from ..plan.templates.registry import plan_from_template
+def _pct(value: float | None, reference: float | None) -> str:
+    if value is None or not reference:
+        return ""
+    return f"{100 * (value / reference - 1):+.0f} %".replace("-", "−")
 
+
+def _compare(scene, cam, goal, result, flight, settings) -> None:
+    """The template grid, flight-checked and scored against the optimiser's targets, and the optimiser beside the
+    best template: with every target, like for like (the template's targets) and at the template's minutes."""
+    from ..optimize import Scored, compare_with_best_template, score_plan
+
+    with stage_bars(console) as progress:
+        c = compare_with_best_template(scene, cam, goal, result, flight=flight, settings=settings, progress=progress)
     et = result.targets
-    rows = []
-    plans = [("optimised", result.plan, result.report)]
-    for name in COMPARED:
-        try:
-            plan, report = plan_from_template(name, scene, cam, {}, flight)
-        except PlanError as exc:
-            console.print(f"[yellow]{name} template: {exc}", highlight=False)
-            continue
-        plans.append((name, plan, report))
-    for name, plan, report in plans:
-        s = score_plan(scene, plan, et, scale=settings.scale, engine=settings.engine, cache_dir=settings.cache_dir)
-        rows.append((name, len(plan), report.total_time_s, int(s.met.sum()), s.VC, s.median_R_m_px))
-    table = Table(title="against the templates (same camera, safety distance and targets)")
-    for col in ("plan", "frames", "minutes", "targets met", "VC %", "median R_i (mm/px)"):
-        table.add_column(col, justify="left" if col == "plan" else "right")
-    for name, n, t, met, vc, r in rows:
-        table.add_row(name, str(n), "—" if t is None else f"{t / 60:.1f}", f"{met} of {et.n_active}",
-                      "—" if vc is None else f"{100 * vc:.1f}", "—" if r is None else f"{r * 1000:.2f}")
+    for label, why in c.failed.items():
+        console.print(f"[yellow]{label}: {why}", highlight=False)
+    if c.best is None:
+        console.print("[yellow]no template of the grid could be planned here: nothing to compare", highlight=False)
+        return
+
+    def cells(r: Scored) -> list[str]:
+        s = r.score
+        n = len(r.report.violations)
+        checks = "ok" if r.report.ok else f"{n} violation{'' if n == 1 else 's'}"
+        return [str(len(r.plan)), "—" if r.minutes is None else f"{r.minutes:.1f}", str(len(r.plan.missions)), checks,
+                f"{r.met} of {et.n_active}", "—" if s.VC is None else f"{100 * s.VC:.1f}",
+                "—" if s.median_R_m_px is None else f"{1000 * s.median_R_m_px:.2f}"]
+
+    columns = ("frames", "minutes", "missions", "checks", "targets met", "VC %", "median R_i (mm/px)")
+    grid = Table(title="the template grid (same camera, safety distance and targets; the best: checks pass, most "
+                       "targets met, then fewest minutes)", title_justify="left")
+    for col in ("template", *columns):
+        grid.add_column(col, justify="left" if col in ("template", "checks") else "right")
+    for r in c.templates:
+        grid.add_row(f"{r.label} (best)" if r is c.best else r.label, *cells(r))
+    console.print(grid)
+
+    mine = Scored("optimised, every target", result.plan, result.report,
+                  score_plan(scene, result.plan, et, scale=settings.scale, engine=settings.engine,
+                             cache_dir=settings.cache_dir))
+    best = c.best
+    table = Table(title=f"against the best template, {best.label}", title_justify="left")
+    for col in ("plan", *columns, "against the template"):
+        table.add_column(col, justify="left" if col in ("plan", "checks", "against the template") else "right")
+    table.add_row(best.label, *cells(best), "")
+    for r in (mine, c.like_for_like):
+        if r is not None:
+            missed = int((best.score.met & ~r.score.met).sum())
+            table.add_row(r.label, *cells(r), f"frames {_pct(len(r.plan), len(best.plan))}, minutes "
+                          f"{_pct(r.minutes, best.minutes)}, "
+                          + ("all its targets met" if not missed else f"misses {missed} of its targets"))
+    if c.equal_minutes is not None:
+        r = c.equal_minutes
+        table.add_row(f"{r.label} ({best.minutes:.1f})", *cells(r),
+                      f"{r.met - best.met:+d} targets met".replace("-", "−"))
     console.print(table)

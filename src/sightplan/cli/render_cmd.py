@@ -90,9 +90,9 @@ def reconstruct_command(
                                                           "(the COLMAP model in the model's frame) and database.db")
                    ] = Path("recon"),
     matcher: Annotated[str, typer.Option(
-        help="Feature matching: exhaustive (every pair), spatial (each frame with its 20 nearest frames looking the "
-             "same way, from the true poses), sequential (neighbours in plan order), auto (exhaustive up to 60 "
-             "images, spatial beyond)")] = "auto",
+        help="Feature matching: exhaustive (every pair), spatial (each frame with the views that see most of the "
+             "same surface, round corners too, from the true poses and depths), sequential (neighbours in plan "
+             "order), auto (exhaustive up to 60 images, spatial beyond)")] = "auto",
     threads: Annotated[int | None, typer.Option(help="CPU threads (default: all cores)")] = None,
     verbose: Annotated[bool, typer.Option(help="Show COLMAP's own log")] = False,
 ) -> None:

@@ -36,9 +36,15 @@ def validation_table(v, title: str) -> Table:
     t = Table("metric", "value", "unit", "meaning", title=title, title_justify="left")
     rows = [
         ("A", cell(v.A, ".4f"), "m", "accuracy: VR-weighted mean |dΓ − dΨ| over pixels where both are hit"),
+        *([("A median", cell(v.A_median, ".4f"), "m", "median distance from Ψ's points to Γ (outliers excluded)"),
+           ("A p90", cell(v.A_p90, ".4f"), "m", "90th percentile of that distance"),
+           ("outliers", f"{v.outliers:,}", "points", "farther from every surface than "
+            f"{cell(n['distances']['outlier_bound_m'], '.3g')} m: left out of A, Ce, Cv, Ct")]
+          if "distances" in n else []),
         ("Ce", cell(pct(v.Ce), ".2f"), "%", f"completeness per element: mean c_i over {v.z} elements"),
         ("Cv", cell(pct(v.Cv), ".2f"), "%", f"completeness per visible element: mean c_i over {v.n_visible}"),
-        ("Ct", cell(pct(v.Ct), ".2f"), "%", f"overall completeness: {n['ct_samples']:,} points on Γ with Ψ within λ"),
+        ("Ct", cell(pct(v.Ct), ".2f"), "%", f"overall completeness: {n['ct_samples']:,} points on Γ with Ψ within "
+         + ("λ" if v.parameters["ct_radius_m"] == v.lam else f"{v.parameters['ct_radius_m']:.3g} m (its spacing)")),
         ("precision", cell(pct(v.precision), ".2f"), "%",
          f"{n['precision_samples']:,} points of Ψ in Γ's box with Γ within λ"),
         ("recall", cell(pct(v.recall), ".2f"), "%", "= Ct"),
@@ -120,8 +126,11 @@ def validate_command(
     point_spacing: Annotated[float | None, typer.Option(
         help="Point spacing of a point cloud for splatting (m); estimated when not given")] = None,
     engine: Annotated[EngineName, typer.Option(help=ENGINE_HELP)] = "auto",
-    scale: Annotated[float, typer.Option(help="Resolution scale s: cast (s·W)×(s·H) rays")] = 0.5,
-    omega: Annotated[float, typer.Option(help="Visibility threshold Ω in pixels")] = 625.0,
+    scale: Annotated[float | None, typer.Option(
+        help="Resolution scale s: cast (s·W)×(s·H) rays; default 0.5, or 1 of the photographs with --reconstruction "
+             "(as `sightplan loop` casts)")] = None,
+    omega: Annotated[float, typer.Option(
+        help="Visibility threshold Ω in pixels (of the photographs, with --reconstruction)")] = 625.0,
     d_max: Annotated[float, typer.Option(help="D_max: farthest visible surface of the model (m)")] = 1000.0,
     seed: Annotated[int, typer.Option(help="Seed of the surface sampling for Ct and precision")] = 0,
     out: Annotated[Path, typer.Option(help="Folder for validation.json and validation_elements.csv")] = Path(
@@ -147,6 +156,8 @@ def validate_command(
         raise SightplanError("give the REALITY file (a mesh or a point cloud) or --reconstruction FOLDER")
     elif registration_error is None:
         raise SightplanError("give the reality's registration error: --registration-error E (m)")
+    if scale is None:
+        scale = 1.0 if rec is not None else 0.5
     settings = EvaluationSettings(engine=engine, scale=scale, d_max=d_max, threads=threads, metric=MetricParams(omega=omega))
     scene, _ = load_with_progress(console, model, cache)
     scene = dated_scene(console, scene, model, schedule, rules, prefer_actual, date, date_basis, unscheduled)
@@ -154,7 +165,11 @@ def validate_command(
     print_warnings(console, the_plan.parameters.get("warnings", []))
     if rec is not None:
         from ..loop.measure import reconstruction_error, reconstruction_reality
+        from ..loop.run import photographed_plan
 
+        # the plan as photographed: Ω and the pixels in the photographs' own pixels, as `sightplan loop` counts them
+        render_scale = float(rec.info.get("render_scale", 1.0))
+        the_plan = photographed_plan(the_plan, render_scale)
         psi = reconstruction_reality(rec)
         registration_error = reconstruction_error(rec, registration_error)
         source = reconstruction
@@ -183,6 +198,7 @@ def validate_command(
     out.mkdir(parents=True, exist_ok=True)
     inputs = {"model": str(model), "plan": str(plan), "reality": str(source),
               "reality_scale": reality_scale if rec is None else 1.0,
+              **({} if rec is None else {"render_scale": render_scale}),
               "date": None if scene.date is None else str(scene.date)}
     extra = {} if rec is None else {"reconstruction": registration_summary(rec)}
     json_path = v.write_json(out / "validation.json", inputs=inputs, **extra)

@@ -16,8 +16,9 @@ Per element i (indexed like the scene's element table):
 
 Defaults, from the plan's resolution ρ (the median R_i over the visible target elements, m/px, divided by the
 renders' image scale) and the registration residual e: τ = 1.2·e + ``TOLERANCE_PX``·ρ (the registration error
-as λ is, plus a triangulation error of three pixels' footprint) and r = max(τ, ``RADIUS_PX``·ρ) (a sparse point
-stands for the surface within twenty pixels' footprint around it: about the spacing of matched SIFT features).
+as λ is, plus a triangulation error of three pixels' footprint) and r = max(τ, s) with s the spacing of the points
+on the model (:func:`sightplan.validate.point_spacing`, 1/√density): a sparse point stands for the surface around
+it as far as the cloud's own sampling reaches, as the validation's Ct counts it.
 
 Per frame: registered or not and its position and rotation errors (from the reconstruction), with the
 evaluation's ν_f and stable flag (METRICS.md §5.3–5.4).
@@ -40,7 +41,7 @@ from ..model.pointcloud import PointCloud
 from ..model.scene import Scene
 from ..observations.features import FeatureSet
 from ..plan.types import Plan
-from ..validate import LAMBDA_PER_E, Validation, nearest_faces, sample_surface, validate
+from ..validate import LAMBDA_PER_E, Validation, nearest_faces, point_spacing, sample_surface, validate
 from .files import Reconstruction, _num, pose_error_summary
 
 ProgressCallback = Callable[[int, int], None]
@@ -49,7 +50,6 @@ SAMPLES_PER_M2 = 100.0
 MIN_SAMPLES_PER_ELEMENT = 50
 MAX_SAMPLES = 1_000_000
 TOLERANCE_PX = 3.0
-RADIUS_PX = 20.0
 #: Samples are lifted this far along their normal for the visibility test, as the simulated features are.
 SAMPLE_OFFSET_M = 0.001
 
@@ -259,13 +259,8 @@ def measure_reconstruction(
         if rho is None:
             raise SightplanError("no element is visible from the plan: give the tolerance and the radius")
         tolerance_m = LAMBDA_PER_E * e + TOLERANCE_PX * rho
-    if radius_m is None:
-        if rho is None:
-            raise SightplanError("no element is visible from the plan: give the radius")
-        radius_m = max(tolerance_m, RADIUS_PX * rho)
-    for label, value in (("tolerance", tolerance_m), ("radius", radius_m)):
-        if not (value > 0 and math.isfinite(value)):
-            raise SightplanError(f"the {label} must be a positive number of metres, got {value!r}")
+    if not (tolerance_m > 0 and math.isfinite(tolerance_m)):
+        raise SightplanError(f"the tolerance must be a positive number of metres, got {tolerance_m!r}")
     z = scene.n_elements
 
     # ---- points on elements
@@ -273,6 +268,12 @@ def measure_reconstruction(
     face, dist = nearest_faces(pts, scene.vertices, scene.faces, tolerance_m)
     point_element = np.where(face >= 0, scene.face_element[np.maximum(face, 0)], -1).astype(np.int32)
     n_points = np.bincount(point_element[point_element >= 0], minlength=z).astype(np.int64)
+    on_model = pts[point_element >= 0]
+    spacing = point_spacing(on_model, seed=seed) if len(on_model) >= 2 else None
+    if radius_m is None:
+        radius_m = max(tolerance_m, spacing or 0.0)
+    if not (radius_m > 0 and math.isfinite(radius_m)):
+        raise SightplanError(f"the radius must be a positive number of metres, got {radius_m!r}")
 
     # ---- visible samples and their cover
     rng = np.random.default_rng(seed)
@@ -306,7 +307,7 @@ def measure_reconstruction(
         registered=registered, position_error_m=pos_err, rotation_error_deg=rot_err, nu=fm.nu.copy(),
         stable=fm.stable.copy(), residual_m=float(reconstruction.residual_m),
         scene_size_m=float(reconstruction.scene_size_m), warnings=tuple(warnings),
-        parameters={"tolerance_px": TOLERANCE_PX, "radius_px": RADIUS_PX, "image_scale": image_scale,
+        parameters={"tolerance_px": TOLERANCE_PX, "point_spacing_m": spacing, "image_scale": image_scale,
                     "min_samples_per_element": MIN_SAMPLES_PER_ELEMENT, "seed": seed,
                     "engine": ray_engine_name(settings.engine)})
 

@@ -1,14 +1,20 @@
 """Structure from motion on a plan's renders, with pycolmap on the CPU, registered to the model.
 
 SIFT features are extracted with the renders' exact intrinsics (one PINHOLE camera per plan camera, held fixed),
-matched exhaustively (small sets) or sequentially in plan order, and the images registered by incremental mapping.
+matched exhaustively (small sets) or between the views that see the same surface (:mod:`.pairs`), and the images
+registered by incremental mapping, every random choice seeded (:data:`SEED`: the RANSAC of the matches' geometric
+verification, the mapper's and the triangulator's). When the mapper ends with several models, each that shares at
+least :data:`MIN_REGISTERED` images with the largest is merged into it, aligned by the reprojections of their common
+images (``pycolmap.align_reconstructions_via_reprojections``, as COLMAP's model merger aligns; the true poses play no
+part), and its other images count as registered.
 The SfM model's frame is arbitrary: a similarity (scale, rotation, translation; Umeyama's least squares) maps it
 onto the model, fitted to the registered frames' camera centres and to a point ahead of and beside each of them
 along its axes (so a row of collinear centres, as a one-layer facade flies, still fixes the rotation about the
 row). The residual reported is the RMS distance between the mapped and the true centres.
 
 Writes into the output folder: ``points.npz`` and ``registration.json`` (:mod:`.files`), ``sparse/`` (the SfM model
-mapped into the model's frame, COLMAP binary) and ``database.db`` (pycolmap's features and matches).
+mapped into the model's frame, COLMAP binary; the models merged into it in ``sparse/merged/1``, …) and
+``database.db`` (pycolmap's features and matches).
 """
 
 from __future__ import annotations
@@ -25,16 +31,15 @@ from numpy.typing import NDArray
 
 from ..errors import SightplanError
 from .files import Reconstruction, write_reconstruction
-from .render import read_renders
+from .pairs import overlap_pairs, shared_samples
+from .render import DEPTH_FILE, read_renders
 
 MATCHERS = ("auto", "exhaustive", "spatial", "sequential")
-EXHAUSTIVE_MAX_IMAGES = 60  # "auto" matches every pair up to this many images, spatial neighbours beyond
+EXHAUSTIVE_MAX_IMAGES = 60  # "auto" matches every pair up to this many images, the views sharing surface beyond
 SEQUENTIAL_OVERLAP = 10
-SPATIAL_NEIGHBOURS = 20
-SPATIAL_MAX_ANGLE_DEG = 75.0
 MAX_FEATURES = 8192
 MIN_REGISTERED = 3
-SEED = 1  # pycolmap's random seed: the same images give the same reconstruction
+SEED = 1  # pycolmap's random seeds: the same images give the same reconstruction
 
 Progress = Callable[[int, int], None]
 Stage = Callable[[str], None]
@@ -82,23 +87,21 @@ def rotation_angle_deg(Ra: NDArray, Rb: NDArray) -> NDArray[np.float64]:
     return np.degrees(np.arccos(np.clip(c, -1.0, 1.0)))
 
 
-def spatial_pairs(C: NDArray, R: NDArray, k: int = SPATIAL_NEIGHBOURS, max_angle_deg: float = SPATIAL_MAX_ANGLE_DEG
-                  ) -> list[tuple[int, int]]:
-    """Image pairs (i < j) to match: each frame with its ``k`` nearest frames by camera centre among those whose
-    optical axes lie within ``max_angle_deg`` of its own, as a drone's positions and gimbal angles would choose."""
-    C = np.asarray(C, float)
-    axes = np.asarray(R, float)[:, :, 2]
-    n = len(C)
-    cos_max = math.cos(math.radians(max_angle_deg))
-    pairs: set[tuple[int, int]] = set()
-    for i in range(n):
-        d = np.linalg.norm(C - C[i], axis=1)
-        d[axes @ axes[i] < cos_max] = np.inf
-        d[i] = np.inf
-        for j in np.argsort(d, kind="stable")[:k]:
-            if np.isfinite(d[j]):
-                pairs.add((min(i, int(j)), max(i, int(j))))
-    return sorted(pairs)
+def spatial_pairs(images_dir: str | Path) -> list[tuple[int, int]]:
+    """Image pairs (i < j) of a render folder whose views see the same surface (:func:`.pairs.overlap_pairs`), from
+    the true poses and the renders' depth maps."""
+    renders = read_renders(images_dir)
+    path = Path(images_dir) / DEPTH_FILE
+    if not path.is_file():
+        raise SightplanError(f"{images_dir} has no {DEPTH_FILE}: render the plan again with `sightplan render`")
+    cams = [renders.camera(i) for i in range(len(renders))]
+    try:
+        with np.load(path) as z:
+            shared = shared_samples(cams, renders.R_world_camera, renders.C_world,
+                                    (z[f"frame_{i:05d}"] for i in range(len(renders))))
+    except (OSError, ValueError, KeyError) as exc:
+        raise SightplanError(f"{path} is not readable: {exc}") from None
+    return overlap_pairs(shared, renders.R_world_camera[:, :, 2])
 
 
 def _pycolmap():
@@ -135,10 +138,9 @@ def reconstruct(images_dir: str | Path, out_dir: str | Path, *, matcher: str = "
     """Run SfM on the renders in ``images_dir`` (a folder written by :func:`~.render.render_plan`) and register it to
     the model; the result is also written into ``out_dir``.
 
-    matcher: "exhaustive" (every pair), "spatial" (each image with its nearest frames that look the same way,
-    :func:`spatial_pairs`, from the true poses as a drone's log would give them), "sequential" (each image with
-    its next images in plan order), or "auto" (exhaustive up to :data:`EXHAUSTIVE_MAX_IMAGES` images, spatial
-    beyond). threads: CPU threads (default all).
+    matcher: "exhaustive" (every pair), "spatial" (each image with the views that see most of the same surface,
+    round corners too: :func:`spatial_pairs`), "sequential" (each image with its next images in plan order), or
+    "auto" (exhaustive up to :data:`EXHAUSTIVE_MAX_IMAGES` images, spatial beyond). threads: CPU threads (default all).
     progress(done, total): work units over the whole run: one per image extracted, one per image matched (reported
     when matching ends), one per image registered. stage(text): called as each step begins. verbose: let COLMAP
     log its progress to stderr."""
@@ -209,22 +211,28 @@ def _run(pycolmap, renders, src: Path, out: Path, matcher: str, threads: int | N
     matching = pycolmap.FeatureMatchingOptions()
     matching.num_threads = n_threads
     matching.use_gpu = False
+    verification = pycolmap.TwoViewGeometryOptions()
+    verification.ransac.random_seed = SEED
+    n_pairs = None
     if chosen == "exhaustive":
-        pycolmap.match_exhaustive(database, matching_options=matching, device=pycolmap.Device.cpu)
+        n_pairs = n * (n - 1) // 2
+        pycolmap.match_exhaustive(database, matching_options=matching, verification_options=verification,
+                                  device=pycolmap.Device.cpu)
     elif chosen == "spatial":
-        pairs = spatial_pairs(renders.C_world, renders.R_world_camera)
+        pairs = spatial_pairs(src)
+        n_pairs = len(pairs)
         match_list = out / "pairs.txt"
         match_list.write_text("".join(f"{renders.image_names[i]} {renders.image_names[j]}\n" for i, j in pairs))
         pairing = pycolmap.ImportedPairingOptions()
         pairing.match_list_path = str(match_list)
         pycolmap.match_image_pairs(database, matching_options=matching, pairing_options=pairing,
-                                   device=pycolmap.Device.cpu)
+                                   verification_options=verification, device=pycolmap.Device.cpu)
     else:
         pairing = pycolmap.SequentialPairingOptions()
         pairing.overlap = SEQUENTIAL_OVERLAP
         pairing.loop_detection = False
         pycolmap.match_sequential(database, matching_options=matching, pairing_options=pairing,
-                                  device=pycolmap.Device.cpu)
+                                  verification_options=verification, device=pycolmap.Device.cpu)
     tick(n)
     t2 = time.perf_counter()
     timings["match_s"] = t2 - t1
@@ -233,6 +241,8 @@ def _run(pycolmap, renders, src: Path, out: Path, matcher: str, threads: int | N
     options = pycolmap.IncrementalPipelineOptions()
     options.num_threads = n_threads
     options.random_seed = SEED
+    options.mapper.random_seed = SEED
+    options.triangulation.random_seed = SEED
     options.ba_refine_focal_length = False
     options.ba_refine_principal_point = False
     options.ba_refine_extra_params = False
@@ -247,21 +257,23 @@ def _run(pycolmap, renders, src: Path, out: Path, matcher: str, threads: int | N
     if not models or max(m.num_reg_images() for m in models.values()) == 0:
         raise SightplanError(f"structure from motion registered none of the {n} images in {src}: too little texture "
                              "or overlap between the frames (see the matches in database.db)")
-    model = max(models.values(), key=lambda m: (m.num_reg_images(), m.num_points3D()))
+    ranked = sorted(models.values(), key=lambda m: (m.num_reg_images(), m.num_points3D()), reverse=True)
+    model, merged = ranked[0], _merged(pycolmap, ranked[0], ranked[1:])
 
     index = {name: i for i, name in enumerate(renders.image_names)}
     registered = np.zeros(n, bool)
     C_sfm = np.zeros((n, 3))
     R_sfm = np.zeros((n, 3, 3))
-    for image in model.images.values():
-        if not image.has_pose or image.name not in index:
-            continue
-        i = index[image.name]
-        pose = image.cam_from_world()
-        R_cw = np.asarray(pose.rotation.matrix(), float)
-        registered[i] = True
-        R_sfm[i] = R_cw.T
-        C_sfm[i] = -R_cw.T @ np.asarray(pose.translation, float)
+    for part in (model, *merged):
+        for image in part.images.values():
+            if not image.has_pose or image.name not in index or registered[index[image.name]]:
+                continue
+            i = index[image.name]
+            pose = image.cam_from_world()
+            R_cw = np.asarray(pose.rotation.matrix(), float)
+            registered[i] = True
+            R_sfm[i] = R_cw.T
+            C_sfm[i] = -R_cw.T @ np.asarray(pose.translation, float)
     k = int(registered.sum())
     if k < MIN_REGISTERED:
         raise SightplanError(f"structure from motion registered only {k} of the {n} images in {src}: at least "
@@ -275,20 +287,30 @@ def _run(pycolmap, renders, src: Path, out: Path, matcher: str, threads: int | N
     rotation_error[reg] = rotation_angle_deg(R @ R_sfm[reg], renders.R_world_camera[reg])
     residual = float(np.sqrt(np.mean(position_error[reg] ** 2)))
 
-    ids = sorted(model.points3D)
-    xyz = np.array([model.points3D[p].xyz for p in ids], float).reshape(-1, 3)
-    track = np.array([model.points3D[p].track.length() for p in ids], np.int32)
-    err = np.array([model.points3D[p].error for p in ids], float)
-    points = s * xyz @ R.T + t
+    xyz, track, err = [], [], []
+    for part in (model, *merged):
+        ids = sorted(part.points3D)
+        xyz.append(np.array([part.points3D[p].xyz for p in ids], float).reshape(-1, 3))
+        track.append(np.array([part.points3D[p].track.length() for p in ids], np.int32))
+        err.append(np.array([part.points3D[p].error for p in ids], float))
+    points = s * np.concatenate(xyz) @ R.T + t
+    track, err = np.concatenate(track), np.concatenate(err)
 
-    model.transform(pycolmap.Sim3d(s, pycolmap.Rotation3d(R), t))
     sparse = out / "sparse"
     sparse.mkdir(exist_ok=True)
-    model.write(sparse)
+    if (sparse / "merged").is_dir():
+        _remove_tree(sparse / "merged")
+    for m, part in enumerate((model, *merged)):
+        part.transform(pycolmap.Sim3d(s, pycolmap.Rotation3d(R), t))
+        where = sparse if m == 0 else sparse / "merged" / str(m)
+        where.mkdir(parents=True, exist_ok=True)
+        part.write(where)
     timings["total_s"] = time.perf_counter() - started
     info = {
-        "images": n, "registered": k, "points": len(points), "matcher": chosen, "threads": n_threads,
-        "models": len(models), "pycolmap": str(pycolmap.__version__), "images_dir": str(src),
+        "images": n, "registered": k, "points": len(points), "matcher": chosen, "pairs": n_pairs,
+        "threads": n_threads,
+        "models": len(models), "models_merged": len(merged), "largest_model_images": model.num_reg_images(),
+        "pycolmap": str(pycolmap.__version__), "images_dir": str(src),
         "engine": renders.engine, "render_scale": renders.scale,
         "timings_s": {key: round(v, 3) for key, v in timings.items()},
         "mean_track_length": float(track.mean()) if len(track) else 0.0,
@@ -301,6 +323,24 @@ def _run(pycolmap, renders, src: Path, out: Path, matcher: str, threads: int | N
     if progress is not None:
         progress(total, total)
     return rec
+
+
+def _merged(pycolmap, base, others) -> list:
+    """The models of ``others`` (largest first) that share at least :data:`MIN_REGISTERED` registered images with
+    ``base`` and align to it by their reprojections, each transformed into ``base``'s frame."""
+    names = {im.name for im in base.images.values() if im.has_pose}
+    merged = []
+    for other in others:
+        common = {im.name for im in other.images.values() if im.has_pose} & names
+        if len(common) < MIN_REGISTERED:
+            continue
+        sim = pycolmap.align_reconstructions_via_reprojections(other, base)
+        if sim is None:
+            continue
+        other.transform(sim)
+        merged.append(other)
+        names |= {im.name for im in other.images.values() if im.has_pose}
+    return merged
 
 
 def _remove_tree(path: Path) -> None:

@@ -28,6 +28,7 @@ from ..model.scene import Scene
 from ..plan.types import Plan
 from ..study import Study
 from ..validate import Validation
+from .estimate import default_scale
 from .files import Reconstruction, read_reconstruction
 from .measure import ReconstructionMeasures, measure_reconstruction, validate_reconstruction
 from .page import write_loop_page
@@ -85,19 +86,20 @@ def loop(
     tolerance_m: float | None = None,
     radius_m: float | None = None,
     threshold: float | None = None,
-    paper_table: str | Path | Study | None = None,
+    paper_table: str | Path | Study | bool | None = None,
     reconstruction: str | Path | None = None,
     labels: dict[str, str] | None = None,
     progress: StageProgress | None = None,
 ) -> LoopResult:
     """Render, reconstruct, validate, measure and study ``plan`` on ``scene`` into ``out_dir`` (module docstring).
 
-    scale: the renders' resolution scale (default 1; with ``reconstruction``, the scale its run records as
-    ``render_scale``, else 1). matcher: the SfM's matcher (``reconstruct``). settings: the evaluation's
-    (its scale is the evaluation's ray scale, independent of the renders'). registration_error_m: e for the
-    validation (default: the reconstruction's residual). tolerance_m, radius_m: the measures' τ and r (default:
-    :mod:`.measure`'s). paper_table: the paper's Table 2 CSV to set beside the correlations. reconstruction: an
-    existing reconstruction folder of this plan's renders: render and reconstruct are skipped.
+    scale: the renders' resolution scale (default: :func:`.estimate.default_scale`, about 0.2 Mpx a photograph;
+    with ``reconstruction``, the scale its run records as ``render_scale``, else 1). matcher: the SfM's matcher
+    (``reconstruct``). settings: the evaluation's (its scale is the evaluation's ray scale, independent of the
+    renders'). registration_error_m: e for the validation (default: the reconstruction's residual). tolerance_m,
+    radius_m: the measures' τ and r (default: :mod:`.measure`'s). paper_table: the paper's Table 2 CSV to set beside
+    the correlations (default: the bundled table; False: none). reconstruction: an existing reconstruction folder of
+    this plan's renders: render and reconstruct are skipped.
     labels: ``model`` and ``plan`` names for the page.
     """
     out = Path(out_dir)
@@ -107,7 +109,7 @@ def loop(
     renders = None
     rec = read_reconstruction(reconstruction) if reconstruction is not None else None
     if scale is None:
-        scale = float(rec.info.get("render_scale", 1.0)) if rec is not None else 1.0
+        scale = float(rec.info.get("render_scale", 1.0)) if rec is not None else default_scale(plan)
     photo = photographed_plan(plan, scale)
     t0 = time.perf_counter()
     if rec is None:
@@ -162,8 +164,10 @@ def loop(
         pass  # no three.js here: the page keeps its pictures
     with make_engine(ray_engine_name(settings.engine), scene, threads=settings.threads) as engine:
         view = overview_view(engine)
-    facts = {"validation": "A {} m, Ce {}, Cv {}, Ct {} (λ = {:.4g} m)".format(
-        *(("—" if x is None else f"{x:.4g}") for x in (v.A, v.Ce, v.Cv, v.Ct)), v.lam)}
+    facts = {"validation": "A {} m, Ce {}, Cv {}, Ct {} (λ = {:.4g} m); points to the model: median {} m, 90th "
+             "percentile {} m, {:,} outliers left out".format(
+                 *(("—" if x is None else f"{x:.4g}") for x in (v.A, v.Ce, v.Cv, v.Ct)), v.lam,
+                 *(("—" if x is None else f"{x:.4g}") for x in (v.A_median, v.A_p90)), v.outliers)}
     title = " × ".join(x for x in ((labels or {}).get("model"), (labels or {}).get("plan")) if x)
     paths["page"] = write_loop_page(
         out / "index.html", study, m, view=view, em=ev.metrics.elements, facts=facts, links=links,

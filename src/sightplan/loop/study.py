@@ -16,9 +16,9 @@ unoccluded (:mod:`.measure`) — beside what the reconstruction measured: comple
 - Per frame: ν_f against registered (the point-biserial r, which is Pearson's r with a 0/1 variable) and the
   confusion of predicted stable (ν_f ≥ Λ) against registered.
 
-Beside it, optionally, the paper's Table 2 correlations (per data set, :func:`sightplan.study.read_study`) for
-the analogous plan metric and quality: VR_i ↔ VR, R_i ↔ R, O_i ↔ O, seen_share ↔ VC, ν_f ↔ T; completeness ↔ Ce
-and Cv.
+Beside it, the paper's Table 2 correlations (per data set, :func:`sightplan.study.read_study`; by default the
+table bundled as :data:`PAPER_TABLE`) for the analogous plan metric and quality: VR_i ↔ VR, R_i ↔ R, O_i ↔ O,
+seen_share ↔ VC, ν_f ↔ T; completeness ↔ Ce and Cv.
 """
 
 from __future__ import annotations
@@ -42,6 +42,8 @@ PREDICTORS = ("VR", "R", "O", "pixels", "seen_share")
 MEASURES = ("completeness", "points", "density")
 LOGIT = ("VR", "R", "O", "seen_share")
 RECONSTRUCTED = 0.5
+#: The paper's Table 2, bundled (see ``data/ATTRIBUTION.md``): the default beside the study's correlations.
+PAPER_TABLE = Path(__file__).resolve().parents[1] / "data" / "table2.csv"
 RIDGE = 1e-3
 MIN_FIT = 10
 
@@ -356,10 +358,11 @@ def element_table(evaluation: Evaluation, measures: ReconstructionMeasures,
 
 
 def loop_study(evaluation: Evaluation, measures: ReconstructionMeasures, *, threshold: float = RECONSTRUCTED,
-               logit: tuple[str, ...] = LOGIT, paper_table: str | Path | Study | None = None,
+               logit: tuple[str, ...] = LOGIT, paper_table: str | Path | Study | bool | None = None,
                info: dict | None = None) -> LoopStudy:
     """The per-element and per-frame study (module docstring). paper_table: the paper's Table 2 (a CSV path or a
-    read :class:`~sightplan.study.Study`) to set beside the correlations."""
+    read :class:`~sightplan.study.Study`) to set beside the correlations; None: the bundled :data:`PAPER_TABLE`;
+    False: none."""
     if not 0 < threshold <= 1:
         raise LoopStudyError(f"the completeness threshold must be in (0, 1], got {threshold!r}")
     unknown = [p for p in logit if p not in PREDICTORS]
@@ -375,7 +378,9 @@ def loop_study(evaluation: Evaluation, measures: ReconstructionMeasures, *, thre
     frame_cols = {"frame": np.array(measures.frame_names, dtype=object), "registered": measures.registered,
                   "position_error_m": measures.position_error_m, "rotation_error_deg": measures.rotation_error_deg,
                   "nu": measures.nu, "stable": measures.stable}
-    paper = read_study(paper_table) if isinstance(paper_table, (str, Path)) else paper_table
+    if paper_table is None:
+        paper_table = PAPER_TABLE
+    paper = read_study(paper_table) if isinstance(paper_table, (str, Path)) else (paper_table or None)
     return LoopStudy(cols, corr, fit, note, frames, frame_cols, threshold, paper, dict(info or {}))
 
 

@@ -4,6 +4,7 @@ camera, :func:`optimize_indoor` (:mod:`.indoor`): positions in each storey's fre
 
 from .budget import Budget, longest_prefix
 from .candidates import CandidateSet, aimed_views, candidate_views, surface_anchors
+from .compare import Comparison, Scored, best_of, compare_with_best_template, only_met, score_templates, template_grid
 from .indoor import (
     IndoorCandidates,
     IndoorResult,
@@ -21,10 +22,12 @@ from .result import OptimizeResult
 from .route import order_views, ordered_plan
 from .run import OptimizeSettings, PlanScore, default_ssd, optimize, score_plan
 from .select import CoverageTable, FeatureIndex, Runs, Selection, greedy, remove_redundant, stable_runs
-from .targets import ElementTargets, Rule, Targets
+from .targets import BOUND_RTOL, ElementTargets, Rule, Targets
 
-__all__ = ["Budget", "CandidateSet", "CoverageTable", "ElementTargets", "FeatureIndex", "IndoorCandidates", "IndoorResult",
-           "IndoorSettings", "OptimizeResult", "OptimizeSettings", "PlanScore", "Rule", "Runs", "Selection", "Storey",
-           "Targets", "Walk", "aimed_views", "candidate_views", "default_ssd", "greedy", "indoor_candidates", "longest_prefix",
-           "open_path", "optimize", "optimize_indoor", "order_views", "ordered_plan", "remove_redundant", "score_plan",
-           "stable_runs", "storey_levels", "surface_anchors", "walk_order", "walker_settings"]
+__all__ = ["BOUND_RTOL", "Budget", "CandidateSet", "Comparison", "CoverageTable", "ElementTargets", "FeatureIndex",
+           "IndoorCandidates", "IndoorResult", "IndoorSettings", "OptimizeResult", "OptimizeSettings", "PlanScore",
+           "Rule", "Runs", "Scored", "Selection", "Storey", "Targets", "Walk", "aimed_views", "best_of",
+           "candidate_views", "compare_with_best_template", "default_ssd", "greedy", "indoor_candidates",
+           "longest_prefix", "only_met", "open_path", "optimize", "optimize_indoor", "order_views", "ordered_plan",
+           "remove_redundant", "score_plan", "score_templates", "stable_runs", "storey_levels", "surface_anchors",
+           "template_grid", "walk_order", "walker_settings"]

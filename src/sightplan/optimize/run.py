@@ -238,7 +238,7 @@ def _aimed(scene: Scene, camera: Camera, pool: Plan, obs: Observations, table: C
     if not short.any():
         return None
     e = obs.element.astype(np.int64)
-    rows = np.flatnonzero(short[e] & (obs.pixels >= et.omega_px))
+    rows = np.flatnonzero(short[e] & et.sees(obs))
     e = e[rows]
     shortfall = np.maximum(obs.ssd[rows] / et.max_ssd_m_px[e], obs.angle_mean[rows] / et.max_angle_deg[e])
     order = np.lexsort((shortfall, e))  # per element, the nearest to serving first

@@ -44,8 +44,8 @@ class CoverageTable:
     def build(cls, obs: Observations, targets: ElementTargets) -> CoverageTable:
         e = obs.element.astype(np.int64)
         f = obs.frame.astype(np.int64)
-        seen = targets.active[e] & (obs.pixels >= targets.omega_px)
-        serve = seen & (obs.ssd <= targets.max_ssd_m_px[e]) & (obs.angle_mean <= targets.max_angle_deg[e])
+        seen = targets.sees(obs)
+        serve = targets.serves(obs)
 
         def csr(mask: NDArray) -> tuple[NDArray, NDArray, NDArray]:
             order = np.argsort(f[mask], kind="stable")

@@ -1,7 +1,9 @@
 """What an optimised plan must achieve, per element: the user's targets resolved on a scene.
 
 A view *serves* element i when it sees it by at least Ω pixels (``omega_px``), at a surface sampling distance no
-coarser than ``max_ssd_m_px`` and at an angle to the surface no wider than ``max_angle_deg``. Element i is *met*
+coarser than ``max_ssd_m_px`` and at an angle to the surface no wider than ``max_angle_deg``, each bound compared
+with one relative tolerance (:data:`BOUND_RTOL`): a view placed on a bound (a template's 45° row) meets it, and
+plans that differ only by rounding (6·10⁻¹² m) score the same. Element i is *met*
 when at least ``k`` views serve it: then its VR_i ≥ k, and since R_i and O_i are means over the k best views, its
 R_i ≤ max_ssd_m_px and O_i ≤ max_angle_deg too.
 
@@ -34,9 +36,12 @@ from numpy.typing import NDArray
 from ..errors import PlanError
 from ..metrics import MetricParams
 from ..model.scene import Scene
+from ..observations.table import Observations
 
 #: the default surface sampling distance bound is the camera's at the safety distance times this
 SSD_SLACK = 1.5
+#: a view's pixels, SSD and angle within this share of their bound meet it
+BOUND_RTOL = 1e-9
 _MATCH = ("ifc_class", "storey", "discipline", "global_id")
 _VALUES = ("k", "max_ssd_m_px", "max_angle_deg", "weight", "skip")
 
@@ -166,6 +171,17 @@ class ElementTargets:
     @property
     def n_active(self) -> int:
         return int(self.active.sum())
+
+    def sees(self, obs: Observations) -> NDArray[np.bool_]:
+        """(rows,) whether each Observations row shows an active target by at least Ω pixels (within the tolerance)."""
+        return self.active[obs.element] & (obs.pixels >= self.omega_px * (1 - BOUND_RTOL))
+
+    def serves(self, obs: Observations) -> NDArray[np.bool_]:
+        """(rows,) whether each Observations row serves its element: seen by Ω pixels, SSD and angle within their
+        bounds, every bound with the one tolerance :data:`BOUND_RTOL`."""
+        e = obs.element
+        return (self.sees(obs) & (obs.ssd <= self.max_ssd_m_px[e] * (1 + BOUND_RTOL))
+                & (obs.angle_mean <= self.max_angle_deg[e] * (1 + BOUND_RTOL)))
 
 
 def _check(name: str, value, *, integer: bool = False, low: float | None = None, high: float | None = None,

@@ -15,11 +15,19 @@ occluder-only elements), VR from an evaluation of the plan on Γ.
 - Ct = recall: share of points sampled uniformly (probability ∝ area, seeded) on the surfaces
   of Γ's present target elements that have Ψ within λ, with n = clip(round(area · 100 m⁻²),
   20 000, 1 000 000) points (``ct_density_per_m2``). Distances to a mesh Ψ are exact
-  point–triangle distances (:func:`points_near_mesh`); to a point cloud, the nearest point.
+  point–triangle distances (:func:`points_near_mesh`); to a point cloud, the nearest point,
+  within max(λ, s_pt): a cloud sparser than λ covers the surface within its own spacing.
 - Precision: share of Ψ's points (a mesh Ψ: points sampled on it with the same rule) inside
   Γ's bounding box grown by λ (the evaluated region, as the crop of Tanks and Temples) that
   lie within λ of Γ's surfaces (targets and occluders: a reconstructed occluder is no error).
   F = 2PR / (P + R).
+
+A point cloud Ψ is first measured against Γ (:mod:`.distances`): its points' exact distances
+to Γ's triangles give ``A_median`` and ``A_p90`` (median and 90th percentile), and the points
+beyond a robust bound (median + 5·1.4826·MAD, at least λ) are SfM outliers: counted
+(``outliers``) and left out of A, Ce, Cv and Ct; precision still counts them. The warning
+that Ψ looks badly registered or in another unit fires when the median distance exceeds λ
+(for a mesh Ψ: when most pixels hit on both differ by more than λ).
 
 A point cloud Ψ is splatted into each frame: every point projects to a pixel position
 (pinhole: perspective projection, depth z along the optical axis; equirectangular: by
@@ -38,11 +46,13 @@ sphere about the camera), so on a surface inclined by θ to that, d_p(Ψ) errs b
 """
 
 from .caster import FrameCaster
+from .distances import OUTLIER_MADS, CloudDistances, cloud_distances
 from .run import FAR_SHARE_WARNING, LAMBDA_PER_E, OVERLAP_WARNING, Validation, validate
 from .splat import MAX_SPLAT_PX, SPACING_NEIGHBOUR, point_spacing, splat_distances
 from .surface import CT_DENSITY_PER_M2, CT_MAX_SAMPLES, CT_MIN_SAMPLES, nearest_faces, points_near_mesh, sample_surface
 from .synthetic import outward_normal, synthetic_reality
 
 __all__ = ["CT_DENSITY_PER_M2", "CT_MAX_SAMPLES", "CT_MIN_SAMPLES", "FAR_SHARE_WARNING", "LAMBDA_PER_E", "MAX_SPLAT_PX",
-           "OVERLAP_WARNING", "SPACING_NEIGHBOUR", "FrameCaster", "Validation", "nearest_faces", "outward_normal",
-           "point_spacing", "points_near_mesh", "sample_surface", "splat_distances", "synthetic_reality", "validate"]
+           "OUTLIER_MADS", "OVERLAP_WARNING", "SPACING_NEIGHBOUR", "CloudDistances", "FrameCaster", "Validation",
+           "cloud_distances", "nearest_faces", "outward_normal", "point_spacing", "points_near_mesh", "sample_surface",
+           "splat_distances", "synthetic_reality", "validate"]

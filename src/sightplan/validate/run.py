@@ -22,6 +22,7 @@ from ..model.pointcloud import PointCloud, check_points
 from ..model.scene import Scene
 from ..plan.types import Plan
 from .caster import FrameCaster
+from .distances import OUTLIER_MADS, CloudDistances, cloud_distances
 from .splat import MAX_SPLAT_PX, point_spacing
 from .surface import CT_DENSITY_PER_M2, CT_MAX_SAMPLES, CT_MIN_SAMPLES, n_samples, points_near_mesh, sample_surface
 
@@ -46,7 +47,9 @@ Reality = Scene | PointCloud | NDArray
 class Validation:
     """Plan-level quality of a reconstruction, per element and overall (METRICS.md §7).
 
-    Plan numbers are None where undefined. Per-element arrays have shape (z_all,), indexed
+    Plan numbers are None where undefined. A point cloud Ψ also gives ``A_median`` and ``A_p90``, the median and
+    90th percentile distance of its points to Γ (metres, outliers excluded), and ``outliers``, the points it
+    excluded as too far from every surface (:mod:`.distances`). Per-element arrays have shape (z_all,), indexed
     like the scene's element table: ``c`` (0 where never back-projected), ``A_i`` (metres, NaN
     where no pixel has both distances), ``pixels`` back-projected pixels as cast (at scale s),
     ``pixels_complete``, ``pixels_both``, ``VR``, ``visible``, ``is_target``. ``counts``:
@@ -81,10 +84,14 @@ class Validation:
     parameters: dict
     warnings: tuple[str, ...] = ()
     timings: dict = field(default_factory=dict)
+    A_median: float | None = None
+    A_p90: float | None = None
+    outliers: int = 0
 
     def plan_metrics(self) -> dict:
         return {"A_m": self.A, "Ce": self.Ce, "Cv": self.Cv, "Ct": self.Ct, "precision": self.precision,
-                "recall": self.recall, "F": self.F, "z": self.z, "visible": self.n_visible, "frames": self.n_frames}
+                "recall": self.recall, "F": self.F, "z": self.z, "visible": self.n_visible, "frames": self.n_frames,
+                "A_median_m": self.A_median, "A_p90_m": self.A_p90, "outliers": self.outliers}
 
     def element_rows(self) -> list[dict]:
         """One row per target element, in element order: global_id, name, ifc_class, c_i, A_i (m), pixels."""
@@ -194,7 +201,7 @@ def _checked_numbers(registration_error_m: float, ct_density_per_m2: float) -> f
 
 def _cloud_index(cloud: NDArray | None, point_spacing_m: float | None, lam: float, seed: int,
                  warnings: list[str]) -> tuple[object | None, float]:
-    """The cloud's k-d tree and its spacing (given or estimated), with a warning when it is coarser than λ."""
+    """The cloud's k-d tree and its spacing (given or estimated), with a note when it is coarser than λ."""
     if cloud is None:
         return None, 0.0
     from scipy.spatial import cKDTree
@@ -204,8 +211,8 @@ def _cloud_index(cloud: NDArray | None, point_spacing_m: float | None, lam: floa
     if not (spacing >= 0 and math.isfinite(spacing)):
         raise SightplanError(f"point spacing must be a number of metres ≥ 0, got {point_spacing_m!r}")
     if spacing > lam:
-        warnings.append(f"the point cloud's spacing ({spacing:.3g} m) exceeds λ = {lam:.3g} m: Ct (recall) is "
-                        "limited by the sampling, while splatted pixels still fill its surfaces")
+        warnings.append(f"the point cloud's spacing ({spacing:.3g} m) exceeds λ = {lam:.3g} m: Ct (recall) counts a "
+                        "surface point as covered with a point of Ψ within that spacing rather than within λ")
     return tree, spacing
 
 
@@ -234,7 +241,7 @@ def _cast(scene: Scene, plan: Plan, psi_scene: Scene | None, cloud: NDArray | No
 
 def _recall(scene: Scene, is_target: NDArray, psi_scene: Scene | None, tree, lam: float, density: float,
             rng: np.random.Generator) -> tuple[NDArray, NDArray]:
-    """Ct: samples of Γ's target surfaces (``density`` per m²) and whether Ψ lies within λ of each."""
+    """Ct: samples of Γ's target surfaces (``density`` per m²) and whether Ψ lies within ``lam`` of each."""
     tgt_faces = scene.faces[is_target[scene.face_element]]
     area = float(scene.face_areas()[is_target[scene.face_element]].sum())
     gamma_pts, _ = sample_surface(scene.vertices, tgt_faces, n_samples(area, density), rng)
@@ -264,9 +271,10 @@ def _precision(scene: Scene, psi_scene: Scene | None, cloud: NDArray | None, lam
 
 
 def _sanity(scene: Scene, psi_scene: Scene | None, cloud: NDArray | None, sums: PixelSums, lam: float,
-            warnings: list[str]) -> dict:
-    """Warnings when Ψ looks misregistered or in another unit (far pixels, no common pixel, little box overlap), and
-    the numbers behind them."""
+            warnings: list[str], distances: CloudDistances | None = None) -> dict:
+    """Warnings when Ψ looks misregistered or in another unit (a point cloud: its points' median distance to Γ
+    beyond λ; a mesh: most pixels hit on both farther apart than λ; no common pixel; little box overlap), and the
+    numbers behind them."""
     med_diff, med_ratio = sums.medians()
     box = scene.bounds()
     psi_box = psi_scene.bounds() if psi_scene is not None else np.stack([cloud.min(axis=0), cloud.max(axis=0)])
@@ -277,7 +285,15 @@ def _sanity(scene: Scene, psi_scene: Scene | None, cloud: NDArray | None, sums: 
     hint = hint or (_unit_hint(size_ratio) if size_ratio is not None else "")
     box_text = "" if size_ratio is None else f"bounding-box size ratio Ψ/Γ {size_ratio:.4g}"
     n_both, n_far, n_model = sums.n_both, sums.n_far, sums.n_model
-    if n_both and n_far > FAR_SHARE_WARNING * n_both:
+    scale_text = (f"scale ratio estimate median(dΨ/dΓ) = {med_ratio:.4g}" if med_ratio is not None else "")
+    scale_text += (", " if scale_text and box_text else "") + box_text
+    if distances is not None and distances.sampled and distances.median_all_m > lam:
+        far = (f"{distances.median_all_m:.3g} m" if math.isfinite(distances.median_all_m)
+               else f"beyond {distances.search_m:.3g} m")
+        warnings.append(f"the median distance from the {distances.sampled:,} points measured to the model is {far}, "
+                        f"more than λ = {lam:.3g} m: the reality looks badly registered or in another unit"
+                        + (f"; {scale_text}" if scale_text else "") + hint)
+    elif distances is None and n_both and n_far > FAR_SHARE_WARNING * n_both:
         warnings.append(
             f"{n_far / n_both:.0%} of the {n_both:,} pixels where both models are hit differ by more than λ = {lam:.3g} m "
             f"(median |dΓ − dΨ| = {med_diff:.3g} m): the reality looks badly registered or in another unit; "
@@ -321,6 +337,14 @@ def validate(
     lam = LAMBDA_PER_E * e
     psi_scene, cloud = _reality_arrays(reality)
     timings: dict[str, float] = {}
+    distances = None
+    cloud_all = cloud
+    if cloud is not None:
+        t0 = time.perf_counter()
+        distances = cloud_distances(cloud, scene, lam, seed)
+        if 0 < distances.n_outliers < len(cloud):
+            cloud = cloud[~distances.outlier]
+        timings["distances_s"] = time.perf_counter() - t0
     if evaluation is None:
         t0 = time.perf_counter()
         evaluation = evaluate(scene, plan, settings, cache_dir=cache_dir)
@@ -336,6 +360,7 @@ def validate(
     threads = max(1, settings.threads or min(32, os.cpu_count() or 1))
     warnings: list[str] = []
     tree, spacing = _cloud_index(cloud, point_spacing_m, lam, seed, warnings)
+    ct_radius = max(lam, spacing) if cloud is not None else lam
 
     # ---- pixels: A, Ce, Cv
     t0 = time.perf_counter()
@@ -355,11 +380,11 @@ def validate(
     # ---- surfaces: Ct (recall) and precision
     rng = np.random.default_rng(seed)
     t0 = time.perf_counter()
-    gamma_pts, near = _recall(scene, is_target, psi_scene, tree, lam, ct_density_per_m2, rng)
+    gamma_pts, near = _recall(scene, is_target, psi_scene, tree, ct_radius, ct_density_per_m2, rng)
     Ct = float(near.mean()) if len(gamma_pts) else None
     timings["ct_s"] = time.perf_counter() - t0
     t0 = time.perf_counter()
-    psi_pts, prec_hit = _precision(scene, psi_scene, cloud, lam, ct_density_per_m2, rng)
+    psi_pts, prec_hit = _precision(scene, psi_scene, cloud_all, lam, ct_density_per_m2, rng)
     precision = float(prec_hit.mean()) if len(psi_pts) else None
     timings["precision_s"] = time.perf_counter() - t0
     recall = Ct
@@ -368,18 +393,20 @@ def validate(
     else:
         F = 2 * precision * recall / (precision + recall) if precision + recall > 0 else 0.0
 
-    sanity = _sanity(scene, psi_scene, cloud, sums, lam, warnings)
+    sanity = _sanity(scene, psi_scene, cloud_all, sums, lam, warnings, distances)
     timings["total_s"] = time.perf_counter() - t_start
     counts = {"pixels_model": sums.n_model, "pixels_targets": int(back.sum()), "pixels_both": sums.n_both,
               "pixels_both_targets": int(both_n.sum()), "pixels_far": sums.n_far, "pixels_complete": int(complete.sum()),
               **sanity, "ct_samples": int(len(gamma_pts)), "ct_hits": int(near.sum()),
-              "precision_samples": int(len(psi_pts)), "precision_hits": int(prec_hit.sum())}
+              "precision_samples": int(len(psi_pts)), "precision_hits": int(prec_hit.sum()),
+              **({"distances": distances.to_dict()} if distances is not None else {})}
     parameters = {"scale": settings.scale, "engine": engine_name, "d_max_m": settings.d_max,
                   "omega": evaluation.settings.metric.omega, "ct_density_per_m2": ct_density_per_m2,
                   "ct_samples_min": CT_MIN_SAMPLES, "ct_samples_max": CT_MAX_SAMPLES, "seed": seed,
-                  "point_spacing_m": spacing if cloud is not None else None,
+                  "point_spacing_m": spacing if cloud is not None else None, "ct_radius_m": ct_radius,
+                  "outlier_mads": OUTLIER_MADS if cloud is not None else None,
                   "max_splat_px": MAX_SPLAT_PX if cloud is not None else None,
-                  "reality_points": int(len(cloud)) if cloud is not None else None,
+                  "reality_points": int(len(cloud_all)) if cloud_all is not None else None,
                   "reality_triangles": int(len(psi_scene.faces)) if psi_scene is not None else None}
     el = scene.elements
     return Validation(
@@ -388,4 +415,7 @@ def validate(
         c=c, A_i=A_i, pixels=back, pixels_complete=complete, pixels_both=both_n, VR=VR, visible=visible,
         is_target=is_target, global_id=el.global_id, name=el.name, ifc_class=el.ifc_class, counts=counts,
         parameters=parameters, warnings=tuple(warnings), timings=timings,
+        A_median=distances.median_m if distances is not None else None,
+        A_p90=distances.p90_m if distances is not None else None,
+        outliers=distances.n_outliers if distances is not None else 0,
     )
