@@ -48,7 +48,7 @@ def test_an_error_message_keeps_its_brackets(tmp_path):
     path.write_text(json.dumps(plan))
     res = run_cli("evaluate", "sample", str(path), "--out", str(tmp_path / "o"), cwd=tmp_path)
     assert res.returncode == 2
-    assert_clean_error(res, "position", "not finite", "[nan, -13.0, 4.49]")
+    assert_clean_error(res, "position", "not finite", "[NaN, -13, 4.49]")
 
 
 def test_check_refuses_a_json_path_it_cannot_write_before_checking(tmp_path):

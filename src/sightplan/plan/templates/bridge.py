@@ -42,6 +42,7 @@ from ...geometry.poses import R_from_gimbal
 from ...model.scene import Scene
 from ..aim import drop_blind_frames
 from ..checks.safety import point_distances, segment_distances
+from ..domain import MAX_HEIGHT_M
 from ..ground import MIN_HEIGHT_M, ground_z, targets_only
 from ..types import Mission, Plan
 from .base import Params, Template, param
@@ -231,9 +232,10 @@ class BridgeParams(Params):
                                                   cli="point", label="Axis")
     overlap: float = param(0.8, "image overlap l between neighbouring frames", ge=0, le=0.95)
     height_m: tuple[float, ...] = param((), "height of a side pass, once per pass (default: layers by overlap)",
-                                        kind="numbers", label="Pass heights")
+                                        kind="numbers", label="Pass heights", ge=-MAX_HEIGHT_M, le=MAX_HEIGHT_M)
     under_deck: bool = param(True, "add a pass under the deck, looking up")
-    deck_z_m: float | None = param(None, "height of the deck's underside (default: found)", label="Deck underside z")
+    deck_z_m: float | None = param(None, "height of the deck's underside (default: found)", label="Deck underside z",
+                                   ge=-MAX_HEIGHT_M, le=MAX_HEIGHT_M)
 
 
 def _build(scene: Scene, camera: Camera, p: BridgeParams, safety_distance_m: float, min_height_m: float) -> Plan:

@@ -14,6 +14,7 @@ from ...camera.models import Camera
 from ...errors import PlanError
 from ...geometry.poses import R_from_gimbal
 from ...model.scene import Scene
+from ..domain import MAX_DISTANCE_M
 from ..types import Mission, Plan
 from .base import Params, Template, param
 
@@ -108,7 +109,7 @@ def read_routes(path: str | Path) -> tuple[list[np.ndarray], list[str]]:
 class RouteParams(Params):
     points: tuple[tuple[float, float, float], ...] = param((), "the walked polyline, in order",
                                                            kind="points3", cli="point", label="Route")
-    step_m: float | None = param(None, "metres between frames", gt=0, cli="step", label="Step")
+    step_m: float | None = param(None, "metres between frames", gt=0, le=MAX_DISTANCE_M, cli="step", label="Step")
     routes_file: str | None = param(None, "polylines from a file (JSON: lists of x, y, z points; or CSV: route, x, y, z), one "
                                     "mission each, instead of the points", kind="file", cli="routes", web=False)
 

@@ -11,6 +11,7 @@ from ...errors import PlanError
 from ...geometry.poses import R_from_gimbal
 from ...model.scene import Scene
 from ..aim import drop_blind_frames
+from ..domain import MAX_GSD_M_PX, MAX_HEIGHT_M
 from ..ground import MIN_HEIGHT_M, ground_z, targets_only
 from ..types import Mission, Plan
 from .base import Params, Template, param
@@ -100,9 +101,9 @@ def lawnmower(scene: Scene, camera: Camera, altitude_m: float | None = None, gsd
 class LawnmowerParams(Params):
     overlap: float = param(0.8, "image overlap along a line", ge=0, le=0.95)
     altitude_m: float | None = param(None, "camera height above the model's base (default: the safety distance above "
-                                     "its top)", gt=0, label="Altitude")
+                                     "its top)", gt=0, le=MAX_HEIGHT_M, label="Altitude")
     gsd_m_px: float | None = param(None, "ground sampling distance on the model's top (instead of the altitude)",
-                                   gt=0, cli="gsd", label="GSD")
+                                   gt=0, le=MAX_GSD_M_PX, cli="gsd", label="GSD")
     side_overlap: float = param(0.7, "overlap between lines", ge=0, le=0.95)
     oblique_pitch_deg: float | None = param(None, "add crossed east–west lines with the gimbal at this pitch "
                                             "(e.g. -60): a double grid", ge=-90, lt=0, label="Oblique pitch")
