@@ -12,6 +12,7 @@ from __future__ import annotations
 import base64
 import hashlib
 import re
+import time
 
 import pytest
 from fastapi.testclient import TestClient
@@ -173,6 +174,15 @@ def test_runaway_template_requests_are_422_naming_the_parameter(server):
     mid = r.json()["model"]["id"]
     for body, words in (({"template": "orbit", "radius_m": [20], "height_m": [6], "step_deg": 0.0001}, "step"),
                         ({"template": "facade", "overlap": 0.99, "safety_distance_m": 0.5}, "overlap"),
-                        ({"template": "orbit", "radius_m": [20] * 30, "height_m": [6] * 30, "step_deg": 0.1}, "frames")):
+                        ({"template": "orbit", "radius_m": [20] * 30, "height_m": [6] * 30, "step_deg": 0.1}, "frames"),
+                        # a lawn-mower at a tenth of a millimetre per pixel flies into the roof; with the safety
+                        # distance lowered to match, it would make two million frames
+                        ({"template": "lawnmower", "gsd_m_px": 1e-5}, "gsd_m_px"),
+                        ({"template": "lawnmower", "gsd_m_px": 1e-5, "safety_distance_m": 0.01, "position_error": "none"},
+                         "2,067,404 frames"),
+                        ({"template": "bridge", "axis": [[-50, 0], [5000, 0]], "overlap": 0.95}, "frames"),
+                        ({"template": "route", "points": [[0, 0, 1], [90000, 0, 1]], "step_m": 0.001}, "step_m")):
+        started = time.monotonic()
         r = server.post(f"/api/projects/{pid}/plans", json={"model_id": mid, **body}, headers={REQUEST_HEADER: "1"})
         assert r.status_code == 422 and words in r.json()["detail"], (body, r.text)
+        assert time.monotonic() - started < 5, body  # refused at once, before anything is built

@@ -16,7 +16,7 @@ from ..ground import MIN_HEIGHT_M, ground_z, targets_only
 from ..types import Mission, Plan
 from .base import Params, Template, param
 from .facade import _positions, _valid_min_height
-from .spacing import waypoint_spacing
+from .spacing import check_frame_budget, waypoint_spacing
 
 
 def lawnmower(scene: Scene, camera: Camera, altitude_m: float | None = None, gsd_m: float | None = None,
@@ -65,11 +65,22 @@ def lawnmower(scene: Scene, camera: Camera, altitude_m: float | None = None, gsd
         clearance = gsd_m * camera.sampling_focal_px
         altitude_m = hi[2] - lo[2] + clearance
     clearance = altitude_m - (hi[2] - base)
+    given = "gsd_m_px" if gsd_m is not None else "altitude_m"
     if not clearance > 0:
         raise PlanError(f"altitude {altitude_m:.1f} m does not clear the model's top "
                         f"({hi[2] - base:.1f} m above its base)")
+    if safety_distance_m is not None and clearance < safety_distance_m - 1e-9:
+        least = (f"at least {safety_distance_m / camera.sampling_focal_px:.3g} m/px" if gsd_m is not None
+                 else f"at least {hi[2] - base + safety_distance_m:.1f} m")
+        raise PlanError(f"{given}: {gsd_m if gsd_m is not None else altitude_m:g} puts the camera {clearance:.2f} m "
+                        f"above the model's top, closer than the {safety_distance_m:.3g} m it keeps from the model "
+                        f"(the safety distance); give {least}")
     along = waypoint_spacing(clearance, camera.vfov_deg, front_overlap)
     across = waypoint_spacing(clearance, camera.hfov_deg, side_overlap)
+    lines, per_line = (hi[0] - lo[0]) / across + 2, (hi[1] - lo[1]) / along + 2
+    check_frame_budget(lines * per_line * (2 if oblique_pitch_deg is not None else 1),
+                       f"a lawn-mower grid {clearance:.2f} m above the model's top",
+                       f"{given} (a coarser grid) or the overlaps")
     xs = lo[0] + _positions(hi[0] - lo[0], across)
     ys = lo[1] + _positions(hi[1] - lo[1], along)
     z = base + altitude_m

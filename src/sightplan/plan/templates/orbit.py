@@ -84,7 +84,7 @@ def orbit(scene: Scene, camera: Camera, radii_m: list[float] | None = None, heig
     if len(radii_m) != len(heights_m) or not radii_m:
         raise PlanError("give one height per ring radius (and at least one ring)")
     per_ring = [_frames_per_ring(camera, r, step_deg, overlap, k) for k, r in enumerate(radii_m)]
-    check_frame_budget(sum(per_ring), f"{len(radii_m)} rings")
+    check_frame_budget(sum(per_ring), f"{len(radii_m)} rings", "radius_m and height_m (fewer rings) or step_deg")
     C, heading, pitch, missions = [], [], [], []
     for k, (r, z) in enumerate(zip(radii_m, heights_m)):
         if not r > half_diag:
@@ -119,7 +119,7 @@ def _frames_per_ring(camera: Camera, radius: float, step_deg: float | None, over
         step = math.degrees(waypoint_spacing(radius, camera.hfov_deg, overlap) / radius)
     if not 0 < step <= 180:
         raise PlanError(f"ring {ring}: the angular step must be in (0°, 180°], got {step}")
-    check_frame_budget(360.0 / step, f"ring {ring}'s step of {step:g}°")
+    check_frame_budget(360.0 / step, f"ring {ring}'s step of {step:g}°", "step_deg (or overlap)")
     return max(3, math.ceil(360.0 / step - 1e-9))
 
 

@@ -29,8 +29,15 @@ def waypoint_spacing(distance_m: float, fov_deg: float, overlap: float) -> float
 MAX_TEMPLATE_FRAMES = 100_000
 
 
-def check_frame_budget(n_frames: float, what: str) -> None:
+def check_work(count: float, limit: float, what: str, change: str, unit: str = "frames") -> None:
+    """Work estimated before work: refuse ``what``, which would make ``count`` ``unit`` (a template's frames, an
+    optimiser's candidates), when that is more than ``limit``; the message names the parameter to ``change``.
+    Every plan-making path calls this with its own estimate before it builds anything."""
+    if not count <= limit:  # NaN too
+        shown = f"{count:,.0f}" if count < 1e15 else f"{count:.3g}"
+        raise PlanError(f"{what} would make {shown} {unit}, more than the {limit:,.0f} allowed; change {change}")
+
+
+def check_frame_budget(n_frames: float, what: str, change: str = "the step or the overlap") -> None:
     """Refuse, before anything is built, a template whose parameters give more than :data:`MAX_TEMPLATE_FRAMES`."""
-    if not n_frames <= MAX_TEMPLATE_FRAMES:
-        raise PlanError(f"{what} would make {n_frames:,.0f} frames, more than the {MAX_TEMPLATE_FRAMES:,} a plan may "
-                        "have; raise the step or lower the overlap")
+    check_work(n_frames, MAX_TEMPLATE_FRAMES, what, change)
