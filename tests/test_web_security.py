@@ -164,6 +164,17 @@ def test_the_server_refuses_an_uploaded_bomb_and_keeps_nothing(tmp_path):
     assert not any((tmp_path / "d" / "tmp").iterdir())
 
 
+def test_a_kmz_that_lies_about_its_size_is_a_422_not_a_500(tmp_path):
+    from test_imports_flight import lying_zip
+
+    data = lying_zip(tmp_path / "liar.kmz", "wpmz/waylines.wpml", 80).read_bytes()  # 80 MB declared as 1 kB
+    with TestClient(create_app(ServerConfig(data_dir=tmp_path / "d"))) as c:
+        pid = c.post("/api/projects", json={"name": "p"}).json()["id"]
+        r = c.post(f"/api/projects/{pid}/plans/upload", files={"file": ("liar.kmz", data)}, data={"camera": "m3e"})
+        assert r.status_code == 422 and "the archive is broken" in r.json()["detail"], r.text
+        assert c.get(f"/api/projects/{pid}/plans").json() == []
+
+
 def test_runaway_template_requests_are_422_naming_the_parameter(server):
     pid = server.post("/api/projects", json={"name": "runaway"}, headers={REQUEST_HEADER: "1"}).json()["id"]
     with open(__import__("sightplan.model.load", fromlist=["x"]).sample_model_path(), "rb") as fh:

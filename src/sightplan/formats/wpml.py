@@ -97,6 +97,7 @@ from xml.etree import ElementTree as ET
 import numpy as np
 from numpy.typing import NDArray
 
+from ..archive import open_zip, read_entry
 from ..camera.catalogue import get_camera, list_cameras
 from ..camera.models import Camera
 from ..errors import PlanError
@@ -229,10 +230,11 @@ def _kml_document(data: bytes, where: str) -> ET.Element:
 
 
 def _parse(z: zipfile.ZipFile, name: str, path: Path) -> ET.Element:
-    if z.getinfo(name).file_size > MAX_ENTRY_BYTES:
-        raise PlanError(f"{path.name}, {name}: {z.getinfo(name).file_size / 1e6:.0f} MB unpacked, too large for a "
-                        "mission file")
-    return _kml_document(z.read(name), f"{path.name}, {name}")
+    where = f"{path.name}, {name}"
+    data = read_entry(z, name, MAX_ENTRY_BYTES, PlanError, where, lambda size: (
+        f"{where}: {'more than ' if size is None else ''}{(size or MAX_ENTRY_BYTES) / 1e6:.0f} MB unpacked, too large "
+        "for a mission file"))
+    return _kml_document(data, where)
 
 
 def _is_dji(doc: ET.Element) -> bool:
@@ -249,12 +251,7 @@ def _sources(path: Path) -> tuple[ET.Element | None, ET.Element | None, str, str
     """(template.kml's Document, waylines.wpml's Document, each one's name in messages) of a ``.kmz``, or of a bare
     ``template.kml`` or ``waylines.wpml`` (any DJI KML document: a template unless it holds waylines)."""
     if path.suffix.lower() == ".kmz" or zipfile.is_zipfile(path):
-        try:
-            z = zipfile.ZipFile(path)
-        except zipfile.BadZipFile:
-            raise PlanError(f"{path.name} is not a KMZ (zip) file") from None
-        except OSError as exc:
-            raise PlanError(f"cannot read {path}: {exc.strerror or exc}") from None
+        z = open_zip(path, PlanError, "KMZ")
         with z:
             names = z.namelist()
             waylines = next((n for n in names if n.lower().endswith("wpmz/waylines.wpml")), None)
