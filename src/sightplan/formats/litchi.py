@@ -44,6 +44,7 @@ from ..camera.models import Camera
 from ..errors import PlanError
 from ..geo import Georeference, GeoreferenceError
 from ..geometry.poses import R_from_gimbal
+from ..plan import domain
 from ..plan.types import Mission, Plan
 from .base import FlightFormat, ReadOptions, Source, Target
 from .flight import SAME_POSITION_M, Flight, Waypoint, mission_paths, number_text, same_angle
@@ -278,6 +279,10 @@ def _fly(rows: list[tuple[str, dict]], georef: Georeference, xyz: NDArray, takeo
             leg = xyz[n + 1] - P
             length = float(np.linalg.norm(leg))
             s = step
+            if step > 0:
+                domain.check_work(len(frames) + max(length - SAME_POSITION_M - step, 0.0) / step + 1,
+                                  domain.MAX_MISSION_PHOTOS, f"{where}: a photo every {step:g} m", "the photo interval",
+                                  "photos")
             while step > 0 and s < length - SAME_POSITION_M:
                 shoot(n, P + s / length * leg, heading)
                 s += step

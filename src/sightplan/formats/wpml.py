@@ -103,6 +103,7 @@ from ..camera.models import Camera
 from ..errors import PlanError
 from ..geo import Georeference, GeoreferenceError
 from ..geometry.poses import R_from_gimbal
+from ..plan import domain
 from ..plan.types import Mission, Plan
 from .base import FlightFormat, ReadOptions, Source, Target
 from .flight import Flight, Waypoint, number_text, same_angle, wrap180
@@ -468,8 +469,8 @@ def _fly_wayline(wayline: int, folder: ET.Element, wps: list[_Waypoint], P: NDAr
         trig = _kid(g, "actionTrigger")
         kind = _text(trig, "actionTriggerType") or "reachPoint"
         actions = _kids(g, "action")
-        if kind == "reachPoint":
-            for i in range(s, max(s, e) + 1):
+        if kind == "reachPoint":  # the waypoints the group spans: those the wayline has, whatever its indices say
+            for i in sorted({wp.index for wp in wps if s <= wp.index <= max(s, e)}):
                 reach.setdefault(i, []).extend(actions)
         elif kind in ("multipleDistance", "multipleTiming"):
             step = _num(trig, "actionTriggerParam", gw)
@@ -535,6 +536,10 @@ def _fly_wayline(wayline: int, folder: ET.Element, wps: list[_Waypoint], P: NDAr
             for span in spans:
                 if not (span["start"] <= wp.index and wps[n + 1].index <= span["end"]) or length == 0:
                     continue
+                ahead = ((span["travelled"] + length + 1e-3 - span["next"]) / span["step"] + 1 if span["step"] > 0
+                         else math.inf)
+                domain.check_work(len(photos) + max(ahead, 0.0), domain.MAX_MISSION_PHOTOS,
+                                  f"{where}: a photo every {span['step']:g} m", "the actionTriggerParam", "photos")
                 while span["next"] <= span["travelled"] + length + 1e-3:  # within 1 mm of the leg's end: at its end
                     s_leg = span["next"] - span["travelled"]
                     photos.append(_Photo(wayline, P[n] + s_leg / length * leg, None, bearing(P[n], P[n + 1]) or 0.0,

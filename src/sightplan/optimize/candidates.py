@@ -25,8 +25,8 @@ from ..errors import PlanError
 from ..geometry.poses import R_from_gimbal, aim_angles
 from ..model.scene import Scene
 from ..plan.checks.safety import point_distances
+from ..plan.domain import check_work
 from ..plan.ground import ground_z, without_terrain
-from ..plan.templates.spacing import check_work
 from ..plan.types import Mission, Plan
 
 OBLIQUE_DEG = 30.0

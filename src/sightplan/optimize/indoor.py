@@ -52,9 +52,9 @@ from ..plan.checks.battery import ROVERS, Rover
 from ..plan.checks.feasibility import FeasibilityReport, FlightSettings, plan_flights
 from ..plan.checks.gate import record_checks
 from ..plan.checks.safety import point_distances, segment_distances
+from ..plan.domain import check_work
 from ..plan.ground import without_terrain
 from ..plan.site import with_site
-from ..plan.templates.spacing import check_work
 from ..plan.types import Mission, Plan
 from .budget import Budget, longest_prefix
 from .candidates import MAX_CANDIDATES, MAX_SCREENED

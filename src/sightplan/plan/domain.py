@@ -42,6 +42,7 @@ MAX_OVERLAP = 0.99
 MAX_TIME_S = 253_402_300_799.0  # the last second of the year 9999
 MAX_COUNT = 1_000_000
 MAX_PLAN_FRAMES = 1_000_000  # a file or an edit with more frames is not a capture plan
+MAX_MISSION_PHOTOS = 100_000  # photos a flight-app mission's triggers may take, counted before they are taken
 
 
 def shown(value: Any) -> str:
@@ -207,6 +208,15 @@ def check_plan_near_model(plan, lo: ArrayLike, hi: ArrayLike) -> None:
     stations = [(k, m.ground_station) for k, m in enumerate(plan.missions) if m.ground_station is not None]
     if stations:
         check_near([s for _, s in stations], lo, hi, lambda i: f"mission {stations[i][0]}", "ground_station")
+
+
+def check_work(count: float, limit: float, what: str, change: str, unit: str = "frames") -> None:
+    """Work estimated before work: refuse ``what``, which would make ``count`` ``unit`` (a template's frames, an
+    optimiser's candidates, a mission file's photos), when that is more than ``limit``; the message names the
+    parameter to ``change``. Every plan-making path calls this with its own estimate before it builds anything."""
+    if not count <= limit:  # NaN too
+        shown = f"{count:,.0f}" if count < 1e15 else f"{count:.3g}"
+        raise PlanError(f"{what} would make {shown} {unit}, more than the {limit:,.0f} allowed; change {change}")
 
 
 def check_finite_output(values: ArrayLike, what: str) -> None:

@@ -16,6 +16,7 @@ from ..plan.domain import (
 )
 from ..plan.templates.base import MAX_POINTS, ParamInfo, Template, unit_of
 from ..plan.templates.registry import TEMPLATES
+from .errors import MAX_ID
 
 JobStatus = Literal["queued", "running", "done", "failed"]
 
@@ -29,7 +30,6 @@ Time = Annotated[dt.datetime, AfterValidator(_utc)]
 
 
 #: A database id: past a 64-bit integer it names nothing
-MAX_ID = 2**63 - 1
 Id = Annotated[int, Field(ge=-MAX_ID - 1, le=MAX_ID)]
 #: Request bodies refuse NaN and infinities ("not a finite number"), whatever a field's bounds
 STRICT = ConfigDict(extra="forbid", allow_inf_nan=False)

@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 
 from ...errors import PlanError
+from ..domain import check_work
 
 
 def waypoint_spacing(distance_m: float, fov_deg: float, overlap: float) -> float:
@@ -27,15 +28,6 @@ def waypoint_spacing(distance_m: float, fov_deg: float, overlap: float) -> float
 #: No template builds more frames than this (a walked route neither): more is a typo in a step or an overlap, and
 #: would take the memory of the machine before anything is cast.
 MAX_TEMPLATE_FRAMES = 100_000
-
-
-def check_work(count: float, limit: float, what: str, change: str, unit: str = "frames") -> None:
-    """Work estimated before work: refuse ``what``, which would make ``count`` ``unit`` (a template's frames, an
-    optimiser's candidates), when that is more than ``limit``; the message names the parameter to ``change``.
-    Every plan-making path calls this with its own estimate before it builds anything."""
-    if not count <= limit:  # NaN too
-        shown = f"{count:,.0f}" if count < 1e15 else f"{count:.3g}"
-        raise PlanError(f"{what} would make {shown} {unit}, more than the {limit:,.0f} allowed; change {change}")
 
 
 def check_frame_budget(n_frames: float, what: str, change: str = "the step or the overlap") -> None:

@@ -22,7 +22,7 @@ from ...plan.domain import MAX_SPEED_M_S
 from ...plan.templates.registry import TEMPLATES
 from ...plan.types import Plan as PlanData
 from ..deps import PROJECT_ACCESS, ServerState, SessionDep, StateDep, in_project, ready_model
-from ..errors import FlightChecksFailed
+from ..errors import MAX_ID, FlightChecksFailed
 from ..models import Job, Model, Plan, PlanVersion
 from ..schemas import ErrorOut, JobOut, OptimizeIn, PlanFileOut, PlanOut, PlanVersionOut, TemplatePlanIn
 from ..services import (
@@ -140,7 +140,8 @@ def create_optimised(project_id: int, body: OptimizeIn, session: SessionDep, sta
 async def upload_plan(project_id: int, session: SessionDep, state: StateDep,
                       file: Annotated[UploadFile, File(description="The plan file")],
                       name: Annotated[str, Form(max_length=200, description="Default: the file's name")] = "",
-                      model_id: Annotated[int | None, Form(description="The project's model the plan is for")] = None,
+                      model_id: Annotated[int | None, Form(ge=-MAX_ID - 1, le=MAX_ID,
+                                                            description="The project's model the plan is for")] = None,
                       camera: Annotated[str | None, Form(description="Camera of a poses CSV or a flight-app mission")]
                       = None) -> PlanOut:
     if model_id is not None:
