@@ -191,6 +191,7 @@ def read_litchi(path: str | Path, georef: Georeference | None = None, camera: Ca
             raise PlanError(f"{where}: latitude, longitude and altitude(m) must be numbers")
         if not (-90 <= a <= 90 and -180 <= b <= 180):
             raise PlanError(f"{where}: latitude {a} / longitude {b} out of range")
+        domain.height(f"{where}: altitude(m)", c)
     model = georef is not None
     try:
         if georef is None:

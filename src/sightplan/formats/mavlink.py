@@ -174,6 +174,8 @@ def home_position(values, where: str) -> tuple[float, float, float] | None:
         return None
     if not (-90 <= lat <= 90 and -180 <= lon <= 360):
         raise PlanError(f"{where}: latitude {lat} / longitude {lon} out of range")
+    if math.isfinite(h):
+        domain.height(f"{where}: its height", h)
     return lat, lon, h
 
 
@@ -207,6 +209,7 @@ def _positions(src: MissionSource, georef: Georeference, home: tuple[float, floa
                 raise PlanError(f"{c.where}: {name} altitude is not a finite number")
         else:
             frame = c.frame
+        domain.height(f"{c.where}: {name} altitude", alt)
         if frame in ABSOLUTE_FRAMES:
             h = alt
         elif frame in RELATIVE_FRAMES or frame in TERRAIN_FRAMES:

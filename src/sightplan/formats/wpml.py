@@ -368,6 +368,7 @@ def _waypoints(folder: ET.Element, template: bool, where: str) -> list[_Waypoint
             height = _num(pm, "executeHeight", w)
         if height is None:
             raise PlanError(f"{w}: no height ({'height' if template else 'executeHeight'})")
+        domain.height(f"{w}: {'height' if template else 'executeHeight'}", height)
         out.append(_Waypoint(int(index), lat, lon, height, relative, pm, w, mode == "WGS84"))
     out.sort(key=lambda wp: wp.index)
     return out
