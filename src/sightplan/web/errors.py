@@ -48,6 +48,11 @@ def validation_message(exc: RequestValidationError) -> str:
     return "; ".join(clauses) + more
 
 
+#: FastAPI's words for a body it cannot parse, and what they mean
+UNPARSED = {"There was an error parsing the body": "the request body cannot be parsed: JSON must be UTF-8 text, a "
+                                                  "form multipart or URL-encoded"}
+
+
 class FlightChecksFailed(StarletteHTTPException):
     """409: an export of a plan that fails its flight checks; the answer lists them (``violations``)."""
 
@@ -59,7 +64,7 @@ class FlightChecksFailed(StarletteHTTPException):
 def install_error_handlers(app: FastAPI) -> None:
     @app.exception_handler(StarletteHTTPException)
     async def http_error(_request: Request, exc: StarletteHTTPException) -> JSONResponse:
-        body: dict = {"detail": str(exc.detail)}
+        body: dict = {"detail": UNPARSED.get(str(exc.detail), str(exc.detail))}
         if isinstance(exc, FlightChecksFailed):
             body["violations"] = list(exc.violations)
         return JSONResponse(body, status_code=exc.status_code, headers=exc.headers)

@@ -111,7 +111,8 @@ def shared_version_checks(token: str, plan_id: int, number: int, session: Sessio
 
 
 @router.get("/plans/{plan_id}/versions/{number}/export", response_class=FileResponse,
-            summary="Export a version of the shared plan for a flight app", responses=NOT_FOUND)
+            summary="Export a version of the shared plan for a flight app",
+            responses={**plans.EXPORTED, **NOT_FOUND})
 def shared_version_export(token: str, plan_id: int, number: int, session: SessionDep, state: StateDep,
                           background: BackgroundTasks,
                           format: Annotated[ExportFormat, Query(description=export_choices())],
