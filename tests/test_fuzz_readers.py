@@ -35,6 +35,14 @@ HOSTILE = ["NaN", "nan", "Infinity", "-inf", "1e308", "-1e308", "1e400", "1e-320
 NUMBER = re.compile(r"(?<![\w.])-?\d+(?:\.\d+)?(?:[eE][-+]?\d+)?(?![\w.])")
 
 
+@pytest.fixture(autouse=True)
+def small_photo_budget(monkeypatch):
+    """A mission may take 2,000 photos here, not 100,000: the refusal above it is what is exercised, in moments."""
+    from sightplan.plan import domain
+
+    monkeypatch.setattr(domain, "MAX_MISSION_PHOTOS", 2000)
+
+
 def small_plan() -> Plan:
     """Three frames on two missions around the origin, as a template would make them."""
     C = np.array([[0.0, -20.0, 12.0], [10.0, -20.0, 12.0], [20.0, -20.0, 15.0]])
