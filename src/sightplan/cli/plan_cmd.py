@@ -208,7 +208,11 @@ def _options_named(template: str, message: str) -> str:
 
     names = {m[1]: f"--{o.cli}" for o in TEMPLATE_OPTIONS for m in o.members if m[0] == template}
     names |= {"safety_distance_m": "--safety-distance"}
-    return re.sub(r"\b(" + "|".join(map(re.escape, names)) + r")\b", lambda m: names[m.group(1)], message)
+    first, sep, rest = message.partition(" ")
+    if first.rstrip(":") in names:  # "overlap must be …", "gsd_m_px: 0.0001 puts …"
+        message = names[first.rstrip(":")] + first[len(first.rstrip(":")):] + sep + rest
+    fields = [n for n in names if "_" in n]  # elsewhere only names no sentence has ("step_m", not "axis")
+    return re.sub(r"\b(" + "|".join(map(re.escape, fields)) + r")\b", lambda m: names[m.group(1)], message)
 
 
 def _with_template_options(command: Any) -> Any:

@@ -62,6 +62,8 @@ def shown(value: Any) -> str:
 
 def _range_text(lo: float | None, hi: float | None, unit: str, lo_open: bool) -> str:
     u = f" {unit}" if unit and unit != "°" else unit
+    if lo == 0 and lo_open:
+        return f"a positive number{f' up to {shown(hi)}{u}' if hi is not None else ''}"
     if lo is not None and hi is not None:
         return f"{'above' if lo_open else 'from'} {shown(lo)}{u} {'up ' if lo_open else ''}to {shown(hi)}{u}"
     if lo is not None:
