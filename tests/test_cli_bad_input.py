@@ -48,7 +48,7 @@ def test_an_error_message_keeps_its_brackets(tmp_path):
     path.write_text(json.dumps(plan))
     res = run_cli("evaluate", "sample", str(path), "--out", str(tmp_path / "o"), cwd=tmp_path)
     assert res.returncode == 2
-    assert_clean_error(res, "position", "not finite", "[nan, -13.0, 4.49]")
+    assert_clean_error(res, "position", "not finite", "[NaN, -13, 4.49]")
 
 
 def test_check_refuses_a_json_path_it_cannot_write_before_checking(tmp_path):
@@ -60,3 +60,16 @@ def test_check_refuses_a_json_path_it_cannot_write_before_checking(tmp_path):
     assert res.returncode == 2
     assert_clean_error(res, "--json", "cannot write there")
     assert "mission" not in res.stdout  # refused before the checks ran
+
+
+def test_a_lawnmower_too_fine_and_a_number_that_is_not_one_are_one_error_line(tmp_path):
+    """`--gsd 1e-4` flies the camera into the roof (12,312 frames once); `--safety-distance nan` is no number."""
+    out = tmp_path / "lm.json"
+    res = run_cli("plan", "lawnmower", "sample", "--gsd", "1e-4", "-o", str(out), cwd=tmp_path)
+    assert res.returncode == 2
+    assert_clean_error(res, "--gsd", "0.0001", "above the model's top", "give at least")
+    for option, value, shown in (("--safety-distance", "nan", "NaN"), ("--vlos-radius", "inf", "Infinity")):
+        res = run_cli("plan", "orbit", "sample", option, value, "-o", str(out), cwd=tmp_path)
+        assert res.returncode == 2
+        assert_clean_error(res, f"{option}: {shown} is not a finite number")
+    assert not out.exists()

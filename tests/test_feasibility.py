@@ -112,7 +112,8 @@ def test_per_mission_verdicts_name_the_one_bad_mission(tower):
 
 @pytest.mark.parametrize(("kwargs", "message"), [
     ({"safety_distance_m": 600.0, "vlos_radius_m": 500.0}, "not less than the VLOS radius"),
-    ({"safety_distance_m": 0.0}, "safety distance must be positive"),
+    ({"safety_distance_m": 0.0}, "safety distance: 0 is out of range: a positive number"),
+    ({"safety_distance_m": float("nan")}, "safety distance: NaN is not a finite number"),
     ({"ground_stations": np.array([[0.0, np.nan, 0.0]])}, "finite"),
     ({"altitude_limit_m": -5.0}, "altitude limit"),
 ])

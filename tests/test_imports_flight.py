@@ -408,6 +408,40 @@ def test_corrupt_kmz(tmp_path):
         load_plan(no_height, camera="m3e")
 
 
+def lying_zip(path: Path, name: str, megabytes: int, declared: int = 1000) -> Path:
+    """A zip whose entry ``name`` inflates to ``megabytes`` MB of zeros while its headers declare ``declared`` bytes."""
+    import struct
+
+    with zipfile.ZipFile(path, "w", zipfile.ZIP_DEFLATED) as z, z.open(name, "w") as fh:
+        for _ in range(megabytes):
+            fh.write(bytes(1 << 20))
+    raw = bytearray(path.read_bytes())
+    struct.pack_into("<I", raw, raw.find(b"PK\x03\x04") + 22, declared)  # the local header's size
+    struct.pack_into("<I", raw, raw.find(b"PK\x01\x02") + 24, declared)  # the central directory's
+    path.write_bytes(raw)
+    return path
+
+
+def test_a_kmz_whose_entry_lies_about_its_size_is_counted_not_trusted(tmp_path):
+    """80 MB of zeros declared as 1 kB: read a block at a time, never all at once, and refused as a broken archive
+    (the old reader inflated it whole, then failed with a BadZipFile)."""
+    import tracemalloc
+
+    kmz = lying_zip(tmp_path / "liar.kmz", "wpmz/waylines.wpml", 80)
+    assert kmz.stat().st_size < 1 << 20
+    tracemalloc.start()
+    try:
+        with pytest.raises(PlanError, match="liar.kmz, wpmz/waylines.wpml: the archive is broken"):
+            load_plan(kmz, camera="m3e")
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert peak < 16 << 20, f"{peak / 2**20:.0f} MB"
+    big = lying_zip(tmp_path / "big.kmz", "wpmz/waylines.wpml", 70, declared=70 << 20)  # honest, over the limit
+    with pytest.raises(PlanError, match="73 MB unpacked, too large for a mission file"):
+        load_plan(big, camera="m3e")
+
+
 def test_detect_format_by_name_and_first_line(tmp_path):
     wpl = tmp_path / "mission.txt"
     wpl.write_text("QGC WPL 110\n")

@@ -74,7 +74,7 @@ def test_the_command_line_options_are_the_declared_parameters():
     # --step is an orbit's degrees and a route's metres: both named in its help with their units
     step = options["step"].help()
     assert "orbit: degrees between frames (default: by overlap) (°; ≥ 0.01, ≤ 180)" in step
-    assert "route: metres between frames (m; > 0)" in step
+    assert "route: metres between frames (m; > 0, ≤ 100000)" in step
 
 
 @pytest.mark.parametrize("case", [c for c in declared() if too_low(c[2]) is not None], ids=lambda c: f"{c[0]}.{c[1]}")

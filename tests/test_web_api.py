@@ -391,6 +391,84 @@ def test_evaluation_refusals(client, project, model, orbit_plans):
     assert r.status_code == 422
 
 
+def _raw(client, method: str, url: str, text: str):
+    """A request whose JSON body is written as text: ``NaN`` and ``Infinity`` as a careless client sends them."""
+    return client.request(method, url, content=text.encode(), headers={"content-type": "application/json"})
+
+
+def test_absurd_numbers_are_refused_naming_field_and_value(client, project, model, orbit_plans, data_dir):
+    """One frame at [1e308, 0, 5] (or NaN, or 50 km away) is refused; a plan file holding one anyway (written before
+    the check) gives 422 on every read, never a 500 or a file with nan in it."""
+    pid = orbit_plans[1]
+    url = f"/api/projects/{project}/plans/{pid}"
+    v1 = client.get(f"{url}/versions/1").json()
+    before = client.get(url).json()["latest_version"]
+    for position, words in (([1e308, 0, 5], ("position", "[1e308, 0, 5]", "out of range")),
+                            ([50_000.0, 0, 5], ("position", "50000", "km from the model"))):
+        bad = json.loads(json.dumps(v1))
+        bad["frames"][0]["position"] = position
+        r = client.put(url, json=bad)
+        assert r.status_code == 422 and all(w in r.json()["detail"] for w in words), r.text
+    text = json.dumps(v1).replace(json.dumps(v1["frames"][0]["position"]), "[NaN, 0, Infinity]", 1)
+    r = _raw(client, "PUT", url, text)
+    assert r.status_code == 422 and "[NaN, 0, Infinity]" in r.json()["detail"], r.text
+    bad = json.loads(json.dumps(v1))
+    bad["frames"][1]["time"] = 1e308
+    r = client.put(url, json=bad)
+    assert r.status_code == 422 and "time" in r.json()["detail"] and "1e308" in r.json()["detail"], r.text
+    assert client.get(url).json()["latest_version"] == before  # nothing was stored
+    # a version stored with such a frame before the check: every read of it is one 422, none writes nan
+    assert client.put(url, json=v1).status_code == 201
+    number = client.get(url).json()["latest_version"]
+    stored = max((data_dir / "plans").iterdir(), key=lambda p: p.stat().st_mtime_ns)
+    legacy = json.loads(stored.read_text())
+    legacy["frames"][0]["position"] = [1e308, 0, 5]
+    stored.write_text(json.dumps(legacy))
+    for fmt in ("kml", "qgc", "wpml", "wpl", "litchi", "geojson"):
+        for force in (False, True):
+            r = client.get(f"{url}/versions/{number}/export", params={"format": fmt, "force": force, "aircraft":
+                                                                       "m3e" if fmt == "wpml" else None})
+            assert r.status_code == 422 and "1e308" in r.json()["detail"], (fmt, r.status_code, r.text[:200])
+    r = client.get(f"{url}/versions/{number}/checks")
+    assert r.status_code == 422 and "1e308" in r.json()["detail"], r.text
+    r = client.post(f"/api/projects/{project}/evaluations", json={"plan_id": pid, "version": number,
+                                                                  "settings": {"scale": SCALE}})
+    assert r.status_code in (202, 422), r.text
+    if r.status_code == 202:  # a queued evaluation of it fails with the reader's message
+        assert "1e308" in wait_job(client, r.json()["job"]["id"])["error"]
+    # the exports of a good version write finite numbers only
+    r = client.get(f"{url}/versions/1/export", params={"format": "kml", "speed": "nan"})
+    assert r.status_code == 422 and r.json()["detail"] == "speed: NaN is not a finite number", r.text
+    r = client.get(f"{url}/versions/1/export", params={"format": "kml", "speed": "1e308"})
+    assert r.status_code == 422 and "1e308" in r.json()["detail"], r.text
+    r = client.get(f"{url}/versions/1/export", params={"format": "kml"})
+    assert r.status_code == 200 and b"nan" not in r.content.lower()
+
+
+def test_misleading_messages_now_say_what_is_wrong(client, project, model, orbit_plans):
+    plans = f"/api/projects/{project}/plans"
+    r = _raw(client, "POST", plans, f'{{"model_id": {model}, "template": "orbit", "safety_distance_m": NaN}}')
+    assert r.status_code == 422 and r.json()["detail"] == "orbit.safety_distance_m: NaN is not a finite number"
+    r = _raw(client, "POST", plans, f'{{"model_id": {model}, "template": "orbit", "vlos_radius_m": Infinity}}')
+    assert r.status_code == 422 and r.json()["detail"] == "orbit.vlos_radius_m: Infinity is not a finite number"
+    r = _raw(client, "POST", plans, f'{{"model_id": {model}, "template": "orbit", "vlos_radius_m": 1e308}}')
+    assert r.status_code == 422 and "vlos_radius_m" in r.json()["detail"] and "1e308" in r.json()["detail"]
+    r = _raw(client, "POST", plans, f'{{"model_id": {model}, "template": "orbit", "radius_m": [NaN]}}')
+    assert r.status_code == 422 and "radius_m" in r.json()["detail"] and "NaN" in r.json()["detail"], r.text
+    evaluations = f"/api/projects/{project}/evaluations"
+    r = _raw(client, "POST", evaluations, f'{{"plan_id": {orbit_plans[0]}, "settings": {{"scale": NaN}}}}')
+    assert r.status_code == 422 and r.json()["detail"] == "settings.scale: NaN is not a finite number"
+    for huge in (10**30, 2**63):
+        r = client.post(evaluations, json={"plan_id": huge})
+        assert r.status_code in (404, 422) and str(huge) in r.json()["detail"], r.text
+        assert "SQLite" not in r.json()["detail"] and "convert" not in r.json()["detail"]
+    # ids in the path are plain ASCII whole numbers: a superscript two or Arabic-Indic digits are not
+    for path in ("/api/projects/%C2%B2", f"/api/projects/{project}/plans/%D9%A1", "/api/jobs/%EF%BC%91",
+                 f"/api/projects/{project}/plans/{orbit_plans[0]}/versions/%C2%B2"):
+        r = client.get(path)
+        assert r.status_code in (404, 422) and "whole number" in r.json()["detail"], (path, r.text)
+
+
 def test_html_report_download(client, project, evaluations):
     from sightplan.errors import ReportError
     from sightplan.report.html import find_three

@@ -625,12 +625,10 @@ def test_team_mode_login_members_share_links_and_roles(browser, team_server, art
     cube = box((6, 4, 3), (0, 0, 0))
     ctx, page, problems = open_page(browser, server, wait_ready=False)
     try:
-        # not logged in: the dialog, and nothing else loads
-        page.wait_for_selector("#login-dialog[open]", timeout=30_000)
-        # the dialog opens as soon as the session is read; the page settles on 'login' once the cameras and the
-        # templates are read too (on a busy machine, after the dialog is already open)
-        page.wait_for_function("document.body.dataset.state !== 'loading'", timeout=30_000)
-        assert page.evaluate("document.body.dataset.state") == "login"
+        # not logged in: the page settles on 'login' (the session, the cameras and the templates read) and only then
+        # opens the dialog; nothing else loads
+        page.wait_for_function("document.body?.dataset.state === 'login'", timeout=30_000)
+        assert page.is_visible("#login-dialog") and page.evaluate("document.querySelector('#login-dialog').open")
         shot(page, artifacts, "30-login-dialog")
         log_in(page, "olivia", "not-her-password")
         page.wait_for_selector("#login-error:not([hidden])")

@@ -1,10 +1,12 @@
 """Schemathesis over the team server's OpenAPI document: generated requests to every operation, authenticated with
 an API token, must never get a 5xx, and every answer must be one the document describes (its status code, content
-type, headers and body schema).
+type, headers and body schema). Positive requests (valid by the document) and negative ones (invalid: wrong types,
+out-of-range numbers, bodies that are not JSON) alike.
 
-Bounded: a few examples per operation. Every other example has its path's ids pointed at real rows (a project with
-the Duplex, an orbit plan, its evaluation and a share link), so the generated queries and bodies reach the code behind
-the lookups; the rest keep the generated ids. Deletions run last, the project's own at the very end."""
+Bounded: a few examples per operation and mode. Every other example has its path's ids pointed at real rows (a
+project with the Duplex, an orbit plan, its evaluation and a share link), so the generated queries and bodies reach
+the code behind the lookups; the rest keep the generated ids. Deletions run last, the project's own at the very end;
+the token's own end is left out, so the run cannot revoke the token it runs with."""
 
 from __future__ import annotations
 
@@ -14,6 +16,8 @@ schemathesis = pytest.importorskip("schemathesis")
 
 from fastapi.testclient import TestClient  # noqa: E402
 from hypothesis import HealthCheck, Phase, given, settings  # noqa: E402
+from hypothesis.errors import Unsatisfiable  # noqa: E402
+from schemathesis import GenerationMode  # noqa: E402
 from schemathesis.specs.openapi.checks import (  # noqa: E402
     content_type_conformance,
     response_headers_conformance,
@@ -29,6 +33,7 @@ from test_web_access import PAGE, add_user, login  # noqa: E402
 from web_support import wait_job  # noqa: E402
 
 EXAMPLES = 8
+NEGATIVE_EXAMPLES = 3  # each refused before any work: 422, or 400 for a body that cannot be parsed
 # the token's own end (logout, password change, token revocation) is covered by test_web_access
 SKIPPED = ("/api/auth/logout", "/api/auth/password", "/api/auth/tokens/{token_id}")
 # every answer is one the document describes (a 5xx is reported on its own, with its message)
@@ -76,13 +81,24 @@ def _order(operation) -> tuple[int, int]:
 
 
 def _fuzz(operation, auth: dict, ids: dict, failures: dict[str, list[str]]) -> tuple[set[int], int]:
-    """Send EXAMPLES generated requests to one operation and check each answer; the status codes it answered and
-    the number of requests."""
+    """Send EXAMPLES valid and NEGATIVE_EXAMPLES invalid generated requests to one operation and check each answer;
+    the status codes it answered and the number of requests."""
     seen: set[int] = set()
     count = [0]
+    for mode, examples in ((GenerationMode.POSITIVE, EXAMPLES), (GenerationMode.NEGATIVE, NEGATIVE_EXAMPLES)):
+        if not examples:
+            continue
+        try:
+            _cases(operation, mode, examples, auth, ids, failures, seen, count)
+        except Unsatisfiable:  # nothing of it can be invalid (no parameter, no body)
+            assert mode is GenerationMode.NEGATIVE
+    return seen, count[0]
 
-    @given(case=operation.as_strategy())
-    @settings(max_examples=EXAMPLES, deadline=None, derandomize=True, database=None,
+
+def _cases(operation, mode, examples: int, auth: dict, ids: dict, failures: dict[str, list[str]], seen: set[int],
+           count: list[int]) -> None:
+    @given(case=operation.as_strategy(generation_mode=mode))
+    @settings(max_examples=examples, deadline=None, derandomize=True, database=None,
               suppress_health_check=list(HealthCheck), phases=[Phase.explicit, Phase.generate])
     def call(case):
         count[0] += 1
@@ -90,7 +106,7 @@ def _fuzz(operation, auth: dict, ids: dict, failures: dict[str, list[str]]) -> t
             case.path_parameters = {k: ids.get(k, v) for k, v in case.path_parameters.items()}
         response = case.call(headers=auth)
         seen.add(response.status_code)
-        request = f"{case.method} {case.formatted_path} {case.query or ''} → {response.status_code}"
+        request = f"{mode.value} {case.method} {case.formatted_path} {case.query or ''} → {response.status_code}"
         if response.status_code >= 500:
             failures["server errors"].append(f"{request}: {response.text[:200]}")
             return
@@ -101,7 +117,6 @@ def _fuzz(operation, auth: dict, ids: dict, failures: dict[str, list[str]]) -> t
                                        for f in group.exceptions]
 
     call()
-    return seen, count[0]
 
 
 def test_no_generated_request_gets_a_server_error_or_an_undocumented_answer(team):

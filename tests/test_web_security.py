@@ -12,6 +12,7 @@ from __future__ import annotations
 import base64
 import hashlib
 import re
+import time
 
 import pytest
 from fastapi.testclient import TestClient
@@ -163,6 +164,17 @@ def test_the_server_refuses_an_uploaded_bomb_and_keeps_nothing(tmp_path):
     assert not any((tmp_path / "d" / "tmp").iterdir())
 
 
+def test_a_kmz_that_lies_about_its_size_is_a_422_not_a_500(tmp_path):
+    from test_imports_flight import lying_zip
+
+    data = lying_zip(tmp_path / "liar.kmz", "wpmz/waylines.wpml", 80).read_bytes()  # 80 MB declared as 1 kB
+    with TestClient(create_app(ServerConfig(data_dir=tmp_path / "d"))) as c:
+        pid = c.post("/api/projects", json={"name": "p"}).json()["id"]
+        r = c.post(f"/api/projects/{pid}/plans/upload", files={"file": ("liar.kmz", data)}, data={"camera": "m3e"})
+        assert r.status_code == 422 and "the archive is broken" in r.json()["detail"], r.text
+        assert c.get(f"/api/projects/{pid}/plans").json() == []
+
+
 def test_runaway_template_requests_are_422_naming_the_parameter(server):
     pid = server.post("/api/projects", json={"name": "runaway"}, headers={REQUEST_HEADER: "1"}).json()["id"]
     with open(__import__("sightplan.model.load", fromlist=["x"]).sample_model_path(), "rb") as fh:
@@ -173,6 +185,15 @@ def test_runaway_template_requests_are_422_naming_the_parameter(server):
     mid = r.json()["model"]["id"]
     for body, words in (({"template": "orbit", "radius_m": [20], "height_m": [6], "step_deg": 0.0001}, "step"),
                         ({"template": "facade", "overlap": 0.99, "safety_distance_m": 0.5}, "overlap"),
-                        ({"template": "orbit", "radius_m": [20] * 30, "height_m": [6] * 30, "step_deg": 0.1}, "frames")):
+                        ({"template": "orbit", "radius_m": [20] * 30, "height_m": [6] * 30, "step_deg": 0.1}, "frames"),
+                        # a lawn-mower at a tenth of a millimetre per pixel flies into the roof; with the safety
+                        # distance lowered to match, it would make two million frames
+                        ({"template": "lawnmower", "gsd_m_px": 1e-5}, "gsd_m_px"),
+                        ({"template": "lawnmower", "gsd_m_px": 1e-5, "safety_distance_m": 0.01, "position_error": "none"},
+                         "2,067,404 frames"),
+                        ({"template": "bridge", "axis": [[-50, 0], [5000, 0]], "overlap": 0.95}, "frames"),
+                        ({"template": "route", "points": [[0, 0, 1], [90000, 0, 1]], "step_m": 0.001}, "step_m")):
+        started = time.monotonic()
         r = server.post(f"/api/projects/{pid}/plans", json={"model_id": mid, **body}, headers={REQUEST_HEADER: "1"})
         assert r.status_code == 422 and words in r.json()["detail"], (body, r.text)
+        assert time.monotonic() - started < 5, body  # refused at once, before anything is built

@@ -20,10 +20,23 @@ F = TypeVar("F", bound=Callable)
 err_console = Console(stderr=True)
 
 
+def finite_options(kwargs: dict) -> None:
+    """Every number option finite: ``--speed nan`` is one error naming the option, not a NaN further on."""
+    import math
+
+    from ..plan.domain import shown
+
+    for name, value in kwargs.items():
+        for v in value if isinstance(value, (list, tuple)) else (value,):
+            if isinstance(v, float) and not math.isfinite(v):
+                raise SightplanError(f"--{name.replace('_', '-')}: {shown(v)} is not a finite number")
+
+
 def friendly_errors(func: F) -> F:
     @functools.wraps(func)
     def wrapper(*args, **kwargs):
         try:
+            finite_options(kwargs)
             return func(*args, **kwargs)
         except SightplanError as exc:
             err_console.print(f"[bold red]error:[/] {escape(str(exc))}", highlight=False, markup=True, soft_wrap=True)

@@ -175,9 +175,7 @@ def plan_command(
     try:
         params = TEMPLATES[template].make(values)  # checked before the model is loaded
     except PlanError as exc:  # name the option, not the parameter
-        field, _, rest = str(exc).partition(" ")
-        cli = next((o.cli for o in TEMPLATE_OPTIONS for m in o.members if m[:2] == (template, field)), None)
-        raise PlanError(f"--{cli} {rest}" if cli else str(exc)) from None
+        raise PlanError(_options_named(template, str(exc))) from None
     cam = cli_camera(camera, focal_mm)
     scene, _ = load_with_progress(console, model, cache)
     scene = with_ground_z(dated_scene(console, scene, model, schedule, rules, prefer_actual, date, date_basis,
@@ -187,7 +185,10 @@ def plan_command(
     settings = default_flight_settings(walked, safety_distance, None if walked else vlos_radius,
                                        None if walked else ground_station, aircraft, None if walked else altitude_limit,
                                        min_height=min_height, position_error=position_error, scene=scene)
-    plan, report = plan_from_template(template, scene, cam, params, settings, obstacles=obstacles, split=split)
+    try:
+        plan, report = plan_from_template(template, scene, cam, params, settings, obstacles=obstacles, split=split)
+    except PlanError as exc:
+        raise PlanError(_options_named(template, str(exc))) from None
     write_plan(plan, output)
     print_feasibility(console, report, f"{template} plan around {Path(str(model)).name} — {cam.name or camera}")
     if "dropped_frames" in plan.parameters:
@@ -199,6 +200,19 @@ def plan_command(
     if lengths:
         console.print(", ".join(f"{k.removesuffix('_m').replace('_', ' ')} {v:.3g} m" for k, v in lengths.items()))
     console.print(f"wrote {output} — evaluate it with `sightplan evaluate {model} {output}`")
+
+
+def _options_named(template: str, message: str) -> str:
+    """A template's message with its parameters named as the command line's options ("gsd_m_px" → "--gsd")."""
+    import re
+
+    names = {m[1]: f"--{o.cli}" for o in TEMPLATE_OPTIONS for m in o.members if m[0] == template}
+    names |= {"safety_distance_m": "--safety-distance"}
+    first, sep, rest = message.partition(" ")
+    if first.rstrip(":") in names:  # "overlap must be …", "gsd_m_px: 0.0001 puts …"
+        message = names[first.rstrip(":")] + first[len(first.rstrip(":")):] + sep + rest
+    fields = [n for n in names if "_" in n]  # elsewhere only names no sentence has ("step_m", not "axis")
+    return re.sub(r"\b(" + "|".join(map(re.escape, fields)) + r")\b", lambda m: names[m.group(1)], message)
 
 
 def _with_template_options(command: Any) -> Any:

@@ -26,6 +26,7 @@ from ..camera.files import parse_camera_spec
 from ..camera.models import Camera
 from ..errors import CameraError, PlanError
 from ..geometry.poses import R_from_gimbal
+from ..plan import domain
 from ..plan.format import checked_rotations, quaternions_to_R
 from ..plan.types import Plan
 from .base import FlightFormat, ReadOptions, Source
@@ -139,6 +140,12 @@ def read_csv_plan(path: str | Path, *, camera: Camera | str | dict | None = None
     bad = np.flatnonzero(~np.isfinite(C).all(axis=1) | ~np.isfinite(O).all(axis=1))
     if len(bad):
         raise PlanError(f"{lines[bad[0]]}: position or orientation is not finite")
+    domain.check_points(C, lines.__getitem__, "x, y, z")
+    domain.check_times(times, lines.__getitem__)
+    i = None if has_q else domain.first_bad(O, -domain.MAX_ANGLE_DEG, domain.MAX_ANGLE_DEG)
+    if i is not None:
+        for key, v in zip(orient_keys, O[i]):
+            domain.angle(f"{lines[i]}, {key}", v)
     R = quaternions_to_R(O, lines.__getitem__) if has_q else R_from_gimbal(*O.T)
     checked_rotations(R, lines.__getitem__)
     return Plan.build(cameras, R, C, frame_camera=cams, frame_names=names, capture_time=np.array(times),

@@ -24,7 +24,6 @@
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -36,6 +35,7 @@ from ..camera.models import PinholeCamera
 from ..errors import PlanError
 from ..geo import Georeference
 from ..geometry.poses import gimbal_from_R
+from ..plan import domain
 from ..plan.site import mission_takeoffs
 from ..plan.types import Mission, Plan
 
@@ -181,8 +181,7 @@ def build_flight(plan: Plan, georef: Georeference, takeoff_m: ArrayLike, *, fmt:
     T = np.asarray(takeoff_m, float).reshape(-1)
     if T.shape != (3,) or not np.isfinite(T).all():
         raise PlanError(f"the take-off point must be three finite numbers (x, y, z) in the model frame, got {takeoff_m!r}")
-    if not (math.isfinite(speed_m_s) and speed_m_s > 0):
-        raise PlanError(f"the flight speed must be a positive number of m/s, got {speed_m_s!r}")
+    domain.speed("the flight speed", speed_m_s)
     missions = plan.missions or (Mission("mission 1", 0, n),)
     if mission is not None:
         if not (isinstance(mission, (int, np.integer)) and 0 <= mission < len(missions)):
@@ -239,6 +238,7 @@ def build_flight(plan: Plan, georef: Georeference, takeoff_m: ArrayLike, *, fmt:
             close()
         current.append(i)
     close()
+    _check_finite(label, waypoints, takeoffs)
     paths = _recorded_paths(plan, missions, starts)
     first = takeoffs[waypoints[0].mission] if waypoints else Takeoff((float(T[0]), float(T[1]), float(T[2])),
                                                                      *(float(v[0]) for v in georef.to_geodetic(T)))
@@ -246,6 +246,19 @@ def build_flight(plan: Plan, georef: Georeference, takeoff_m: ArrayLike, *, fmt:
                   takeoff_m=first.position_m, takeoff_latitude_deg=first.latitude_deg,
                   takeoff_longitude_deg=first.longitude_deg, takeoff_height_m=first.height_m, speed_m_s=float(speed_m_s),
                   fmt=fmt, takeoffs=takeoffs, paths=paths)
+
+
+def _check_finite(label: str, waypoints: list[Waypoint], takeoffs: tuple[Takeoff, ...]) -> None:
+    """Every number a writer will write is finite: a place the georeference cannot convert is refused, never written
+    as ``nan``."""
+    for t in takeoffs:
+        domain.check_finite_output([t.latitude_deg, t.longitude_deg, t.height_m], f"a {label} export: a take-off point")
+    for wp in waypoints:
+        values = [wp.latitude_deg, wp.longitude_deg, wp.height_m, wp.altitude_m]
+        values += [v for p in wp.photos for v in (p.heading_deg, p.pitch_deg, p.roll_deg)]
+        name = wp.photos[0].name if wp.photos else "?"
+        domain.check_finite_output(values, f"a {label} export: the waypoint of frame {name!r} at "
+                                           f"{domain.point_text(wp.position_m)} cannot be placed on the earth")
 
 
 def _recorded_paths(plan: Plan, missions: tuple[Mission, ...], starts: list) -> tuple[tuple[float, float] | None, ...]:

@@ -44,6 +44,7 @@ from ..camera.models import Camera
 from ..errors import PlanError
 from ..geo import Georeference, GeoreferenceError
 from ..geometry.poses import R_from_gimbal
+from ..plan import domain
 from ..plan.types import Mission, Plan
 from .base import FlightFormat, ReadOptions, Source, Target
 from .flight import SAME_POSITION_M, Flight, Waypoint, mission_paths, number_text, same_angle
@@ -190,6 +191,7 @@ def read_litchi(path: str | Path, georef: Georeference | None = None, camera: Ca
             raise PlanError(f"{where}: latitude, longitude and altitude(m) must be numbers")
         if not (-90 <= a <= 90 and -180 <= b <= 180):
             raise PlanError(f"{where}: latitude {a} / longitude {b} out of range")
+        domain.height(f"{where}: altitude(m)", c)
     model = georef is not None
     try:
         if georef is None:
@@ -278,6 +280,10 @@ def _fly(rows: list[tuple[str, dict]], georef: Georeference, xyz: NDArray, takeo
             leg = xyz[n + 1] - P
             length = float(np.linalg.norm(leg))
             s = step
+            if step > 0:
+                domain.check_work(len(frames) + max(length - SAME_POSITION_M - step, 0.0) / step + 1,
+                                  domain.MAX_MISSION_PHOTOS, f"{where}: a photo every {step:g} m", "the photo interval",
+                                  "photos")
             while step > 0 and s < length - SAME_POSITION_M:
                 shoot(n, P + s / length * leg, heading)
                 s += step

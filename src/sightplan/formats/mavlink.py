@@ -92,6 +92,7 @@ from ..camera.models import Camera, PinholeCamera, camera_from_dict
 from ..errors import CameraError, PlanError
 from ..geo import Georeference, GeoreferenceError
 from ..geometry.poses import R_from_gimbal
+from ..plan import domain
 from ..plan.types import Mission, Plan
 from .flight import DEFAULT_GIMBAL, SAME_POSITION_M, Flight, Gimbal, Photo, Waypoint, same_angle, wrap180
 from .reading import DEFAULT_PITCH_DEG, DEFAULT_SPEED_M_S, bearing, differs, given_camera, place_takeoff
@@ -173,6 +174,8 @@ def home_position(values, where: str) -> tuple[float, float, float] | None:
         return None
     if not (-90 <= lat <= 90 and -180 <= lon <= 360):
         raise PlanError(f"{where}: latitude {lat} / longitude {lon} out of range")
+    if math.isfinite(h):
+        domain.height(f"{where}: its height", h)
     return lat, lon, h
 
 
@@ -206,6 +209,7 @@ def _positions(src: MissionSource, georef: Georeference, home: tuple[float, floa
                 raise PlanError(f"{c.where}: {name} altitude is not a finite number")
         else:
             frame = c.frame
+        domain.height(f"{c.where}: {name} altitude", alt)
         if frame in ABSOLUTE_FRAMES:
             h = alt
         elif frame in RELATIVE_FRAMES or frame in TERRAIN_FRAMES:
@@ -310,6 +314,11 @@ def fly(src: MissionSource, georef: Georeference, home_xyz: NDArray, home: tuple
                 leg_heading = b
             if trigger is not None and airborne and length > 0:
                 s0 = trigger["travelled"]
+                end, step = s0 + length + 1e-9, trigger["step"]
+                ahead = 0.0 if trigger["next"] > end else (end - trigger["next"]) / step + 1 if step > 0 else math.inf
+                domain.check_work(len(frames) + min(trigger["left"], ahead), domain.MAX_MISSION_PHOTOS,
+                                  f"{c.where}: a camera trigger every {step:g} m", "the trigger distance or interval",
+                                  "photos")
                 while trigger["left"] > 0 and trigger["next"] <= s0 + length + 1e-9:
                     shoot(pos + (trigger["next"] - s0) / length * leg, new, c)
                     trigger["next"] += trigger["step"]
@@ -333,7 +342,10 @@ def fly(src: MissionSource, georef: Georeference, home_xyz: NDArray, home: tuple
                 left = (total - 1) if math.isfinite(total) and total > 0 else math.inf
                 trigger = {"step": speed * interval, "next": speed * interval, "travelled": 0.0, "left": left, "time": True}
             else:
-                for _ in range(int(total) if math.isfinite(total) and total > 1 else 1):
+                count = total if math.isfinite(total) and total > 1 else 1
+                domain.check_work(len(frames) + count, domain.MAX_MISSION_PHOTOS,
+                                  f"{c.where}: IMAGE_START_CAPTURE of {count:g} photos", "the photo count", "photos")
+                for _ in range(int(count)):
                     shoot(pos, target_after(k), c)
         elif cmd == IMAGE_STOP_CAPTURE:
             if trigger is not None and trigger.get("time"):

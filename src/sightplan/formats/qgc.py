@@ -30,6 +30,7 @@ from numpy.typing import NDArray
 from ..camera.models import Camera
 from ..errors import PlanError
 from ..geo import Georeference
+from ..plan import domain
 from ..plan.format import read_json
 from ..plan.types import Plan
 from .base import FlightFormat, ReadOptions, Source, Target
@@ -124,6 +125,8 @@ def _structure_scan(item: dict, where: str, ident: int) -> tuple[list[Command], 
                                for k in ("DistanceToSurface", "AdjustedFootprintFrontal", "AdjustedFootprintSide"))
     if frontal <= 0 or side <= 0 or layers < 1:
         raise PlanError(f"{where}: the StructureScan needs positive footprints and at least one layer")
+    domain.check_work(layers * (len(poly) + 3), domain.MAX_MISSION_PHOTOS, f"{where}: a StructureScan of {layers:,} "
+                      f"layers", "'Layers'", "mission items")
     local = Georeference.from_origin(ll[0, 0], ll[0, 1], 0.0)
     xy = local.from_geodetic(ll[:, 0], ll[:, 1], np.zeros(len(ll)))[:, :2]
     x, y = xy[:, 0], xy[:, 1]

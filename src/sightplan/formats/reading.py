@@ -30,7 +30,7 @@ def number_cell(text: str | None, name: str, where: str, default: float | None =
     except ValueError:
         raise PlanError(f"{where}: {name} {text!r} is not a number") from None
     if not math.isfinite(v):
-        raise PlanError(f"{where}: {name} is not a finite number")
+        raise PlanError(f"{where}: {name} {text!r} is not a finite number")
     return v
 
 

@@ -97,11 +97,13 @@ from xml.etree import ElementTree as ET
 import numpy as np
 from numpy.typing import NDArray
 
+from ..archive import open_zip, read_entry
 from ..camera.catalogue import get_camera, list_cameras
 from ..camera.models import Camera
 from ..errors import PlanError
 from ..geo import Georeference, GeoreferenceError
 from ..geometry.poses import R_from_gimbal
+from ..plan import domain
 from ..plan.types import Mission, Plan
 from .base import FlightFormat, ReadOptions, Source, Target
 from .flight import Flight, Waypoint, number_text, same_angle, wrap180
@@ -229,10 +231,11 @@ def _kml_document(data: bytes, where: str) -> ET.Element:
 
 
 def _parse(z: zipfile.ZipFile, name: str, path: Path) -> ET.Element:
-    if z.getinfo(name).file_size > MAX_ENTRY_BYTES:
-        raise PlanError(f"{path.name}, {name}: {z.getinfo(name).file_size / 1e6:.0f} MB unpacked, too large for a "
-                        "mission file")
-    return _kml_document(z.read(name), f"{path.name}, {name}")
+    where = f"{path.name}, {name}"
+    data = read_entry(z, name, MAX_ENTRY_BYTES, PlanError, where, lambda size: (
+        f"{where}: {'more than ' if size is None else ''}{(size or MAX_ENTRY_BYTES) / 1e6:.0f} MB unpacked, too large "
+        "for a mission file"))
+    return _kml_document(data, where)
 
 
 def _is_dji(doc: ET.Element) -> bool:
@@ -249,12 +252,7 @@ def _sources(path: Path) -> tuple[ET.Element | None, ET.Element | None, str, str
     """(template.kml's Document, waylines.wpml's Document, each one's name in messages) of a ``.kmz``, or of a bare
     ``template.kml`` or ``waylines.wpml`` (any DJI KML document: a template unless it holds waylines)."""
     if path.suffix.lower() == ".kmz" or zipfile.is_zipfile(path):
-        try:
-            z = zipfile.ZipFile(path)
-        except zipfile.BadZipFile:
-            raise PlanError(f"{path.name} is not a KMZ (zip) file") from None
-        except OSError as exc:
-            raise PlanError(f"cannot read {path}: {exc.strerror or exc}") from None
+        z = open_zip(path, PlanError, "KMZ")
         with z:
             names = z.namelist()
             waylines = next((n for n in names if n.lower().endswith("wpmz/waylines.wpml")), None)
@@ -370,6 +368,7 @@ def _waypoints(folder: ET.Element, template: bool, where: str) -> list[_Waypoint
             height = _num(pm, "executeHeight", w)
         if height is None:
             raise PlanError(f"{w}: no height ({'height' if template else 'executeHeight'})")
+        domain.height(f"{w}: {'height' if template else 'executeHeight'}", height)
         out.append(_Waypoint(int(index), lat, lon, height, relative, pm, w, mode == "WGS84"))
     out.sort(key=lambda wp: wp.index)
     return out
@@ -471,8 +470,8 @@ def _fly_wayline(wayline: int, folder: ET.Element, wps: list[_Waypoint], P: NDAr
         trig = _kid(g, "actionTrigger")
         kind = _text(trig, "actionTriggerType") or "reachPoint"
         actions = _kids(g, "action")
-        if kind == "reachPoint":
-            for i in range(s, max(s, e) + 1):
+        if kind == "reachPoint":  # the waypoints the group spans: those the wayline has, whatever its indices say
+            for i in sorted({wp.index for wp in wps if s <= wp.index <= max(s, e)}):
                 reach.setdefault(i, []).extend(actions)
         elif kind in ("multipleDistance", "multipleTiming"):
             step = _num(trig, "actionTriggerParam", gw)
@@ -538,6 +537,10 @@ def _fly_wayline(wayline: int, folder: ET.Element, wps: list[_Waypoint], P: NDAr
             for span in spans:
                 if not (span["start"] <= wp.index and wps[n + 1].index <= span["end"]) or length == 0:
                     continue
+                ahead = ((span["travelled"] + length + 1e-3 - span["next"]) / span["step"] + 1 if span["step"] > 0
+                         else math.inf)
+                domain.check_work(len(photos) + max(ahead, 0.0), domain.MAX_MISSION_PHOTOS,
+                                  f"{where}: a photo every {span['step']:g} m", "the actionTriggerParam", "photos")
                 while span["next"] <= span["travelled"] + length + 1e-3:  # within 1 mm of the leg's end: at its end
                     s_leg = span["next"] - span["travelled"]
                     photos.append(_Photo(wayline, P[n] + s_leg / length * leg, None, bearing(P[n], P[n + 1]) or 0.0,

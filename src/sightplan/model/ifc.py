@@ -22,8 +22,6 @@ import math
 import os
 import tempfile
 import time
-import zipfile
-import zlib
 from collections import Counter
 from collections.abc import Callable, Iterable
 from pathlib import Path
@@ -35,6 +33,7 @@ import ifcopenshell.util.placement as uplacement
 import ifcopenshell.util.unit as uunit
 import numpy as np
 
+from ..archive import copy_entry, open_zip
 from ..errors import ModelError
 from .cache import content_hash
 from .disciplines import discipline_of, lineage
@@ -86,25 +85,14 @@ def ifc_options(occluders: Iterable[str] = DEFAULT_OCCLUDERS, include_occluders_
 
 def _unzip_ifc(path: Path, folder: Path) -> Path:
     """The IFC inside an .ifczip, unpacked into ``folder`` with its size checked before and while it is written."""
-    limit = max_unpacked_bytes()
-    try:
-        with zipfile.ZipFile(path) as z:
-            entries = [i for i in z.infolist() if i.filename.lower().endswith(".ifc") and not i.is_dir()]
-            if not entries:
-                raise ModelError(f"{path.name}: no .ifc file inside the archive")
-            info = entries[0]
-            if info.file_size > limit:
-                raise ModelError(too_big(path.name, info.file_size))
-            target = folder / "model.ifc"
-            written = 0
-            with z.open(info) as src, open(target, "wb") as dst:
-                while block := src.read(1 << 20):
-                    written += len(block)
-                    if written > limit:  # the declared size can lie
-                        raise ModelError(too_big(path.name))
-                    dst.write(block)
-    except (zipfile.BadZipFile, zlib.error, EOFError) as exc:
-        raise ModelError(f"{path.name} is not a readable .ifczip (zip) archive: {exc}") from None
+    with open_zip(path, ModelError, "readable .ifczip") as z:
+        entries = [i for i in z.infolist() if i.filename.lower().endswith(".ifc") and not i.is_dir()]
+        if not entries:
+            raise ModelError(f"{path.name}: no .ifc file inside the archive")
+        target = folder / "model.ifc"
+        with open(target, "wb") as dst:  # counted as it is inflated: the declared size can lie
+            copy_entry(z, entries[0], dst, max_unpacked_bytes(), ModelError, path.name,
+                       lambda size: too_big(path.name, size))
     return target
 
 

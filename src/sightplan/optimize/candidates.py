@@ -25,12 +25,14 @@ from ..errors import PlanError
 from ..geometry.poses import R_from_gimbal, aim_angles
 from ..model.scene import Scene
 from ..plan.checks.safety import point_distances
+from ..plan.domain import check_work
 from ..plan.ground import ground_z, without_terrain
 from ..plan.types import Mission, Plan
 
 OBLIQUE_DEG = 30.0
 PITCH_RANGE_DEG = (-90.0, 30.0)  # a drone gimbal's: straight down to 30° up
 MAX_CANDIDATES = 20_000
+MAX_SCREENED = 50 * MAX_CANDIDATES  # candidates made before the filters keep at most MAX_CANDIDATES of them
 _DIRECTIONS = np.array([(x, y, z) for x in (-1, 0, 1) for y in (-1, 0, 1) for z in (-1, 0, 1) if (x, y, z) != (0, 0, 0)],
                        float)
 _DIRECTIONS /= np.linalg.norm(_DIRECTIONS, axis=1, keepdims=True)
@@ -132,6 +134,8 @@ def candidate_views(scene: Scene, camera: Camera, safety_distance_m: float, *, d
     spacing = float(spacing_m) if spacing_m else footprint_m(camera, g) / 6
     anchors = surface_anchors(scene, spacing)
     dirs = _variants(anchors.normal, oblique_deg)
+    check_work(len(anchors.centre) * len(dirs) * len(distances_m), MAX_SCREENED, f"a spacing of {spacing:.3g} m",
+               "the spacing (or the safety distance)", "candidate views to screen")
     C, look_at, which = [], [], []
     for d in distances_m:
         for u in dirs:
@@ -142,8 +146,8 @@ def candidate_views(scene: Scene, camera: Camera, safety_distance_m: float, *, d
     C, look_at, which = np.concatenate(C), np.concatenate(look_at), np.concatenate(which)
     kept, C, look_at, dropped = _kept_views(scene, C, look_at, g, spacing, min_height_m, altitude_limit_m)
     which = which[kept]
-    if len(C) > MAX_CANDIDATES:
-        raise PlanError(f"{len(C):,} candidate views: more than {MAX_CANDIDATES:,}; give a larger spacing")
+    check_work(len(C), MAX_CANDIDATES, f"a spacing of {spacing:.3g} m", "the spacing (or the safety distance)",
+               "candidate views")
     if not len(C):
         raise PlanError("no candidate view stands clear of the model at the safety distance and above the minimum "
                         "height: lower the safety distance")

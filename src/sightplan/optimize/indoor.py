@@ -52,11 +52,12 @@ from ..plan.checks.battery import ROVERS, Rover
 from ..plan.checks.feasibility import FeasibilityReport, FlightSettings, plan_flights
 from ..plan.checks.gate import record_checks
 from ..plan.checks.safety import point_distances, segment_distances
+from ..plan.domain import check_work
 from ..plan.ground import without_terrain
 from ..plan.site import with_site
 from ..plan.types import Mission, Plan
 from .budget import Budget, longest_prefix
-from .candidates import MAX_CANDIDATES
+from .candidates import MAX_CANDIDATES, MAX_SCREENED
 from .result import OptimizeResult
 from .route import LKH_MAX_COST, blocked_legs, lkh_tour
 from .select import CoverageTable, FeatureIndex, stable_runs, stable_selection
@@ -196,14 +197,15 @@ def indoor_candidates(scene: Scene, camera: Camera, spacing_m: float = SPACING_M
     if not storeys:
         raise PlanError("the model has no floor to stand on: no storey and no upward face")
     named = bool({str(n) for n in scene.elements.storey[scene.present]} - {""})
+    extents = [_storey_extent(scene, s, named) for s in storeys]
+    check_work(sum(float(np.prod((hi - lo) / spacing_m + 1)) for lo, hi in extents), MAX_SCREENED,
+               f"an indoor grid of {spacing_m:g} m", "the spacing", "grid positions")
     C, which = [], []
     for k, s in enumerate(storeys):
-        xy = _grid(*_storey_extent(scene, s, named), spacing_m)
+        xy = _grid(*extents[k], spacing_m)
         C.append(np.column_stack([xy, np.full(len(xy), s.floor_z + height_m)]))
         which.append(np.full(len(xy), k, np.int64))
     C, which = np.concatenate(C), np.concatenate(which)
-    if len(C) > 50 * MAX_CANDIDATES:
-        raise PlanError(f"{len(C):,} grid positions: give a larger spacing than {spacing_m:g} m")
     dropped: dict[str, int] = {}
 
     def keep(mask: NDArray, why: str) -> None:
@@ -216,8 +218,7 @@ def indoor_candidates(scene: Scene, camera: Camera, spacing_m: float = SPACING_M
     keep(over_floor[enclosed], "over no floor")
     if len(C):
         keep(point_distances(without_terrain(scene), C) >= clearance_m, "nearer the model than the clearance")
-    if len(C) > MAX_CANDIDATES:
-        raise PlanError(f"{len(C):,} candidate positions: more than {MAX_CANDIDATES:,}; give a larger spacing")
+    check_work(len(C), MAX_CANDIDATES, f"an indoor grid of {spacing_m:g} m", "the spacing", "candidate positions")
     if not len(C):
         reasons = ", ".join(f"{n} {why}" for why, n in dropped.items() if n)
         raise PlanError(f"no position {height_m:g} m above a floor stands inside the model and {clearance_m:g} m clear "

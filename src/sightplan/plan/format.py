@@ -28,6 +28,7 @@ import numpy as np
 from ..camera.models import Camera, camera_from_dict
 from ..errors import CameraError, FormatVersionError, PlanError
 from ..geometry.poses import R_from_gimbal, R_from_quaternion, check_rotations
+from . import domain
 from .types import Mission, Plan
 
 FORMAT_NAME = "sightplan-plan"
@@ -189,6 +190,8 @@ def plan_from_dict(d: dict) -> Plan:
     if not isinstance(frames, list):
         raise PlanError(f"field 'frames' must be a list, got {type(frames).__name__}")
     n = len(frames)
+    if n > domain.MAX_PLAN_FRAMES:
+        raise PlanError(f"field 'frames': {n:,} frames, more than the {domain.MAX_PLAN_FRAMES:,} a plan may have")
     names, cams, times = [], [], np.full(n, np.nan)
     C, R = np.zeros((n, 3)), np.zeros((n, 3, 3))
     kinds = np.empty(n, dtype=object)
@@ -208,6 +211,7 @@ def plan_from_dict(d: dict) -> Plan:
         if "position" not in f:
             raise PlanError(f"{where}: missing field 'position'")
         C[i] = _numbers(f["position"], (3,), where, "position")
+        domain.check_points(C[i], where)
         kinds[i] = _orientation_kind(f, where)
         if kinds[i] == "rotation":
             R[i] = _numbers(f["rotation"], (3, 3), where, "rotation")
@@ -217,15 +221,12 @@ def plan_from_dict(d: dict) -> Plan:
             for j, key in enumerate(_GIMBAL_KEYS):
                 if key not in f and key != "roll_deg":
                     raise PlanError(f"{where}: missing field {key!r} (gimbal angles need heading_deg and pitch_deg)")
-                gimbal[i, j] = _numbers(f.get(key, 0.0), (), where, key)
+                gimbal[i, j] = domain.angle(f"{where}: field {key!r}", _numbers(f.get(key, 0.0), (), where, key))
         if f.get("time") is not None:
-            times[i] = _numbers(f["time"], (), where, "time")
+            times[i] = domain.capture_time(f"{where}: field 'time'", _numbers(f["time"], (), where, "time"))
         names.append(name)
         cams.append(cam)
     where_i = lambda i: f"frame {i} ({names[i]!r})"  # noqa: E731
-    bad = np.flatnonzero(~np.isfinite(C).all(axis=1))
-    if len(bad):
-        raise PlanError(f"{where_i(bad[0])}: field 'position' is not finite: {C[bad[0]].tolist()}")
     is_q, is_g = kinds == "quaternion_wxyz", kinds == "gimbal"
     if is_q.any():
         idx = np.flatnonzero(is_q)
@@ -254,6 +255,7 @@ def _missions(d: dict, n: int) -> tuple[Mission, ...]:
         station = m.get("ground_station")
         if station is not None:
             station = tuple(_numbers(station, (3,), f"mission {i}", "ground_station").tolist())
+            domain.check_points(station, f"mission {i}", "ground_station")
         out.append(Mission(m["name"], span[0], span[1], station))
     return tuple(out)
 
@@ -263,9 +265,7 @@ def _waypoints(d: dict) -> np.ndarray:
     if not isinstance(raw, list):
         raise PlanError(f"field 'waypoints' must be a list of [x, y, z], got {type(raw).__name__}")
     w = _numbers(raw, (len(raw), 3), "plan", "waypoints") if raw else np.zeros((0, 3))
-    if not np.isfinite(w).all():
-        raise PlanError(f"waypoint {int(np.flatnonzero(~np.isfinite(w).all(axis=1))[0])} is not finite")
-    return w
+    return domain.check_points(w, lambda i: f"waypoint {i}", "waypoints")
 
 
 def _parameters(d: dict) -> dict:

@@ -11,6 +11,7 @@ from numpy.typing import NDArray
 from ..camera.models import Camera
 from ..errors import PlanError
 from ..geometry.poses import check_rotations
+from .domain import check_points, check_times
 
 
 @dataclass(frozen=True)
@@ -57,9 +58,12 @@ class Plan:
         C = np.asarray(self.C_world)
         if C.ndim != 2 or C.shape[1] != 3:
             raise PlanError(f"C_world must be (n, 3), got {C.shape}")
-        bad = ~np.isfinite(C).all(axis=1)
-        if bad.any():
-            raise PlanError(f"frame {int(np.flatnonzero(bad)[0])} has a NaN or infinite position")
+        check_points(C, lambda i: f"frame {i}")  # the domain of plan numbers: nothing downstream can make NaN
+        check_points(self.waypoints, lambda i: f"waypoint {i}")
+        check_times(self.capture_time, lambda i: f"frame {i}")
+        for m in self.missions:
+            if m.ground_station is not None:
+                check_points(m.ground_station, f"mission {m.name!r}", "ground_station")
         check_rotations(self.R_world_camera)
         if len(self.R_world_camera) != n:
             raise PlanError(f"{len(self.R_world_camera)} rotations for {n} positions")

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import logging
+import re
 
 from fastapi import FastAPI, Request
 from fastapi.exceptions import RequestValidationError
@@ -21,12 +22,35 @@ def _location(loc: tuple) -> str:
     return ".".join(parts) or "request"
 
 
+_BOUNDS = ("greater_than", "greater_than_equal", "less_than", "less_than_equal")
+
+
+def _clause(e: dict) -> str:
+    """One validation error as ``field: message``, a number's value as given (``NaN``, ``Infinity``, ``1e308``)."""
+    from ..plan.domain import shown
+
+    where, kind, value = _location(tuple(e.get("loc", ()))), e.get("type", ""), e.get("input")
+    given = value[:40] if isinstance(value, str) else shown(value)  # a query's text as it came
+    if kind == "finite_number":
+        return f"{where}: {shown(value)} is not a finite number"
+    if kind not in _BOUNDS:
+        return f"{where}: {e.get('msg', 'invalid')}"
+    if isinstance(value, int) and not isinstance(value, bool) and where.rsplit(".", 1)[-1].endswith("_id"):
+        return f"{where}: {value} is out of range: no id is that large"
+    return f"{where}: {e.get('msg', 'invalid')}, got {given}"
+
+
 def validation_message(exc: RequestValidationError) -> str:
-    """The first few validation errors, one clause each: ``scale: Input should be less than or equal to 1``."""
+    """The first few validation errors, one clause each: ``scale: Input should be less than or equal to 1, got 2``."""
     errors = exc.errors()
-    clauses = [f"{_location(tuple(e.get('loc', ())))}: {e.get('msg', 'invalid')}" for e in errors[:3]]
+    clauses = [_clause(e) for e in errors[:3]]
     more = f" (and {len(errors) - 3} more)" if len(errors) > 3 else ""
     return "; ".join(clauses) + more
+
+
+#: FastAPI's words for a body it cannot parse, and what they mean
+UNPARSED = {"There was an error parsing the body": "the request body cannot be parsed: JSON must be UTF-8 text, a "
+                                                  "form multipart or URL-encoded"}
 
 
 class FlightChecksFailed(StarletteHTTPException):
@@ -40,7 +64,7 @@ class FlightChecksFailed(StarletteHTTPException):
 def install_error_handlers(app: FastAPI) -> None:
     @app.exception_handler(StarletteHTTPException)
     async def http_error(_request: Request, exc: StarletteHTTPException) -> JSONResponse:
-        body: dict = {"detail": str(exc.detail)}
+        body: dict = {"detail": UNPARSED.get(str(exc.detail), str(exc.detail))}
         if isinstance(exc, FlightChecksFailed):
             body["violations"] = list(exc.violations)
         return JSONResponse(body, status_code=exc.status_code, headers=exc.headers)
@@ -72,6 +96,7 @@ def install_error_handlers(app: FastAPI) -> None:
 
 
 MAX_ID = 2**63 - 1
+_WHOLE = re.compile(r"-?[0-9]{1,4300}")
 
 
 def ids_in_range(request: Request) -> None:
@@ -79,5 +104,10 @@ def ids_in_range(request: Request) -> None:
     from fastapi import HTTPException
 
     for name, value in [*request.path_params.items(), *request.query_params.items()]:
-        if (name.endswith("_id") or name in ("number", "frame", "index")) and str(value).isdigit() and int(value) > MAX_ID:
-            raise HTTPException(404, f"{name} {value} not found")
+        if not (name.endswith("_id") or name in ("number", "frame", "index")):
+            continue
+        text = str(value)
+        if not _WHOLE.fullmatch(text):  # plain ASCII digits only: int() would read '²' or '١٢' too
+            raise HTTPException(422, f"{name}: {text[:40]!r} is not a whole number")
+        if abs(int(text)) > MAX_ID:
+            raise HTTPException(404, f"{name} {text} not found")

@@ -99,7 +99,7 @@ def honest_document(doc: dict[str, Any], routes: list, team: bool) -> dict[str, 
 
 
 OTHER_HOST = "a request addressed to another `Host` than the loopback address"
-UNPARSED_FORM = "a form body that cannot be parsed"
+UNPARSED = "a body that cannot be parsed (a form, or JSON that is not UTF-8 text)"
 NOT_LOGGED_IN = "not logged in, or an unknown, revoked or expired session or token"
 CROSS_SITE = "a change sent by a page of another site"
 CROSS_SITE_TEAM = f"{CROSS_SITE}, or with the session cookie but without the header `X-Sightplan-Request`"
@@ -110,7 +110,7 @@ TOO_LARGE = "the body is over the server's upload limit (`sightplan serve --max-
 INVALID = "invalid parameters or body: the first few problems, in one message"
 ROLE_WORDS = re.compile(r"role|owner|viewer", re.I)
 # the causes added to a route's own description of a code
-ADDED = (OTHER_HOST, UNPARSED_FORM, CROSS_SITE, CROSS_SITE_TEAM, ROLE, NO_ACCOUNTS, INVALID)
+ADDED = (OTHER_HOST, UNPARSED, CROSS_SITE, CROSS_SITE_TEAM, ROLE, NO_ACCOUNTS, INVALID)
 
 
 def _errors(op: dict[str, Any], method: str, calls: set, team: bool, accounts_only: bool) -> None:
@@ -118,11 +118,10 @@ def _errors(op: dict[str, Any], method: str, calls: set, team: bool, accounts_on
     that apply to every operation of its kind added."""
     params = op.get("parameters", [])
     body = op.get("requestBody", {}).get("content", {})
-    form = any(m in body for m in ("multipart/form-data", "application/x-www-form-urlencoded"))
     looked_up = any(p["in"] == "path" or p["name"].endswith("_id") or p["name"] in ID_NAMES for p in params)
     login = team and current_user in calls
     causes = {
-        400: [OTHER_HOST] * (not team) + [UNPARSED_FORM] * form,
+        400: [OTHER_HOST] * (not team) + [UNPARSED] * bool(body),
         401: [NOT_LOGGED_IN] * login,
         403: [CROSS_SITE_TEAM if team else CROSS_SITE] * (method in CHANGES)
              + [ROLE] * bool(team and (calls & {editable_project, owned_project}

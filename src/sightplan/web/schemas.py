@@ -8,8 +8,15 @@ from typing import Annotated, Any, Literal, Union
 from pydantic import AfterValidator, BaseModel, ConfigDict, Field, create_model
 from pydantic.json_schema import SkipJsonSchema
 
-from ..plan.templates.base import ParamInfo, Template, unit_of
+from ..plan.domain import (
+    MAX_COORDINATE_M,
+    MAX_COUNT,
+    MAX_DISTANCE_M,
+    MAX_HEIGHT_M,
+)
+from ..plan.templates.base import MAX_POINTS, ParamInfo, Template, unit_of
 from ..plan.templates.registry import TEMPLATES
+from .errors import MAX_ID
 
 JobStatus = Literal["queued", "running", "done", "failed"]
 
@@ -20,6 +27,12 @@ def _utc(value: dt.datetime) -> dt.datetime:
 
 
 Time = Annotated[dt.datetime, AfterValidator(_utc)]
+
+
+#: A database id: past a 64-bit integer it names nothing
+Id = Annotated[int, Field(ge=-MAX_ID - 1, le=MAX_ID)]
+#: Request bodies refuse NaN and infinities ("not a finite number"), whatever a field's bounds
+STRICT = ConfigDict(extra="forbid", allow_inf_nan=False)
 
 
 class Orm(BaseModel):
@@ -120,34 +133,36 @@ class ModelUploadOut(BaseModel):
     job: JobOut
 
 
-Point2 = Annotated[list[float], Field(min_length=2, max_length=2)]
-Point3 = Annotated[list[float], Field(min_length=3, max_length=3)]
+Coordinate = Annotated[float, Field(ge=-MAX_COORDINATE_M, le=MAX_COORDINATE_M, allow_inf_nan=False)]
+Point2 = Annotated[list[Coordinate], Field(min_length=2, max_length=2)]
+Point3 = Annotated[list[Coordinate], Field(min_length=3, max_length=3)]
+LatLon = Annotated[list[Annotated[float, Field(ge=-180, le=360, allow_inf_nan=False)]], Field(min_length=2, max_length=2)]
 
 
 class FlightIn(BaseModel):
     """The flight settings a plan request (a template's, an optimisation's) is split and checked with (defaults: a
     drone's, or a walker's for a walked route)."""
 
-    model_config = ConfigDict(extra="forbid")
+    model_config = STRICT
 
     aircraft: str | None = Field(None, description="Aircraft preset (p4p, m3e, m300), rover preset for a route "
                                                    "(walker-360, spot, tracked), or 'none' for no battery check. "
                                                    "Default p4p, walker-360 for a route")
-    vlos_radius_m: float | None = Field(None, ge=0, description="Visual line-of-sight radius around the pilot (m); 0: "
-                                                                "no check. Default 500, none for a route")
-    ground_station: list[Point3] = Field(default_factory=list, description="Pilot positions [x, y, z] to choose from "
-                                                                           "(default: the corners of the plan's region)")
-    ground_station_geo: list[Point2] = Field(default_factory=list, max_length=100, description=(
+    vlos_radius_m: float | None = Field(None, ge=0, le=MAX_DISTANCE_M, description=(
+        "Visual line-of-sight radius around the pilot (m); 0: no check. Default 500, none for a route"))
+    ground_station: list[Point3] = Field(default_factory=list, max_length=100, description=(
+        "Pilot positions [x, y, z] to choose from (default: the corners of the plan's region)"))
+    ground_station_geo: list[LatLon] = Field(default_factory=list, max_length=100, description=(
         "Pilot positions [latitude, longitude] (WGS 84 degrees), placed on the ground of the model's "
         "georeference, 1.5 m up; with ground_station, candidates to choose from"))
     position_error: str | None = Field(None, max_length=40, description=(
         "How far the aircraft may stray from its planned point: 'gnss' (±1.5 m horizontal, ±0.5 m vertical), "
         "'rtk' (±0.1 m), 'none' or 'H,V' metres. The checks hold at its worst and the frames are placed by it. "
         "Default: the aircraft's"))
-    altitude_limit_m: float | None = Field(None, ge=0, description="Altitude limit (m); 0: no check. Default 120, none "
-                                                                   "for a route")
-    min_height_m: float | None = Field(None, ge=0, description="Least height of a waypoint above the ground under it "
-                                                               "(m). Default 2, none for a route")
+    altitude_limit_m: float | None = Field(None, ge=0, le=MAX_HEIGHT_M, description=(
+        "Altitude limit (m); 0: no check. Default 120, none for a route"))
+    min_height_m: float | None = Field(None, ge=0, le=MAX_HEIGHT_M, description=(
+        "Least height of a waypoint above the ground under it (m). Default 2, none for a route"))
 
 
 class TemplatePlanBase(FlightIn):
@@ -155,11 +170,11 @@ class TemplatePlanBase(FlightIn):
     flight settings the plan is split and checked with."""
 
     name: str = Field("", max_length=200, description="Default: the template's name")
-    model_id: int
-    camera: str = Field("p4p", description="A camera of the catalogue (GET /api/cameras)")
-    safety_distance_m: float | None = Field(None, gt=0, description="Distance to the model the facade and bridge "
-                                                                    "templates keep (m); also the flight check's "
-                                                                    "least distance. Default 10, 0.3 for a route")
+    model_id: Id
+    camera: str = Field("p4p", max_length=200, description="A camera of the catalogue (GET /api/cameras)")
+    safety_distance_m: float | None = Field(None, gt=0, le=MAX_DISTANCE_M, description=(
+        "Distance to the model the facade and bridge templates keep (m); also the flight check's least distance. "
+        "Default 10, 0.3 for a route"))
     split: bool = Field(True, description="Split into missions that keep line of sight and fit a battery")
 
 
@@ -174,10 +189,11 @@ def _param_field(name: str, info: ParamInfo, default: Any) -> tuple[Any, Any]:
         return bool, Field(default, description=about)
     if info.kind in ("points2", "points3"):
         point = Point2 if info.kind == "points2" else Point3
-        return list[point], Field(default_factory=list, description=f"points {'[x, y]' if point is Point2 else '[x, y, z]'} "
-                                                                    f"of {info.help}")
+        return list[point], Field(default_factory=list, max_length=MAX_POINTS,
+                                  description=f"points {'[x, y]' if point is Point2 else '[x, y, z]'} of {info.help}")
     if info.kind == "numbers":
-        return list[Annotated[float, Field(**bounds)]], Field(default_factory=list, description=about)
+        return list[Annotated[float, Field(**bounds)]], Field(default_factory=list, max_length=MAX_POINTS,
+                                                              description=about)
     return (float if default is not None else float | None), Field(default, description=about, **bounds)
 
 
@@ -224,8 +240,8 @@ class OptimizeIn(FlightIn):
     every target element k serving views (≥ Ω px, SSD and angle within bounds), within a budget, routed and checked."""
 
     name: str = Field("", max_length=200, description="Default: 'optimised (k = …)'")
-    model_id: int
-    camera: str = Field("p4p", description="A perspective camera of the catalogue (GET /api/cameras)")
+    model_id: Id
+    camera: str = Field("p4p", max_length=200, description="A perspective camera of the catalogue (GET /api/cameras)")
     safety_distance_m: float = Field(10.0, gt=0, le=1000, description="Least distance to the model (m)")
     k: int = Field(3, ge=1, le=50, description="Views each target element needs")
     max_ssd_m_px: float | None = Field(None, gt=0, le=1, description="Coarsest surface sampling distance a view may "
@@ -260,32 +276,32 @@ class PlanOut(Orm):
 class SettingsIn(BaseModel):
     """Evaluation settings (``sightplan evaluate``'s options of the same names)."""
 
-    model_config = ConfigDict(extra="forbid")
+    model_config = STRICT
 
     engine: Literal["auto", "embree", "gl", "trimesh"] = "auto"
     scale: float = Field(1.0, gt=0, le=1, description="Resolution scale s")
-    omega: float = Field(625.0, ge=0, description="Visibility threshold Ω (px)")
-    k: int = Field(3, ge=1)
-    min_track: int = Field(5, ge=1)
-    min_features: int = Field(50, ge=0)
+    omega: float = Field(625.0, ge=0, le=1e9, description="Visibility threshold Ω (px)")
+    k: int = Field(3, ge=1, le=MAX_COUNT)
+    min_track: int = Field(5, ge=1, le=MAX_COUNT)
+    min_features: int = Field(50, ge=0, le=MAX_COUNT)
     feature_density: float = Field(1.0, ge=0, le=100, description="Simulated features per m² of surface")
-    seed: int = Field(0, ge=0)
+    seed: int = Field(0, ge=0, le=2**32 - 1)
     d_max: float = Field(1000.0, gt=0, le=100_000, description="Farthest distance a frame sees (m)")
 
 
 class EvaluationIn(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+    model_config = STRICT
 
-    plan_id: int
-    version: int | None = Field(None, description="Default: the plan's latest version")
-    model_id: int | None = Field(None, description="Default: the plan's model")
+    plan_id: Id
+    version: Id | None = Field(None, description="Default: the plan's latest version")
+    model_id: Id | None = Field(None, description="Default: the plan's model")
     settings: SettingsIn = Field(default_factory=SettingsIn)
     date: str | None = Field(None, description="Capture date YYYY-MM-DD: only the elements built by the end of it exist "
                                                "(needs a linked schedule)")
-    schedule_id: int | None = Field(None, description="Schedule dating the elements (default: the model's latest)")
+    schedule_id: Id | None = Field(None, description="Schedule dating the elements (default: the model's latest)")
     date_basis: Literal["finish", "start"] = Field("finish", description="Which schedule date builds an element")
     unscheduled: Literal["present", "absent"] = Field("present", description="Elements no schedule dates")
-    reality_id: int | None = Field(None, description="A reality capture of the site (scaffolding, neighbours, what "
+    reality_id: Id | None = Field(None, description="A reality capture of the site (scaffolding, neighbours, what "
                                                      "stands): it hides what is behind it, and is not scored")
     as_flown: Literal["px4", "ardupilot"] | None = Field(None, description=(
         "Evaluate the photos where this autopilot takes them: the version's MAVLink export replayed under its rules "

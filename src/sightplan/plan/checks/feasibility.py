@@ -17,6 +17,7 @@ from numpy.typing import NDArray
 
 from ...errors import PlanError
 from ...model.scene import Scene
+from .. import domain
 from ..ground import (
     GROUND_STATION_HEIGHT_M,
     MIN_HEIGHT_M,
@@ -74,11 +75,9 @@ class FlightSettings:
     def __post_init__(self) -> None:
         if self.position_error_m is not None:
             object.__setattr__(self, "position_error_m", position_error(self.position_error_m))
-        if not self.safety_distance_m > 0:
-            raise PlanError(f"the safety distance must be positive, got {self.safety_distance_m}")
+        domain.distance("the safety distance", self.safety_distance_m, positive=True)
         if self.vlos_radius_m is not None:
-            if not self.vlos_radius_m > 0:
-                raise PlanError(f"the VLOS radius must be positive, got {self.vlos_radius_m}")
+            domain.distance("the VLOS radius", self.vlos_radius_m, positive=True)
             if self.safety_distance_m >= self.vlos_radius_m:
                 raise PlanError(f"the safety distance ({self.safety_distance_m:g} m) is not less than the VLOS radius "
                                 f"({self.vlos_radius_m:g} m): no waypoint could be both safe and in sight. "
@@ -87,10 +86,11 @@ class FlightSettings:
             gs = np.asarray(self.ground_stations, float)
             if gs.ndim != 2 or gs.shape[1] != 3 or not len(gs) or not np.isfinite(gs).all():
                 raise PlanError("ground stations must be finite (x, y, z) points")
-        if self.altitude_limit_m is not None and not self.altitude_limit_m > 0:
-            raise PlanError(f"the altitude limit must be positive, got {self.altitude_limit_m}")
-        if self.min_height_m is not None and not (self.min_height_m >= 0 and np.isfinite(self.min_height_m)):
-            raise PlanError(f"the minimum height must be a number of metres ≥ 0, got {self.min_height_m}")
+            domain.check_points(gs, lambda i: f"ground station {i + 1}", "position")
+        if self.altitude_limit_m is not None:
+            domain.number("the altitude limit", self.altitude_limit_m, 0.0, domain.MAX_HEIGHT_M, "m", lo_open=True)
+        if self.min_height_m is not None:
+            domain.number("the minimum height", self.min_height_m, 0.0, domain.MAX_HEIGHT_M, "m")
 
 
 @dataclass(frozen=True)

@@ -27,7 +27,11 @@ from typing import Any, Literal
 from ...camera.models import Camera
 from ...errors import PlanError
 from ...model.scene import Scene
+from ..domain import MAX_COORDINATE_M, point_text, shown
 from ..types import Plan
+
+#: The most points or values one list parameter takes (a route's points, an orbit's radii).
+MAX_POINTS = 10_000
 
 #: How a parameter is entered (the page's form and the command line read it):
 #: number, numbers (a list), choice, flag, points2 / points3 (picked or typed points), file (command line only).
@@ -117,16 +121,23 @@ def check_value(name: str, value: Any, info: ParamInfo) -> None:
         return
     if info.kind in ("points2", "points3"):
         n = 2 if info.kind == "points2" else 3
+        if len(value) > MAX_POINTS:
+            raise PlanError(f"{name}: {len(value):,} points, more than the {MAX_POINTS:,} a template takes")
         for q in value:
             if len(q) != n or not all(math.isfinite(float(c)) for c in q):
-                raise PlanError(f"each point of {name} must be {n} finite numbers, got {list(q)}")
+                raise PlanError(f"each point of {name} must be {n} finite numbers, got {point_text(q)}")
+            if not all(abs(float(c)) <= MAX_COORDINATE_M for c in q):
+                raise PlanError(f"a point of {name} is out of range: {point_text(q)} (a coordinate is at most "
+                                f"{MAX_COORDINATE_M / 1000:,.0f} km from the model's origin)")
         return
+    if info.kind == "numbers" and len(value) > MAX_POINTS:
+        raise PlanError(f"{name}: {len(value):,} values, more than the {MAX_POINTS:,} a template takes")
     for v in (value if info.kind == "numbers" else (value,)):
         if not math.isfinite(float(v)):
-            raise PlanError(f"{name} must be a finite number, got {v}")
+            raise PlanError(f"{name}: {shown(v)} is not a finite number")
         if ((info.ge is not None and v < info.ge) or (info.gt is not None and v <= info.gt)
                 or (info.le is not None and v > info.le) or (info.lt is not None and v >= info.lt)):
-            raise PlanError(f"{name} must be {info.bounds_text()}, got {v:g}")
+            raise PlanError(f"{name} must be {info.bounds_text()}, got {shown(v)}")
 
 
 #: builds a template's frames: (scene, camera, parameters, safety distance (m), least height (m)) → Plan

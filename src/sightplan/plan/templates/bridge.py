@@ -42,11 +42,12 @@ from ...geometry.poses import R_from_gimbal
 from ...model.scene import Scene
 from ..aim import drop_blind_frames
 from ..checks.safety import point_distances, segment_distances
+from ..domain import MAX_HEIGHT_M
 from ..ground import MIN_HEIGHT_M, ground_z, targets_only
 from ..types import Mission, Plan
 from .base import Params, Template, param
 from .facade import _positions, _valid_min_height, layer_heights
-from .spacing import waypoint_spacing
+from .spacing import check_frame_budget, waypoint_spacing
 
 CLEARANCE_BELOW_M = 3.0
 MAX_TURN_DEG = 90.0
@@ -152,6 +153,12 @@ def bridge(scene: Scene, camera: Camera, axis_xy: ArrayLike, offset_m: float, he
     lo, hi = targets_only(scene).bounds()
     s_h = waypoint_spacing(d, camera.hfov_deg, overlap)
     s_v = waypoint_spacing(d, camera.vfov_deg, overlap)
+    length = float(np.linalg.norm(np.diff(P, axis=0), axis=1).sum()) + 2 * d * len(P)  # a pass is no longer
+    layers = len(heights_m) if heights_m is not None else max(float(hi[2] - lo[2]), 0.0) / s_v + 2
+    under = (length / waypoint_spacing(clearance_below_m, camera.vfov_deg, overlap) + 2
+             if under_deck and clearance_below_m > 0 and math.isfinite(clearance_below_m) else 0)
+    check_frame_budget(2 * (length / s_h + 2) * layers + under, f"a bridge plan along {length:,.0f} m of axis",
+                       "the axis, height_m or the overlap")
     sides = [(side, sign, *_sample(_offset(P, u, sign * d), s_h)) for side, sign in (("left", 1.0), ("right", -1.0))]
     floor = float(ground_z(scene, np.concatenate([xy for _, _, xy, _, _ in sides])).max()) + min_h
     if heights_m is None:
@@ -231,9 +238,10 @@ class BridgeParams(Params):
                                                   cli="point", label="Axis")
     overlap: float = param(0.8, "image overlap l between neighbouring frames", ge=0, le=0.95)
     height_m: tuple[float, ...] = param((), "height of a side pass, once per pass (default: layers by overlap)",
-                                        kind="numbers", label="Pass heights")
+                                        kind="numbers", label="Pass heights", ge=-MAX_HEIGHT_M, le=MAX_HEIGHT_M)
     under_deck: bool = param(True, "add a pass under the deck, looking up")
-    deck_z_m: float | None = param(None, "height of the deck's underside (default: found)", label="Deck underside z")
+    deck_z_m: float | None = param(None, "height of the deck's underside (default: found)", label="Deck underside z",
+                                   ge=-MAX_HEIGHT_M, le=MAX_HEIGHT_M)
 
 
 def _build(scene: Scene, camera: Camera, p: BridgeParams, safety_distance_m: float, min_height_m: float) -> Plan:

@@ -228,7 +228,7 @@ def facade_grid(scene: Scene, camera: Camera, safety_distance_m: float, overlap:
     s_v = waypoint_spacing(g, camera.vfov_deg, overlap)
     # the box's grid, estimated before anything is built (an outline's is no larger than its box's by much)
     check_frame_budget((2 * (size[0] + size[1]) / s_h + 8) * (size[2] / s_v + 3),
-                       f"a facade grid at {g:g} m with {overlap:.0%} overlap")
+                       f"a facade grid at {g:g} m with {overlap:.0%} overlap", "overlap or safety_distance_m")
     if footprint == "outline":
         sides = _outline_sides(structure, g, s_h)
     else:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import csv
 import json
+import math
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -14,10 +15,12 @@ from ...camera.models import Camera
 from ...errors import PlanError
 from ...geometry.poses import R_from_gimbal
 from ...model.scene import Scene
+from ..domain import MAX_DISTANCE_M
 from ..types import Mission, Plan
 from .base import Params, Template, param
+from .spacing import check_frame_budget
 
-MAX_ROUTE_FRAMES = 100_000  # a walked capture of more frames is a typo in the step, not a plan
+MAX_ROUTES = 1000  # one mission each
 
 
 def indoor_route(camera: Camera, points_m: ArrayLike, step_m: float, pitch_deg: float = 0.0) -> Plan:
@@ -36,9 +39,7 @@ def indoor_route(camera: Camera, points_m: ArrayLike, step_m: float, pitch_deg: 
     if (seg_len == 0).any():
         raise PlanError(f"route point {int(np.flatnonzero(seg_len == 0)[0]) + 1} repeats the one before it")
     total = seg_len.sum()
-    if total / step_m > MAX_ROUTE_FRAMES:
-        raise PlanError(f"a step of {step_m:g} m along {total:.1f} m of route makes over {MAX_ROUTE_FRAMES:,} frames: "
-                        "take a longer step")
+    check_frame_budget(total / step_m + 1, f"a step of {step_m:g} m along {total:,.1f} m of route", "step_m")
     n = int(np.ceil(total / step_m - 1e-9)) + 1
     s = np.linspace(0.0, total, n)
     ends = np.cumsum(seg_len)
@@ -59,6 +60,19 @@ def indoor_routes(camera: Camera, polylines: list[ArrayLike], step_m: float, pit
     names = names or [f"route {k + 1}" for k in range(len(polylines))]
     if len(names) != len(polylines):
         raise PlanError(f"{len(names)} route names for {len(polylines)} routes")
+    if len(polylines) > MAX_ROUTES:
+        raise PlanError(f"{len(polylines):,} routes, more than the {MAX_ROUTES:,} a plan takes")
+    lengths = []
+    for points in polylines:  # each route's own checks come below; here only the frames they would make
+        try:
+            P = np.asarray(points, float)
+        except (TypeError, ValueError):
+            P = np.zeros((0, 3))
+        length = float(np.linalg.norm(np.diff(P, axis=0), axis=1).sum()) if P.ndim == 2 and len(P) > 1 else 0.0
+        lengths.append(length if math.isfinite(length) else 0.0)
+    if step_m > 0:
+        check_frame_budget(sum(lengths) / step_m + len(polylines), f"a step of {step_m:g} m along "
+                           f"{sum(lengths):,.1f} m of {len(polylines)} routes", "step_m")
     parts = []
     for k, points in enumerate(polylines):
         try:
@@ -108,7 +122,7 @@ def read_routes(path: str | Path) -> tuple[list[np.ndarray], list[str]]:
 class RouteParams(Params):
     points: tuple[tuple[float, float, float], ...] = param((), "the walked polyline, in order",
                                                            kind="points3", cli="point", label="Route")
-    step_m: float | None = param(None, "metres between frames", gt=0, cli="step", label="Step")
+    step_m: float | None = param(None, "metres between frames", gt=0, le=MAX_DISTANCE_M, cli="step", label="Step")
     routes_file: str | None = param(None, "polylines from a file (JSON: lists of x, y, z points; or CSV: route, x, y, z), one "
                                     "mission each, instead of the points", kind="file", cli="routes", web=False)
 

@@ -11,11 +11,12 @@ from ...errors import PlanError
 from ...geometry.poses import R_from_gimbal
 from ...model.scene import Scene
 from ..aim import drop_blind_frames
+from ..domain import MAX_GSD_M_PX, MAX_HEIGHT_M
 from ..ground import MIN_HEIGHT_M, ground_z, targets_only
 from ..types import Mission, Plan
 from .base import Params, Template, param
 from .facade import _positions, _valid_min_height
-from .spacing import waypoint_spacing
+from .spacing import check_frame_budget, waypoint_spacing
 
 
 def lawnmower(scene: Scene, camera: Camera, altitude_m: float | None = None, gsd_m: float | None = None,
@@ -64,11 +65,22 @@ def lawnmower(scene: Scene, camera: Camera, altitude_m: float | None = None, gsd
         clearance = gsd_m * camera.sampling_focal_px
         altitude_m = hi[2] - lo[2] + clearance
     clearance = altitude_m - (hi[2] - base)
+    given = "gsd_m_px" if gsd_m is not None else "altitude_m"
     if not clearance > 0:
         raise PlanError(f"altitude {altitude_m:.1f} m does not clear the model's top "
                         f"({hi[2] - base:.1f} m above its base)")
+    if safety_distance_m is not None and clearance < safety_distance_m - 1e-9:
+        least = (f"at least {safety_distance_m / camera.sampling_focal_px:.3g} m/px" if gsd_m is not None
+                 else f"at least {hi[2] - base + safety_distance_m:.1f} m")
+        raise PlanError(f"{given}: {gsd_m if gsd_m is not None else altitude_m:g} puts the camera {clearance:.2f} m "
+                        f"above the model's top, closer than the {safety_distance_m:.3g} m it keeps from the model "
+                        f"(the safety distance); give {least}")
     along = waypoint_spacing(clearance, camera.vfov_deg, front_overlap)
     across = waypoint_spacing(clearance, camera.hfov_deg, side_overlap)
+    lines, per_line = (hi[0] - lo[0]) / across + 2, (hi[1] - lo[1]) / along + 2
+    check_frame_budget(lines * per_line * (2 if oblique_pitch_deg is not None else 1),
+                       f"a lawn-mower grid {clearance:.2f} m above the model's top",
+                       f"{given} (a coarser grid) or the overlaps")
     xs = lo[0] + _positions(hi[0] - lo[0], across)
     ys = lo[1] + _positions(hi[1] - lo[1], along)
     z = base + altitude_m
@@ -100,9 +112,9 @@ def lawnmower(scene: Scene, camera: Camera, altitude_m: float | None = None, gsd
 class LawnmowerParams(Params):
     overlap: float = param(0.8, "image overlap along a line", ge=0, le=0.95)
     altitude_m: float | None = param(None, "camera height above the model's base (default: the safety distance above "
-                                     "its top)", gt=0, label="Altitude")
+                                     "its top)", gt=0, le=MAX_HEIGHT_M, label="Altitude")
     gsd_m_px: float | None = param(None, "ground sampling distance on the model's top (instead of the altitude)",
-                                   gt=0, cli="gsd", label="GSD")
+                                   gt=0, le=MAX_GSD_M_PX, cli="gsd", label="GSD")
     side_overlap: float = param(0.7, "overlap between lines", ge=0, le=0.95)
     oblique_pitch_deg: float | None = param(None, "add crossed east–west lines with the gimbal at this pitch "
                                             "(e.g. -60): a double grid", ge=-90, lt=0, label="Oblique pitch")

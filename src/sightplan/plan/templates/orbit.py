@@ -14,6 +14,7 @@ from ...errors import PlanError
 from ...geometry.poses import R_from_gimbal, aim_angles
 from ...model.scene import Scene
 from ..aim import drop_blind_frames
+from ..domain import MAX_DISTANCE_M, MAX_HEIGHT_M
 from ..ground import MIN_HEIGHT_M, ground_z, targets_only
 from ..types import Mission, Plan
 from .base import Params, Template, param
@@ -83,7 +84,7 @@ def orbit(scene: Scene, camera: Camera, radii_m: list[float] | None = None, heig
     if len(radii_m) != len(heights_m) or not radii_m:
         raise PlanError("give one height per ring radius (and at least one ring)")
     per_ring = [_frames_per_ring(camera, r, step_deg, overlap, k) for k, r in enumerate(radii_m)]
-    check_frame_budget(sum(per_ring), f"{len(radii_m)} rings")
+    check_frame_budget(sum(per_ring), f"{len(radii_m)} rings", "radius_m and height_m (fewer rings) or step_deg")
     C, heading, pitch, missions = [], [], [], []
     for k, (r, z) in enumerate(zip(radii_m, heights_m)):
         if not r > half_diag:
@@ -118,7 +119,7 @@ def _frames_per_ring(camera: Camera, radius: float, step_deg: float | None, over
         step = math.degrees(waypoint_spacing(radius, camera.hfov_deg, overlap) / radius)
     if not 0 < step <= 180:
         raise PlanError(f"ring {ring}: the angular step must be in (0°, 180°], got {step}")
-    check_frame_budget(360.0 / step, f"ring {ring}'s step of {step:g}°")
+    check_frame_budget(360.0 / step, f"ring {ring}'s step of {step:g}°", "step_deg (or overlap)")
     return max(3, math.ceil(360.0 / step - 1e-9))
 
 
@@ -135,11 +136,11 @@ def nearest_surface_points(scene: Scene, points: NDArray) -> NDArray[np.float64]
 class OrbitParams(Params):
     overlap: float = param(0.8, "image overlap l between neighbouring frames", ge=0, le=0.95)
     radius_m: tuple[float, ...] = param((), "ring radius, once per ring (default: the targets' half-diagonal + the "
-                                        "safety distance)", gt=0, kind="numbers", label="Radii",
+                                        "safety distance)", gt=0, le=MAX_DISTANCE_M, kind="numbers", label="Radii",
                                         pair="ring")
     height_m: tuple[float, ...] = param((), "ring height, once per ring (default: layers by overlap from the minimum "
                                         "height to the safety distance above the top)", kind="numbers", label="Heights",
-                                        pair="ring")
+                                        pair="ring", ge=-MAX_HEIGHT_M, le=MAX_HEIGHT_M)
     step_deg: float | None = param(None, "degrees between frames (default: by overlap)", ge=0.01, le=180, cli="step",
                                    label="Step")
     aim: str = param("centre", "aim at the model's 'centre' or its nearest 'surface'", choices=("centre", "surface"))

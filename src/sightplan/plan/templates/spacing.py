@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 
 from ...errors import PlanError
+from ..domain import check_work
 
 
 def waypoint_spacing(distance_m: float, fov_deg: float, overlap: float) -> float:
@@ -29,8 +30,6 @@ def waypoint_spacing(distance_m: float, fov_deg: float, overlap: float) -> float
 MAX_TEMPLATE_FRAMES = 100_000
 
 
-def check_frame_budget(n_frames: float, what: str) -> None:
+def check_frame_budget(n_frames: float, what: str, change: str = "the step or the overlap") -> None:
     """Refuse, before anything is built, a template whose parameters give more than :data:`MAX_TEMPLATE_FRAMES`."""
-    if not n_frames <= MAX_TEMPLATE_FRAMES:
-        raise PlanError(f"{what} would make {n_frames:,.0f} frames, more than the {MAX_TEMPLATE_FRAMES:,} a plan may "
-                        "have; raise the step or lower the overlap")
+    check_work(n_frames, MAX_TEMPLATE_FRAMES, what, change)

@@ -18,10 +18,11 @@ from starlette.concurrency import run_in_threadpool
 from ...errors import PlanError, SightplanError
 from ...formats.registry import FORMATS, WRITERS, ExportFormat, export_choices
 from ...model.scene import Scene
+from ...plan.domain import MAX_SPEED_M_S
 from ...plan.templates.registry import TEMPLATES
 from ...plan.types import Plan as PlanData
 from ..deps import PROJECT_ACCESS, ServerState, SessionDep, StateDep, in_project, ready_model
-from ..errors import FlightChecksFailed
+from ..errors import MAX_ID, FlightChecksFailed
 from ..models import Job, Model, Plan, PlanVersion
 from ..schemas import ErrorOut, JobOut, OptimizeIn, PlanFileOut, PlanOut, PlanVersionOut, TemplatePlanIn
 from ..services import (
@@ -61,6 +62,20 @@ def ready_scene(state: ServerState, session: Session, project_id: int, model_id:
     return model, load_scene(state.storage, model.stored_name)[0]
 
 
+def near_its_model(state: ServerState, session: Session, model_id: int | None, data: PlanData,
+                   scene: Scene | None = None) -> None:
+    """A plan whose model is loaded lies within reach of it (``SIGHTPLAN_MAX_REACH_M``): one frame kilometres away
+    is a typo that every check, export and view of the plan would carry."""
+    from ...plan.domain import check_plan_near_model
+
+    if scene is None and model_id is not None:
+        model = session.get(Model, model_id)
+        if model is not None and model.status == "ready":
+            scene = load_scene(state.storage, model.stored_name)[0]
+    if scene is not None:
+        check_plan_near_model(data, *scene.bounds())
+
+
 def commit_version(state: ServerState, session: Session, plan_row: Plan, data: PlanData, note: str) -> PlanOut:
     """Write ``data`` as the plan's next version (file and row) and commit; on any failure neither is left."""
     path = None
@@ -83,6 +98,7 @@ def commit_version(state: ServerState, session: Session, plan_row: Plan, data: P
 def create_from_template(project_id: int, body: TemplatePlanIn, session: SessionDep, state: StateDep) -> PlanOut:
     _, scene = ready_scene(state, session, project_id, body.model_id)
     data = template_plan(scene, body)
+    near_its_model(state, session, body.model_id, data, scene)
     row = Plan(project_id=project_id, model_id=body.model_id, name=body.name or f"{body.template} plan",
                source=f"template {body.template} ({body.camera})")
     return commit_version(state, session, row, data, f"{body.template} template")
@@ -124,7 +140,8 @@ def create_optimised(project_id: int, body: OptimizeIn, session: SessionDep, sta
 async def upload_plan(project_id: int, session: SessionDep, state: StateDep,
                       file: Annotated[UploadFile, File(description="The plan file")],
                       name: Annotated[str, Form(max_length=200, description="Default: the file's name")] = "",
-                      model_id: Annotated[int | None, Form(description="The project's model the plan is for")] = None,
+                      model_id: Annotated[int | None, Form(ge=-MAX_ID - 1, le=MAX_ID,
+                                                            description="The project's model the plan is for")] = None,
                       camera: Annotated[str | None, Form(description="Camera of a poses CSV or a flight-app mission")]
                       = None) -> PlanOut:
     if model_id is not None:
@@ -136,6 +153,7 @@ async def upload_plan(project_id: int, session: SessionDep, state: StateDep,
         try:
             scene = ready_scene(state, session, project_id, model_id)[1] if model_id is not None else None
             data = read_uploaded_plan(tmp, camera, scene)
+            near_its_model(state, session, model_id, data, scene)
         except SightplanError as exc:
             raise PlanError(str(exc).replace(str(tmp), original).replace(tmp.name, original)) from None
         finally:
@@ -179,7 +197,9 @@ def put_version(project_id: int, plan_id: int, session: SessionDep, state: State
                 body: Annotated[dict[str, Any], Body(description="The edited plan JSON")],
                 note: Annotated[str, Query(max_length=500, description="What changed")] = "edited") -> PlanOut:
     plan = in_project(session, Plan, plan_id, project_id, "plan")
-    return commit_version(state, session, plan, checked_plan_json(body), note)
+    data = checked_plan_json(body)
+    near_its_model(state, session, plan.model_id, data)
+    return commit_version(state, session, plan, data, note)
 
 
 @router.delete("/{plan_id}", status_code=204, response_class=Response,
@@ -219,7 +239,8 @@ def export_version(project_id: int, plan_id: int, number: int, session: SessionD
                    format: Annotated[ExportFormat, Query(description=export_choices())],
                    model_id: Annotated[int | None, Query(description="Model whose georeference places the plan "
                                                                      "(default: the plan's model)")] = None,
-                   speed: Annotated[float, Query(gt=0, description="Flight speed (m/s)")] = 5.0,
+                   speed: Annotated[float, Query(gt=0, le=MAX_SPEED_M_S, allow_inf_nan=False,
+                                                 description="Flight speed (m/s)")] = 5.0,
                    mission: Annotated[int | None, Query(ge=1, description="Only this mission (from 1)")] = None,
                    autopilot: Annotated[Literal["px4", "ardupilot"] | None, Query(
                        description="qgc and wpl: the flight controller the file is for (default px4 for qgc, "

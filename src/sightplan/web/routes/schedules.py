@@ -10,6 +10,7 @@ from pydantic import BaseModel, Field
 from sqlalchemy import select
 
 from ..deps import PROJECT_ACCESS, ProjectEdit, SessionDep, StateDep, in_project
+from ..errors import MAX_ID
 from ..models import Job, Model, Schedule
 from ..scenes import evaluations_using
 from ..schemas import ErrorOut, JobOut, Time
@@ -67,7 +68,8 @@ def schedule_out(row: Schedule) -> ScheduleOut:
                         413: {"model": ErrorOut, "description": "Over the upload limit"},
                         415: {"model": ErrorOut, "description": "Not a schedule or rules file"}})
 async def add_schedule(project: ProjectEdit, state: StateDep, session: SessionDep,
-                       model_id: Annotated[int, Form(description="The project's model the schedule builds")],
+                       model_id: Annotated[int, Form(ge=-MAX_ID - 1, le=MAX_ID,
+                                                     description="The project's model the schedule builds")],
                        file: Annotated[UploadFile | None, File(description="The schedule; none: the model's own "
                                                                            "IfcWorkSchedule")] = None,
                        rules: Annotated[UploadFile | None, File(description="TOML link rules")] = None,

@@ -11,6 +11,7 @@ from sqlalchemy import select
 from sqlalchemy.orm import Session
 
 from ...formats.registry import ExportFormat, export_choices
+from ...plan.domain import MAX_SPEED_M_S
 from ..auth import digest
 from ..deps import SessionDep, StateDep
 from ..models import Evaluation, Model, Plan, PlanVersion, ShareLink
@@ -58,7 +59,8 @@ def read_shared_version(token: str, number: int, session: SessionDep, state: Sta
             responses={**plans.EXPORTED, **NOT_FOUND})
 def export_shared_version(token: str, number: int, session: SessionDep, state: StateDep, background: BackgroundTasks,
                           format: Annotated[ExportFormat, Query(description=export_choices())],
-                          speed: Annotated[float, Query(gt=0, description="Flight speed (m/s)")] = 5.0,
+                          speed: Annotated[float, Query(gt=0, le=MAX_SPEED_M_S, allow_inf_nan=False,
+                                                        description="Flight speed (m/s)")] = 5.0,
                           mission: Annotated[int | None, Query(ge=1, description="Only this mission (from 1)")] = None,
                           force: Annotated[bool, Query(description="Export a plan that fails its flight checks")] = False,
                           aircraft: Annotated[str | None, Query(max_length=40, description="wpml: the DJI aircraft "

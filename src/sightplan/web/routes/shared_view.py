@@ -14,6 +14,7 @@ from sqlalchemy import select
 from sqlalchemy.orm import Session
 
 from ...formats.registry import ExportFormat, export_choices
+from ...plan.domain import MAX_SPEED_M_S
 from ..basemap import read_info
 from ..deps import SessionDep, StateDep
 from ..models import Evaluation, Model, Plan, PlanVersion, Project
@@ -113,11 +114,13 @@ def shared_version_checks(token: str, plan_id: int, number: int, session: Sessio
 
 
 @router.get("/plans/{plan_id}/versions/{number}/export", response_class=FileResponse,
-            summary="Export a version of the shared plan for a flight app", responses={**plans.EXPORTED, **NOT_FOUND})
+            summary="Export a version of the shared plan for a flight app",
+            responses={**plans.EXPORTED, **NOT_FOUND})
 def shared_version_export(token: str, plan_id: int, number: int, session: SessionDep, state: StateDep,
                           background: BackgroundTasks,
                           format: Annotated[ExportFormat, Query(description=export_choices())],
-                          speed: Annotated[float, Query(gt=0, description="Flight speed (m/s)")] = 5.0,
+                          speed: Annotated[float, Query(gt=0, le=MAX_SPEED_M_S, allow_inf_nan=False,
+                                                        description="Flight speed (m/s)")] = 5.0,
                           mission: Annotated[int | None, Query(ge=1, description="Only this mission (from 1)")] = None,
                           autopilot: Annotated[Literal["px4", "ardupilot"] | None, Query(
                               description="qgc and wpl: the flight controller the file is for")] = None,
@@ -166,8 +169,10 @@ def shared_element(token: str, evaluation_id: int, index: int, session: SessionD
 def shared_evaluation_view(token: str, evaluation_id: int, frame: int, session: SessionDep, state: StateDep,
                            metric: Annotated[str, Query(description="visibility, vr, ssd or orientation")]
                            = "visibility",
-                           lo: Annotated[float | None, Query(description="Bound of the gradient (with hi)")] = None,
-                           hi: Annotated[float | None, Query(description="Bound of the gradient (with lo)")] = None,
+                           lo: Annotated[float | None, Query(
+                               allow_inf_nan=False, description="Bound of the gradient (with hi)")] = None,
+                           hi: Annotated[float | None, Query(
+                               allow_inf_nan=False, description="Bound of the gradient (with lo)")] = None,
                            width: Annotated[int, Query(ge=16, le=2000, description="Image width (px)")]
                            = viewer.VIEW_WIDTH_PX,
                            shading: Annotated[bool, Query(description="Darken surfaces seen at a grazing angle")]

@@ -23,6 +23,7 @@ from sqlalchemy.orm import Session
 
 from ...assets import PACKAGES
 from ...errors import ReportError
+from ...plan.domain import MAX_DISTANCE_M
 from ..deps import ProjectRead, ServerState, SessionDep, StateDep, in_project, ready_model
 from ..models import Evaluation, Model, PlanVersion
 from ..scenes import evaluation_scene
@@ -314,10 +315,12 @@ def north_offset(plan) -> float | None:
 def plan_checks(project: ProjectRead, plan_id: int, number: int, session: SessionDep, state: StateDep,
                 model_id: Annotated[int | None, Query(description="Model to check against (default: the plan's)")]
                 = None,
-                safety_distance_m: Annotated[float | None, Query(gt=0, description="Least distance to the model (m); "
-                                                                 "default: the plan's")] = None,
-                vlos_radius_m: Annotated[float | None, Query(ge=0, description="Visual line-of-sight radius (m); 0: "
-                                                             "none; default: the plan's")] = None,
+                safety_distance_m: Annotated[float | None, Query(
+                    gt=0, le=MAX_DISTANCE_M, allow_inf_nan=False,
+                    description="Least distance to the model (m); default: the plan's")] = None,
+                vlos_radius_m: Annotated[float | None, Query(
+                    ge=0, le=MAX_DISTANCE_M, allow_inf_nan=False,
+                    description="Visual line-of-sight radius (m); 0: none; default: the plan's")] = None,
                 ) -> FlightChecksOut:
     version = plan_version(session, project.id, plan_id, number)
     model_id = model_id if model_id is not None else version.plan.model_id
@@ -452,8 +455,10 @@ def _png(data: bytes, ids: np.ndarray) -> Response:
             responses={**PNG, **NOT_FOUND, **NOT_READY, **BAD_VALUE})
 def evaluation_view(project: ProjectRead, evaluation_id: int, frame: int, session: SessionDep, state: StateDep,
                     metric: Annotated[str, Query(description="visibility, vr, ssd or orientation")] = "visibility",
-                    lo: Annotated[float | None, Query(description="Bound of the gradient (with hi)")] = None,
-                    hi: Annotated[float | None, Query(description="Bound of the gradient (with lo)")] = None,
+                    lo: Annotated[float | None, Query(
+                               allow_inf_nan=False, description="Bound of the gradient (with hi)")] = None,
+                    hi: Annotated[float | None, Query(
+                               allow_inf_nan=False, description="Bound of the gradient (with lo)")] = None,
                     width: Annotated[int, Query(ge=16, le=2000, description="Image width (px)")] = VIEW_WIDTH_PX,
                     shading: Annotated[bool, Query(description="Darken surfaces seen at a grazing angle")] = True,
                     ) -> Response:

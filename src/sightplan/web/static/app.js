@@ -42,7 +42,6 @@ async function init() {
   setViewer(new Viewer($('#canvas-box'), { onClick: onViewClick }));
   viewer.setCompass($('#compass'));
   installTestHook();
-  api.setUnauthorizedHandler(showLogin);
   // each area's subscriptions and listeners; the callbacks are what an area asks of one that depends on it
   bindAuth();
   bindProjects();
@@ -63,16 +62,21 @@ async function init() {
   renderAll();
   const token = shareToken();
   if (token) {
+    api.setUnauthorizedHandler(showLogin);
     await act('Opening the shared plan', () => openShared(token));
     document.body.dataset.state = 'ready';
     return;
   }
+  // the session, the cameras and the templates first; the login dialog opens once the page has settled, with its
+  // state 'login' at the same moment (a request refused later opens it too)
   let loggedIn = true;
   await act('Reading the server information', async () => {
     loggedIn = await readSession();
     set({ cameras: await api.get('/api/cameras'), templates: await api.get('/api/templates') });
   });
+  api.setUnauthorizedHandler(showLogin);
   if (!loggedIn) {
+    showLogin();
     document.body.dataset.state = 'login';
     return;
   }

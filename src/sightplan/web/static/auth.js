@@ -20,7 +20,7 @@ export async function readSession() {
       set({ me: await api.get('/api/auth/me') });
     } catch (err) {
       if (err.status !== 401) throw err;
-      loggedIn = false;  // the login dialog is open
+      loggedIn = false;  // the page opens the login dialog once it has settled
     }
   } else {
     badge.textContent = 'single-user · no login';
