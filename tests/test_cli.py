@@ -206,6 +206,7 @@ def test_a_plan_keeps_its_own_camera(tmp_path):
     assert report["metrics"] == a
 
 
+@pytest.mark.bench  # make bench; the steel structure's load and its schedule stay in make test
 def test_schependomlaan_steel_evaluates_end_to_end(tmp_path):
     from conftest import shared_file
 

@@ -54,7 +54,8 @@ def test_template_defaults_plan_check_and_export(tmp_path, model, template):
     assert list(tmp_path.glob("m*.waypoints"))
 
 
-@pytest.mark.parametrize("budget", [[], ["--budget-frames", "12"]])
+# with a budget: in make bench
+@pytest.mark.parametrize("budget", [[], pytest.param(["--budget-frames", "12"], marks=pytest.mark.bench)])
 def test_optimised_plan_passes_its_checks_and_exports(tmp_path, budget):
     m = _model("basement_house", tmp_path)
     made = run_cli("optimize", m, "--scale", "0.1", *budget, "-o", "opt.json", cwd=tmp_path)

@@ -51,6 +51,7 @@ def _free_port() -> int:
         return s.getsockname()[1]
 
 
+@pytest.mark.bench  # make bench; the web server's cluster tests cast on a local cluster in make test
 def test_batches_on_two_workers_equal_local(client, duplex, local):
     scene, plan = duplex
     seen: list[tuple[int, int]] = []

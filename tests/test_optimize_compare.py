@@ -74,6 +74,7 @@ def test_the_grid_is_the_benchmarks():
                       for name in ("facade box", "facade outline", "orbit", "lawnmower")]
 
 
+@pytest.mark.bench  # make bench; the comparison's pieces are tested here in make test
 def test_the_command_line_sets_the_optimiser_beside_the_best_template(tmp_path):
     """On an 8 m cube (k = 2): every template of the grid is planned, checked and scored; the best passes the checks;
     the optimiser like for like meets every target the template meets, and at its minutes meets at least as many."""
