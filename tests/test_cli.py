@@ -220,6 +220,7 @@ def test_schependomlaan_steel_evaluates_end_to_end(tmp_path):
     assert 0 < report["metrics"]["VC_pct"] < 100
 
 
+@pytest.mark.bench  # make bench; the feature cache's own tests stay in make test
 def test_saved_features_give_the_same_result(tmp_path):
     """A feature set saved by one run and given to another reproduces T exactly."""
     feats = tmp_path / "features.npz"
@@ -457,6 +458,7 @@ def test_plan_routes_file_and_orbit_aim(tmp_path):
 
 
 @pytest.mark.slow
+@pytest.mark.bench  # make bench; the steel structure's load and schedule stay in make test
 def test_progress_over_the_schependomlaan_steel_schedule(tmp_path):
     from conftest import shared_file
 

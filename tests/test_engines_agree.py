@@ -69,6 +69,7 @@ def test_equirectangular_element_maps_agree_inside_the_house(engines, duplex):
     assert share >= 0.995
 
 
+@pytest.mark.bench  # make bench; the OpenGL engine's 72-frame metrics against Embree stay in make test
 def test_metrics_agree_between_engines(duplex, small_plan):
     fs = sample_features(duplex, 0.2, seed=3)
     every = slice(None, None, 8)  # a fixed eighth of the features keeps the numpy tracer quick

@@ -116,6 +116,7 @@ def band_scene(t: float) -> Scene:
     return wall_scene([(10.0, -8.0, -1.0, -3.0, 3.0), (10.0, 1.0, 8.0, 4.15 + t, 9.15 + t)])
 
 
+@pytest.mark.bench  # make bench; the horizontal error's law stays in make test
 def test_vertical_error_gives_the_binomial_law_of_vr():
     """Four frames at one point, vertical error σ_v = 0.5 m (V = 0.98 m), threshold t = 0.25 m: each frame sees the
     band with p = 1 − Φ(t/σ_v) = 0.309, independently, so VR_1 ~ Binomial(4, p); VC = ½ or 1."""

@@ -28,6 +28,7 @@ from web_support import free_port, wait_job  # noqa: E402
 SCALE = 0.05
 
 
+@pytest.mark.bench  # make bench; the wheel test serves --sample and draws it in make test
 def test_sample_project_is_made_once_and_evaluated(tmp_path):
     with TestClient(create_app(ServerConfig(data_dir=tmp_path / "d"))) as c:
         state = c.app.state.sightplan
