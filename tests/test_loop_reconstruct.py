@@ -194,6 +194,7 @@ def test_without_pycolmap_the_extra_is_named(tmp_path):
     assert "Traceback" not in res.stderr and "pip install 'sightplan[loop]'" in res.stderr, res.stderr
 
 
+@pytest.mark.bench  # make bench; the reconstruction itself is checked in make test
 def test_the_reconstruct_command_prints_what_it_registered(box_run):
     """``sightplan reconstruct images/ -o recon/`` on the orbit's renders, matching the views that share surface
     this time."""

@@ -152,6 +152,7 @@ def test_an_unreachable_scheduler_is_one_clear_error(box):
 
 
 @needs_dask
+@pytest.mark.bench  # make bench; the web server optimises on a local cluster in make test
 def test_the_command_line_optimises_on_a_local_cluster(local, tmp_path):
     """`sightplan optimize --cluster local:1` writes the plan the library makes here."""
     from typer.testing import CliRunner
