@@ -96,18 +96,10 @@ def child(args: argparse.Namespace) -> int:
 
 def restaurant(workdir: Path, options: dict) -> tuple[Path, dict]:
     """The generated model for ``options``, written once into ``workdir``."""
-    from revit_like import write_revit_like_ifc
+    from revit_like import generated
 
     name = "-".join(f"{k}{v:g}" if isinstance(v, float) else f"{k}{v}" for k, v in sorted(options.items()))
-    path = workdir / f"restaurant-{name}.ifc"
-    meta = path.with_suffix(".json")
-    if path.is_file() and meta.is_file():
-        return path, json.loads(meta.read_text())
-    tmp = path.with_suffix(".tmp.ifc")
-    info = write_revit_like_ifc(tmp, **options)
-    os.replace(tmp, path)
-    meta.write_text(json.dumps(info))
-    return path, info
+    return generated(workdir / f"restaurant-{name}.ifc", **options)
 
 
 def main(argv: list[str] | None = None) -> int:

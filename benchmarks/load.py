@@ -85,17 +85,9 @@ def measure(path: Path, workdir: Path) -> dict:
 
 def revit_like(workdir: Path, options: dict) -> tuple[Path, dict]:
     """The generated model for ``options``, written once into ``workdir``."""
-    from revit_like import write_revit_like_ifc
+    from revit_like import generated
 
-    path = workdir / "revit_like-{rooms}r-{detail:g}d-{properties}p.ifc".format(**options)
-    meta = path.with_suffix(".json")
-    if path.is_file() and meta.is_file():
-        return path, json.loads(meta.read_text())
-    tmp = path.with_suffix(".tmp.ifc")
-    info = write_revit_like_ifc(tmp, **options)
-    os.replace(tmp, path)
-    meta.write_text(json.dumps(info))
-    return path, info
+    return generated(workdir / "revit_like-{rooms}r-{detail:g}d-{properties}p.ifc".format(**options), **options)
 
 
 def main(argv: list[str] | None = None) -> int:

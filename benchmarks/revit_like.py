@@ -456,3 +456,20 @@ def main(argv: list[str] | None = None) -> int:
 
 if __name__ == "__main__":
     sys.exit(main())
+
+
+def generated(path: Path, **options) -> tuple[Path, dict]:
+    """The model :func:`write_revit_like_ifc` writes for ``options`` at ``path``, written once (its facts beside it in
+    a .json) and reused by later runs."""
+    import json
+    import os
+
+    meta = path.with_suffix(".json")
+    if path.is_file() and meta.is_file():
+        return path, json.loads(meta.read_text())
+    tmp = path.with_suffix(".tmp.ifc")
+    info = write_revit_like_ifc(tmp, **options)
+    os.replace(tmp, path)
+    meta.write_text(json.dumps(info))
+    return path, info
+
