@@ -29,7 +29,7 @@ from sightplan.errors import SightplanError  # noqa: E402
 from sightplan.model.load import sample_model_path  # noqa: E402
 from sightplan.web.app import create_app  # noqa: E402
 from sightplan.web.config import ServerConfig, ServerConfigError  # noqa: E402
-from web_support import free_port, upload_model, wait_job  # noqa: E402
+from web_support import free_port, upload_model, wait_job, wait_until_serving  # noqa: E402
 
 SCALE = 0.05
 RELEASE = threading.Event()  # ends a stuck preparation that was not cancelled (a failing test)
@@ -247,12 +247,7 @@ def test_sigterm_stops_a_server_on_a_local_cluster_with_its_workers(tmp_path):
                             stderr=subprocess.STDOUT, text=True)
     try:
         base = f"http://127.0.0.1:{port}"
-        for _ in range(600):
-            try:
-                if httpx.get(f"{base}/api/projects", timeout=2).status_code == 200:
-                    break
-            except httpx.HTTPError:
-                time.sleep(0.1)
+        wait_until_serving(base, 600)
         headers = {"Origin": base, "X-Sightplan-Request": "1"}
         pid = httpx.post(f"{base}/api/projects", json={"name": "p"}, headers=headers).json()["id"]
         r = httpx.post(f"{base}/api/projects/{pid}/models", headers=headers, files={"file": ("box.obj", _box_obj())})

@@ -19,6 +19,7 @@ from sightplan.web.config import ServerConfig
 from sightplan.web.db import Database
 from sightplan.web.models import Job
 from sightplan.web.worker import INTERRUPTED
+from web_support import wait_until_serving
 
 # a server whose model loads never reach a progress step (a stand-in for one enormous product in the kernel)
 SERVER = textwrap.dedent("""
@@ -54,12 +55,7 @@ def test_sigterm_stops_the_server_and_fails_the_stuck_job(tmp_path):
                             stderr=subprocess.STDOUT, text=True)
     try:
         base = f"http://127.0.0.1:{port}"
-        for _ in range(300):
-            try:
-                if httpx.get(f"{base}/api/projects", timeout=2).status_code == 200:
-                    break
-            except httpx.HTTPError:
-                time.sleep(0.1)
+        wait_until_serving(base, 300)
         headers = {"Origin": base, "X-Sightplan-Request": "1"}
         assert httpx.get(f"{base}/api/jobs/{job_id}").json()["error"] == INTERRUPTED  # left queued by the last one
         r = httpx.post(f"{base}/api/projects/{pid}/models", headers=headers,

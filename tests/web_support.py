@@ -32,3 +32,18 @@ def upload_model(client, project_id: int, path: str | Path, name: str | None = N
     assert r.status_code == 202, r.text
     assert wait_job(client, r.json()["job"]["id"])["status"] == "done"
     return r.json()["model"]["id"]
+
+
+def wait_until_serving(base: str, tries: int = 300) -> None:
+    """Wait (0.1 s a try) until a server started in another process answers ``GET /api/projects``."""
+    import time
+
+    import httpx
+
+    for _ in range(tries):
+        try:
+            if httpx.get(f"{base}/api/projects", timeout=2).status_code == 200:
+                return
+        except httpx.HTTPError:
+            time.sleep(0.1)
+
