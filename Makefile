@@ -5,7 +5,7 @@ BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 PORT ?= 8000
 
-.PHONY: setup demo test docs lint bench clean wheel wheel-check
+.PHONY: setup demo test test-loaded docs lint bench clean wheel wheel-check
 
 # System packages, from Debian's archive when missing (as root; otherwise a note says what to install):
 # - EGL: the OpenGL engine renders headless, on a GPU's driver or on Mesa's llvmpipe;
@@ -49,6 +49,10 @@ test: $(STAMP)
 	$(BIN)/ruff check src tests benchmarks mkdocs_hooks.py setup.py
 	NO_MKDOCS_2_WARNING=1 $(BIN)/mkdocs build --strict -q
 	$(BIN)/python -m pytest -q
+
+## The whole suite again with every core kept busy by other processes (twice as many as cores): nothing may flake.
+test-loaded: $(STAMP)
+	$(BIN)/python benchmarks/under_load.py -- $(MAKE) --no-print-directory test
 
 ## The documentation site, from docs/ (MkDocs, Material theme) into site/.
 docs: $(STAMP)

@@ -510,13 +510,20 @@ def test_a_reality_model_obstructs_the_plan(tmp_path):
         "facade south": True, "facade east": False, "facade north": True, "facade west": True}
 
 
-def test_a_mission_elsewhere_on_earth_is_pointed_out(tmp_path):
+def test_a_mission_elsewhere_on_earth_is_refused(tmp_path, monkeypatch):
     from conftest import shared_file
 
     survey = shared_file("plans", "qgroundcontrol_sample_with_survey.plan")  # Zurich; the Duplex stands in Chicago
+    for args in (("check", str(survey), "sample"), ("evaluate", "sample", str(survey))):
+        res = run_cli(*args, "--camera", "p4p", cwd=tmp_path)
+        err = " ".join(res.stderr.split())
+        # as the server refuses it: one error naming the first frame and how far it lies, no traceback
+        assert res.returncode == 2 and "error: frame 0 (" in err and "km from the model" in err, err
+        assert "farther than the 5 km" in err and "Traceback" not in err
+    # the reach is a setting: with 10,000 km allowed, the same mission is checked (and fails its checks)
+    monkeypatch.setenv("SIGHTPLAN_MAX_REACH_M", "1e7")
     res = run_cli("check", str(survey), "sample", "--camera", "p4p", cwd=tmp_path)
-    assert res.returncode == 1
-    assert "km from the model" in " ".join(res.stdout.split())
+    assert res.returncode == 1 and "farther than" not in res.stderr
 
 
 def test_check_takes_a_walked_route_as_a_walk(tmp_path):

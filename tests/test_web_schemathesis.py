@@ -6,7 +6,8 @@ out-of-range numbers, bodies that are not JSON) alike.
 Bounded: a few examples per operation and mode. Every other example has its path's ids pointed at real rows (a
 project with the Duplex, an orbit plan, its evaluation and a share link), so the generated queries and bodies reach
 the code behind the lookups; the rest keep the generated ids. Deletions run last, the project's own at the very end;
-the token's own end is left out, so the run cannot revoke the token it runs with."""
+the token's own end is left out, so the run cannot revoke the token it runs with. Then the document's links are
+followed by Schemathesis' state machine, under the same checks."""
 
 from __future__ import annotations
 
@@ -119,6 +120,27 @@ def _cases(operation, mode, examples: int, auth: dict, ids: dict, failures: dict
     call()
 
 
+def test_the_documents_links_name_real_fields_and_lead_somewhere(team):
+    """Every link of the document names an operation it has and takes its values from fields the answer has (the
+    document is built to refuse otherwise); following one by hand reads what was made."""
+    app, token, ids = team
+    doc = app.openapi()
+    ops = {op["operationId"]: (path, method) for path, item in doc["paths"].items() for method, op in item.items()}
+    links = {(path, method, name): link for path, item in doc["paths"].items() for method, op in item.items()
+             for answer in op["responses"].values() for name, link in answer.get("links", {}).items()}
+    assert len(links) > 60 and all(link["operationId"] in ops for link in links.values())
+    made = links[("/api/projects", "post", ops_id(doc, "get", "/api/projects/{project_id}"))]
+    assert made["parameters"] == {"project_id": "$response.body#/id"}
+    plan = links[("/api/projects/{project_id}/plans", "post",
+                  ops_id(doc, "get", "/api/projects/{project_id}/plans/{plan_id}/versions/{number}"))]
+    assert plan["parameters"] == {"project_id": "$request.path.project_id", "plan_id": "$response.body#/id",
+                                  "number": "$response.body#/latest_version"}
+
+
+def ops_id(doc: dict, method: str, path: str) -> str:
+    return doc["paths"][path][method]["operationId"]
+
+
 def test_no_generated_request_gets_a_server_error_or_an_undocumented_answer(team):
     app, token, ids = team
     schema = schemathesis.openapi.from_asgi("/openapi.json", app)
@@ -138,3 +160,43 @@ def test_no_generated_request_gets_a_server_error_or_an_undocumented_answer(team
           "answers the document does not describe")
     assert failures == {"server errors": [], "violations": []}, \
         "\n".join(f"{kind}: {line}" for kind, lines in failures.items() for line in lines[:20])
+
+
+def test_following_the_links_gets_no_server_error_or_an_undocumented_answer(team):
+    """Schemathesis' state machine over the document's links: scenarios that make a project, then its plans,
+    evaluations, members and links, and read, change and delete them with the ids the answers gave (and now and
+    then an unknown id). Bounded: a few scenarios of a few steps. It runs after the test above, whose rows it may
+    delete."""
+    app, token, ids = team
+    schema = schemathesis.openapi.from_asgi("/openapi.json", app).exclude(path=list(SKIPPED))
+    schema.config.generation.update(with_security_parameters=False)
+    auth = {"Authorization": f"Bearer {token}"}
+    failures: dict[str, list[str]] = {"server errors": [], "violations": []}
+    calls: list[str] = []
+
+    class Links(schema.as_state_machine()):
+        def get_call_kwargs(self, case):
+            return {"headers": auth}
+
+        def validate_response(self, response, case, additional_checks=None, **kwargs):
+            request = f"{case.method} {case.formatted_path} → {response.status_code}"
+            calls.append(request)
+            if response.status_code >= 500:
+                failures["server errors"].append(f"{request}: {response.text[:200]}")
+                return
+            try:
+                case.validate_response(response, checks=CHECKS, headers=auth)
+            except BaseExceptionGroup as group:
+                failures["violations"] += [f"{request}: {f.title}: {' '.join(str(f.message).split())[:300]}"
+                                           for f in group.exceptions]
+
+    assert schema.statistic.transitions.total > 60
+    Links.run(settings=settings(max_examples=25, stateful_step_count=6, deadline=None, derandomize=True,
+                                database=None, suppress_health_check=list(HealthCheck), phases=[Phase.generate]))
+    followed = [c for c in calls if "/{" not in c]
+    print(f"{len(calls)} linked requests: {len(failures['server errors'])} server errors, "
+          f"{len(failures['violations'])} answers the document does not describe")
+    assert len(calls) > 20 and any(c.startswith("POST /api/projects →") for c in followed)
+    assert failures == {"server errors": [], "violations": []}, \
+        "\n".join(f"{kind}: {line}" for kind, lines in failures.items() for line in lines[:20])
+    assert schema["/api/auth/me"]["GET"].Case().call(headers=auth).status_code == 200  # the token still works

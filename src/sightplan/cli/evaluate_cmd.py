@@ -27,7 +27,7 @@ from .fourd import (
     dated_scene,
     with_reality,
 )
-from .loading import georef_kwargs, load_with_progress, print_warnings, warn_if_far
+from .loading import georef_kwargs, load_with_progress, print_warnings, refuse_if_far
 from .stages import StageDisplay, step
 
 #: an evaluation's stages as the progress lines name them
@@ -299,7 +299,7 @@ def evaluate(
         the_plan = load_plan(plan, camera=the_camera, transform=transform,
                              **georef_kwargs(scene))
         plan_label = plan
-        warn_if_far(console, scene, the_plan)
+        refuse_if_far(scene, the_plan)
         print_warnings(console, the_plan.parameters.get("warnings", []))
     planned = None
     if as_flown:

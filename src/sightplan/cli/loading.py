@@ -73,12 +73,13 @@ def print_warnings(console: Console, warnings) -> None:
         console.print(f"[yellow]warning:[/] {warning}", highlight=False)
 
 
-def warn_if_far(console: Console, scene, plan, limit_m: float = 5000.0) -> None:
-    """A warning when the plan's frames lie kilometres from the model: another place, frame or unit."""
-    import numpy as np
+def refuse_if_far(scene, plan) -> None:
+    """One error when a frame, waypoint or ground station lies farther from the model than a plan may reach
+    (``$SIGHTPLAN_MAX_REACH_M``, default 5 km), as the server refuses it: such a plan is in another place, frame or
+    unit, and every check, metric and export of it would be about nothing."""
+    from ..plan.domain import PlanError, check_plan_near_model
 
-    lo, hi = scene.bounds()
-    gap = np.linalg.norm(np.maximum(lo - plan.C_world, 0) + np.maximum(plan.C_world - hi, 0), axis=1)
-    if len(gap) and float(np.median(gap)) > limit_m:
-        console.print(f"[yellow]warning:[/] the plan's frames lie a median {np.median(gap) / 1000:.1f} km from the model: "
-                      "is the plan in the model's frame (georeference, --transform, units)?", highlight=False)
+    try:
+        check_plan_near_model(plan, *scene.bounds())
+    except PlanError as exc:
+        raise PlanError(f"{exc}; is the plan in the model's frame (georeference, --transform, units)?") from None

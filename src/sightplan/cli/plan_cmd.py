@@ -40,7 +40,7 @@ from .fourd import (
     dated_scene,
     with_reality,
 )
-from .loading import georef_kwargs, load_with_progress, print_warnings, warn_if_far
+from .loading import georef_kwargs, load_with_progress, print_warnings, refuse_if_far
 
 TemplateName = Literal[TEMPLATE_NAMES]  # type: ignore[valid-type]
 
@@ -276,7 +276,7 @@ def check_command(
                                       unscheduled), ground_z)
     scene = with_reality(console, scene, reality)
     plan = load_plan(plan_file, camera=cli_camera(camera, focal_mm), **georef_kwargs(scene))
-    warn_if_far(console, scene, plan)
+    refuse_if_far(scene, plan)
     print_warnings(console, plan.parameters.get("warnings", []))
     walked = walked_plan(plan)  # a rover or a walker: no sight line, no altitude limit
     settings = default_flight_settings(walked, safety_distance, vlos_radius, ground_station, aircraft, altitude_limit,

@@ -23,7 +23,7 @@ from .fourd import (
     check_date_options,
     dated_scene,
 )
-from .loading import georef_kwargs, load_with_progress, print_warnings, warn_if_far
+from .loading import georef_kwargs, load_with_progress, print_warnings, refuse_if_far
 
 
 def _bar() -> Progress:
@@ -64,7 +64,7 @@ def render_command(
     scene, _ = load_with_progress(console, model, cache)
     scene = dated_scene(console, scene, model, schedule, rules, prefer_actual, date, date_basis, unscheduled)
     the_plan = load_plan(plan, camera=cli_camera(camera, focal_mm), transform=transform, **georef_kwargs(scene))
-    warn_if_far(console, scene, the_plan)
+    refuse_if_far(scene, the_plan)
     print_warnings(console, the_plan.parameters.get("warnings", []))
     with _bar() as bar:
         task = bar.add_task("rendering frames", total=len(the_plan))

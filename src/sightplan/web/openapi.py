@@ -46,6 +46,23 @@ SECURITY_SCHEMES = {
 LOGIN = [{"session": []}, {"token": []}]
 CHANGES = ("post", "put", "patch", "delete")
 ID_NAMES = ("number", "frame", "index")  # besides *_id: looked up, and past a database integer answer 404
+P = "/api/projects/{project_id}"
+# what each operation that makes something answers, as the path parameters of the operations that read, change or
+# delete it: the document's links (OpenAPI 3 ``links``), so a client, and a stateful fuzzer, can follow them
+PRODUCES: dict[tuple[str, str], dict[str, str]] = {
+    ("post", "/api/projects"): {"project_id": "/id"},
+    ("post", f"{P}/models"): {"model_id": "/model/id", "job_id": "/job/id"},
+    ("post", f"{P}/plans"): {"plan_id": "/id", "number": "/latest_version"},
+    ("post", f"{P}/plans/upload"): {"plan_id": "/id", "number": "/latest_version"},
+    ("put", f"{P}/plans/{{plan_id}}"): {"number": "/latest_version"},
+    ("post", f"{P}/plans/optimize"): {"job_id": "/id"},
+    ("post", f"{P}/evaluations"): {"evaluation_id": "/evaluation/id", "job_id": "/job/id"},
+    ("post", f"{P}/members"): {"user_id": "/user_id"},
+    ("post", f"{P}/plans/{{plan_id}}/links"): {"link_id": "/id", "token": "/token"},
+    ("post", f"{P}/schedules"): {"schedule_id": "/schedule/id", "job_id": "/job/id"},
+    ("post", f"{P}/reality"): {"reality_id": "/reality/id", "job_id": "/job/id"},
+    ("post", "/api/auth/tokens"): {"token_id": "/id"},
+}
 
 
 def description(team: bool) -> str:
@@ -91,6 +108,7 @@ def honest_document(doc: dict[str, Any], routes: list, team: bool) -> dict[str, 
                 if team and current_user in calls:
                     op["security"] = LOGIN
     schemas = doc.setdefault("components", {}).setdefault("schemas", {})
+    add_links(doc)
     schemas.pop("HTTPValidationError", None)
     schemas.pop("ValidationError", None)
     if team:
@@ -147,3 +165,48 @@ def _errors(op: dict[str, Any], method: str, calls: set, team: bool, accounts_on
             response.setdefault("content", {}).setdefault("application/json", {})["schema"] = ERROR_REF
     if login:
         responses["401"]["headers"] = {"WWW-Authenticate": {"description": "`Bearer`", "schema": {"type": "string"}}}
+
+
+def _path_names(path: str) -> set[str]:
+    return set(re.findall(r"{(\w+)}", path))
+
+
+def _field(doc: dict[str, Any], schema: dict[str, Any], pointer: str) -> bool:
+    """Whether the JSON pointer ``pointer`` names a property of ``schema`` (its ``$ref`` followed)."""
+    for key in pointer.strip("/").split("/"):
+        while "$ref" in schema:
+            schema = doc["components"]["schemas"][schema["$ref"].rsplit("/", 1)[-1]]
+        schema = schema.get("properties", {}).get(key)
+        if schema is None:
+            return False
+    return True
+
+
+def add_links(doc: dict[str, Any]) -> None:
+    """On each success answer of :data:`PRODUCES`, a link to every operation whose path parameters it supplies (at
+    least one of them made by it, the others taken from its own path), named by that operation's id."""
+    for (method, path), made in PRODUCES.items():
+        op = doc["paths"].get(path, {}).get(method)
+        if op is None:
+            raise KeyError(f"the document has no {method.upper()} {path} to link from")
+        code, answer = next((k, r) for k, r in op["responses"].items() if k.startswith("2"))
+        schema = answer.get("content", {}).get("application/json", {}).get("schema", {})
+        missing = [pointer for pointer in made.values() if not _field(doc, schema, pointer)]
+        if missing:
+            raise KeyError(f"{method.upper()} {path} answers no {', '.join(missing)} to link with")
+        own = _path_names(path)
+        links = {}
+        for target_path, target_ops in doc["paths"].items():
+            names = _path_names(target_path)
+            if not names & made.keys() or not names <= own | made.keys():
+                continue
+            for target_method, target in target_ops.items():
+                if (target_method, target_path) == (method, path):
+                    continue
+                links[target["operationId"]] = {
+                    "operationId": target["operationId"],
+                    "parameters": {name: (f"$response.body#{made[name]}" if name in made else f"$request.path.{name}")
+                                   for name in sorted(names)},
+                }
+        if links:
+            answer["links"] = dict(sorted(links.items()))

@@ -79,7 +79,10 @@ def read_shared_evaluation(token: str, evaluation_id: int, session: SessionDep) 
 
 
 @router.get("/evaluations/{evaluation_id}/report.html", response_class=FileResponse,
-            summary="The HTML report of an evaluation of the shared plan", responses=NOT_FOUND)
+            summary="The HTML report of an evaluation of the shared plan",
+            responses={200: {"description": "One HTML page", "content": {"text/html": {}}}, **NOT_FOUND,
+                       **evaluations.NOT_DONE, 503: {"model": ErrorOut, "description": "The 3D viewer's files are "
+                                                     "not installed on the server"}})
 def read_shared_report(token: str, evaluation_id: int, session: SessionDep, state: StateDep) -> FileResponse:
     plan = shared_plan(session, token)
     ev = _evaluation(session, plan, evaluation_id)
