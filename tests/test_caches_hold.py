@@ -95,3 +95,50 @@ def test_no_cache_reads_and_writes_nothing(tmp_path, monkeypatch, command):
     assert res.returncode == 0, res.stderr
     expected = {"scenes", "features", "frames"} if command == "evaluate" else {"scenes"}
     assert {p.name for p in root.iterdir()} == expected
+
+
+def _spy_engines(monkeypatch, built: list) -> None:
+    """Count every engine built, by the evaluation or for a picture."""
+    from sightplan.engines import registry
+
+    for module in (sys.modules["sightplan.evaluate"], registry):
+        real = module.make_engine
+        monkeypatch.setattr(module, "make_engine", lambda *a, _real=real, **k: built.append(1) or _real(*a, **k))
+
+
+def test_a_second_evaluate_draws_its_pictures_without_an_engine(tmp_path, monkeypatch):
+    """With the pictures on, a fully cached re-evaluation builds no engine, and writes the same pictures."""
+    monkeypatch.setenv("SIGHTPLAN_CACHE", str(tmp_path / "cache"))
+    model = two_boxes(tmp_path / "boxes.glb")
+    built: list = []
+    _spy_engines(monkeypatch, built)
+    args = ("evaluate", str(model), "--ring-frames", "3", "--scale", "0.05", "--engine", "embree")
+    res = run_cli(*args, "--out", str(tmp_path / "first"), cwd=tmp_path)
+    assert res.returncode == 0, res.stderr
+    assert len(built) == 2  # the evaluation's engine and the overview's
+    res = run_cli(*args, "--out", str(tmp_path / "again"), cwd=tmp_path)
+    assert res.returncode == 0, res.stderr
+    assert len(built) == 2, "a fully cached evaluate built an engine"
+    first, again = (tmp_path / "first" / "overview.png").read_bytes(), (tmp_path / "again" / "overview.png").read_bytes()
+    assert len(first) > 1000 and first == again
+
+
+def test_the_views_of_the_storey_cutaways_are_cached_too(duplex, tmp_path, monkeypatch):
+    """The sample's overview and storey cutaways: cast once (an engine each), then read back as cast; a plan that
+    frames the overview otherwise casts only a new overview."""
+    from sightplan.engines.views import picture_views
+
+    built: list = []
+    _spy_engines(monkeypatch, built)
+    centres = np.array([[30.0, -20.0, 10.0]])
+    view, storeys, hits = picture_views(duplex, centres, "embree", cache_dir=tmp_path)
+    assert hits == 0 and len(built) == 1 + len(storeys) and len(storeys) >= 2
+    again, storeys_again, hits = picture_views(duplex, centres, "embree", cache_dir=tmp_path)
+    assert hits == 2 and len(built) == 1 + len(storeys)
+    for a, b in [(view, again), *((s[1], t[1]) for s, t in zip(storeys, storeys_again, strict=True))]:
+        assert np.array_equal(a.element, b.element) and np.array_equal(a.shade, b.shade) and a.camera == b.camera
+        assert np.array_equal(a.R_world_camera, b.R_world_camera) and np.array_equal(a.C_world, b.C_world)
+    assert [s[0] for s in storeys] == [s[0] for s in storeys_again]
+    moved = picture_views(duplex, centres + 50.0, "embree", cache_dir=tmp_path)  # another framing: a new overview
+    assert moved[2] == 1 and len(built) == 2 + len(storeys) and moved[1][0][0] == storeys[0][0]
+    assert not np.array_equal(moved[0].C_world, view.C_world)

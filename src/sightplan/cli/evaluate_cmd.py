@@ -232,8 +232,10 @@ def evaluate(
     mesh_scale: Annotated[float, typer.Option(help="For a mesh: metres per file unit (0.001 for millimetres)")] = 1.0,
     patch_area: Annotated[float | None, typer.Option(
         help="For a reality mesh (--mesh-elements patches) or a point cloud: area of an element patch (m², default 10)")] = None,
-    cache: Annotated[bool, typer.Option(help="Reuse the model and per-frame caches")] = True,
-    picture: Annotated[bool, typer.Option(help="Also write overview.png: the model coloured by visibility")] = True,
+    cache: Annotated[bool, typer.Option(help="Reuse the model, per-frame and picture-view caches")] = True,
+    picture: Annotated[bool, typer.Option(
+        help="Also write overview.png and storeys.png: the model coloured by visibility (their views are cached: a "
+             "re-evaluation draws them without casting)")] = True,
     html: Annotated[Path | None, typer.Option(
         help="Also write one self-contained HTML report (metrics, plots, worst elements, 3D view) to this file")] = None,
     gltf: Annotated[Path | None, typer.Option(
@@ -342,15 +344,14 @@ def evaluate(
                                           progress=lambda i, n: display("draws", int(n_draws * i / n), n_draws))
         paths.update(write_robustness(robust, scene, out))
     if picture:
-        from ..engines import make_engine
-        from ..engines.views import overview_view, storey_views
+        from ..engines.views import picture_views
         from ..report.overview import draw_overview, draw_storeys, visibility_colours
 
         vc = ev.metrics.plan.VC
         title = f"{Path(str(model)).name} — {plan_label}: VC {cell(None if vc is None else 100 * vc, '.1f')} %"
-        with step(console, "drawing the overview"), make_engine(ev.engine, scene, threads=threads) as eng:
-            view = overview_view(eng, the_plan.C_world)
-            storeys = storey_views(scene, ev.engine, threads)
+        with step(console, "drawing the overview"):  # its views from the views cache, else cast (and cached)
+            view, storeys, _ = picture_views(scene, the_plan.C_world, ev.engine, threads,
+                                             cache_dir=None if cache else False)
         colours = visibility_colours(ev.metrics.elements)
         paths["overview"] = draw_overview(view, colours, Path(out) / "overview.png", the_plan.C_world, title=title)
         storeys_png = draw_storeys(storeys, colours, Path(out) / "storeys.png", title=f"{title} — storey cutaways")
