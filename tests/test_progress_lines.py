@@ -7,6 +7,7 @@ import io
 import sys
 import time
 
+import pytest
 from rich.console import Console
 
 from sightplan.cli.stages import StageDisplay
@@ -81,3 +82,75 @@ def test_the_evaluate_command_writes_a_line_at_least_every_two_seconds(tmp_path,
     assert max(gaps) <= 2.0, (max(gaps), text)
     assert "reading: boxes.glb" in text and "simulated features: 0/1 (1 s)" in text, text
     assert "simulated features: 1/1 (2 s)" in text and "\x1b[" not in text  # plain words, no bar or colour codes
+
+
+def _quiet_run(out: Clocked, *args: str, cwd) -> str:
+    """``sightplan ARGS`` with its progress (standard error) in ``out``: the progress's text, after checking that it
+    has a line at least every 2 s of the test's clock from the command's start to its end, in plain words."""
+    start = time.monotonic()
+    res = run_cli(*args, cwd=cwd)
+    end = time.monotonic()
+    assert res.returncode == 0, res.stdout + res.stderr
+    stamps = [start] + [t for t, _ in out.lines] + [end]
+    text = "\n".join(line for _, line in out.lines)
+    assert max(b - a for a, b in zip(stamps, stamps[1:])) <= 2.0, text
+    assert "\x1b[" not in text and text not in res.stdout
+    return text
+
+
+@pytest.fixture
+def boxes_and_ring(tmp_path, monkeypatch):
+    """The two boxes as a model, a ring of three small frames around them as plan.json, and the progress caught."""
+    from sightplan.cli.base import err_console
+    from sightplan.model.load import load_model
+    from sightplan.plan.format import write_plan
+    from sightplan.plan.ring import ring_plan
+    from test_caches_hold import CAMERA
+
+    model = two_boxes(tmp_path / "boxes.glb")
+    scene, _ = load_model(model, cache=False)
+    write_plan(ring_plan(scene, CAMERA, n_frames=3, distance_m=5.0), tmp_path / "plan.json")
+    out = Clocked()
+    monkeypatch.setattr(err_console, "file", out)
+    return out
+
+
+def _slowed(monkeypatch, module, name: str, seconds: float = 2.1) -> None:
+    """``module.name`` made ``seconds`` slower, the first time it is called."""
+    real, calls = getattr(module, name), []
+
+    def slow(*args, **kwargs):
+        if not calls:
+            calls.append(1)
+            time.sleep(seconds)
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(module, name, slow)
+
+
+def test_the_render_command_writes_a_line_at_least_every_two_seconds(tmp_path, monkeypatch, boxes_and_ring):
+    """Its first frame made 2.1 s slow: the rendering stage is named while it runs and when it ends."""
+    from sightplan.loop import render
+
+    _slowed(monkeypatch, render, "shade_frame")
+    text = _quiet_run(boxes_and_ring, "render", "boxes.glb", "plan.json", "-o", "images", "--scale", "0.5",
+                      "--no-cache", cwd=tmp_path)
+    assert "rendering frames: 0/3 (1 s)" in text and "rendering frames: 3/3 (2 s)" in text, text
+
+
+def test_the_progress_command_writes_a_line_at_least_every_two_seconds(tmp_path, monkeypatch, boxes_and_ring):
+    """The first date's features made 2.1 s slow: the stage is named, with the date it is evaluated at."""
+    _slowed(monkeypatch, sys.modules["sightplan.evaluate"], "sample_features")
+    text = _quiet_run(boxes_and_ring, "progress", "boxes.glb", "plan.json", "--date", "2020-01-01", "--date",
+                      "2020-02-01", "--scale", "0.5", "--no-cache", "--out", "p", cwd=tmp_path)
+    assert "simulated features: 0/1 — at 2020-01-01 (1 of 2 dates) (1 s)" in text, text
+    assert "simulated features: 1/1 — at 2020-01-01 (1 of 2 dates) (2 s)" in text, text
+
+
+def test_the_validate_command_writes_a_line_at_least_every_two_seconds(tmp_path, monkeypatch, boxes_and_ring):
+    """The reality's sampling for Ct made 2.1 s slow: that stage is named while it runs."""
+    sys.modules["sightplan.validate.run"]  # noqa: B018  (loaded by the package)
+    _slowed(monkeypatch, sys.modules["sightplan.validate.run"], "_recall")
+    text = _quiet_run(boxes_and_ring, "validate", "boxes.glb", "plan.json", "boxes.glb", "-e", "0.05", "--scale",
+                      "0.5", "--no-cache", "--out", "v", cwd=tmp_path)
+    assert "sampling the model's surfaces (Ct): (1 s)" in text, text

@@ -112,8 +112,12 @@ def schedule_days(scene: Scene, basis: DateBasis = "finish") -> list[str]:
 
 def evaluate_series(scene: Scene, plan: Plan, dates: Sequence[str], settings: EvaluationSettings | None = None, *,
                     basis: DateBasis = "finish", unscheduled: str = "present", cache_dir: str | Path | None | bool = None,
-                    progress: Callable[[int, int, str], None] | None = None) -> ProgressSeries:
-    """``plan`` evaluated on ``scene`` (undated) at each of ``dates`` (ISO days), in date order."""
+                    progress: Callable[[int, int, str], None] | None = None,
+                    stages: Callable[[str, int, int], None] | None = None) -> ProgressSeries:
+    """``plan`` evaluated on ``scene`` (undated) at each of ``dates`` (ISO days), in date order.
+
+    progress(done, dates, date): called as each date begins and once at the end. stages: each date's evaluation's
+    stages (:func:`~sightplan.evaluate.evaluate`)."""
     if not dates:
         raise ScheduleError("give at least one capture date")
     days = sorted({str(parse_day(d)) for d in dates})
@@ -143,7 +147,7 @@ def evaluate_series(scene: Scene, plan: Plan, dates: Sequence[str], settings: Ev
             first, ev = done[state]
             points.append(SeriesPoint(day, n_built, ev, same_as=first))
             continue
-        ev = evaluate(at, plan, settings, cache_dir=cache_dir)
+        ev = evaluate(at, plan, settings, cache_dir=cache_dir, stages=stages)
         done[state] = (day, ev)
         points.append(SeriesPoint(day, n_built, ev))
     if progress is not None:

@@ -352,9 +352,9 @@ def evaluate(
         with step(console, "drawing the overview"):  # its views from the views cache, else cast (and cached)
             view, storeys, _ = picture_views(scene, the_plan.C_world, ev.engine, threads,
                                              cache_dir=None if cache else False)
-        colours = visibility_colours(ev.metrics.elements)
-        paths["overview"] = draw_overview(view, colours, Path(out) / "overview.png", the_plan.C_world, title=title)
-        storeys_png = draw_storeys(storeys, colours, Path(out) / "storeys.png", title=f"{title} — storey cutaways")
+            colours = visibility_colours(ev.metrics.elements)
+            paths["overview"] = draw_overview(view, colours, Path(out) / "overview.png", the_plan.C_world, title=title)
+            storeys_png = draw_storeys(storeys, colours, Path(out) / "storeys.png", title=f"{title} — storey cutaways")
         if storeys_png is not None:
             paths["storeys"] = storeys_png
     if gltf is not None:

@@ -6,13 +6,13 @@ from pathlib import Path
 from typing import Annotated
 
 import typer
-from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Column, Table
 
 from ..engines.base import EngineName
 from .base import ENGINE_HELP, app, console
 from .camera_opts import CAMERA_FORMS, FocalOpt, cli_camera
 from .errors import cell, friendly_errors
+from .evaluate_cmd import EVALUATION_STAGES
 from .fourd import (
     ActualOpt,
     BasisOpt,
@@ -25,6 +25,7 @@ from .fourd import (
     with_reality,
 )
 from .loading import georef_kwargs, load_with_progress, print_warnings
+from .stages import StageDisplay, step
 
 
 @app.command("progress")
@@ -64,12 +65,16 @@ def progress_command(
     the_plan = load_plan(plan, camera=cli_camera(camera, focal_mm), **georef_kwargs(scene))
     days = list(date or []) + (schedule_days(scene, date_basis) if every_task else [])  # type: ignore[arg-type]
     settings = EvaluationSettings(engine=engine, scale=scale, feature_density=feature_density)
-    with Progress(TextColumn("[bold]capture dates"), BarColumn(), MofNCompleteColumn(), TextColumn("{task.description}"),
-                  TimeElapsedColumn(), console=console, transient=True) as bar:
-        task = bar.add_task("", total=len(set(days)))
+    with StageDisplay(console, {"dates": "capture dates", **EVALUATION_STAGES}) as display:
+        at = [""]  # the date evaluated now: each of its stages' lines says which
+
+        def dates(i: int, n: int, day: str) -> None:
+            at[0] = f"at {day} ({min(i + 1, n)} of {n} dates)"
+            display("dates", i, n, day)
+
         series = evaluate_series(scene, the_plan, days, settings, basis=date_basis, unscheduled=unscheduled,  # type: ignore[arg-type]
-                                 cache_dir=None if cache else False,
-                                 progress=lambda i, n, d: bar.update(task, completed=i, description=d))
+                                 cache_dir=None if cache else False, progress=dates,
+                                 stages=lambda stage, done, total: display(stage, done, total, at[0]))
     print_warnings(console, series.warnings)
     t = Table(Column("date", no_wrap=True, min_width=10), "built", "VC %", "V̄C %", "VR", "R (m/px)", "O (°)", "T", "stable %",
               title=f"{Path(plan).name} over the schedule of {Path(str(model)).name}", title_justify="left")
@@ -80,5 +85,6 @@ def progress_command(
     console.print(t)
     out.mkdir(parents=True, exist_ok=True)
     csv_path = series.write_csv(out / "progress.csv")
-    png = series.plot(out / "progress.png", title=f"{Path(plan).name} over the schedule of {Path(str(model)).name}")
+    with step(console, "drawing progress.png"):
+        png = series.plot(out / "progress.png", title=f"{Path(plan).name} over the schedule of {Path(str(model)).name}")
     console.print(f"(=): the same elements stand as on an earlier date, not cast again\nwrote {csv_path}, {png}")

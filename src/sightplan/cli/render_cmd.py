@@ -7,7 +7,6 @@ from pathlib import Path
 from typing import Annotated
 
 import typer
-from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 
 from ..engines.base import EngineName
 from .base import ENGINE_HELP, app, console
@@ -24,11 +23,11 @@ from .fourd import (
     dated_scene,
 )
 from .loading import georef_kwargs, load_with_progress, print_warnings, refuse_if_far
+from .stages import StageDisplay
 
-
-def _bar() -> Progress:
-    return Progress(TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
-                    TimeRemainingColumn(), console=console, transient=False)
+#: a render's stages as the progress lines name them
+RENDER_STAGES = {"engine": "building the engine", "frames": "rendering frames",
+                 "writing": "writing the element maps and depths"}
 
 
 @app.command("render")
@@ -66,10 +65,9 @@ def render_command(
     the_plan = load_plan(plan, camera=cli_camera(camera, focal_mm), transform=transform, **georef_kwargs(scene))
     refuse_if_far(scene, the_plan)
     print_warnings(console, the_plan.parameters.get("warnings", []))
-    with _bar() as bar:
-        task = bar.add_task("rendering frames", total=len(the_plan))
+    with StageDisplay(console, RENDER_STAGES, transient=False) as display:
         renders = render_plan(scene, the_plan, out, scale=scale, engine=engine, texture_cell_m=texture_cell,
-                              threads=threads, progress=lambda i, n: bar.update(task, completed=i))
+                              threads=threads, stages=display)
     cam = renders.camera(0)
     console.print(f"rendered {len(renders)} frames ({cam.width}×{cam.height} px, engine {renders.engine}, texture cell "
                   f"{renders.texture_cell_m:.3g} m) into {out}", highlight=False)
@@ -103,11 +101,20 @@ def reconstruct_command(
 
     renders = read_renders(images)
     writable_folder(out, "--out")
-    with _bar() as bar:
-        task = bar.add_task("structure from motion", total=3 * len(renders))
-        rec = reconstruct(images, out, matcher=matcher, threads=threads, verbose=verbose,
-                          progress=lambda i, n: bar.update(task, completed=i, total=n),
-                          stage=lambda text: bar.update(task, description=text))
+    with StageDisplay(console, {"sfm": "structure from motion"}, transient=False) as display:
+        step = [""]  # the step reconstruct names last, shown beside the run's count of work units
+        counts = [0, 3 * len(renders)]
+
+        def named(text: str) -> None:
+            step[0] = text
+            display("sfm", *counts, text)
+
+        def units(i: int, n: int) -> None:
+            counts[:] = [i, n]
+            display("sfm", i, n, step[0])
+
+        rec = reconstruct(images, out, matcher=matcher, threads=threads, verbose=verbose, progress=units,
+                          stage=named)
     t = rec.info.get("timings_s", {})
     console.print(f"registered {rec.n_registered}/{len(rec.frame_names)} frames, {len(rec.points):,} points "
                   f"(matcher {rec.info.get('matcher')}; extraction {t.get('extract_s', 0):.1f} s, matching "

@@ -8,7 +8,6 @@ from pathlib import Path
 from typing import Annotated
 
 import typer
-from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 from rich.table import Table
 
 from ..engines.base import EngineName
@@ -16,6 +15,7 @@ from ..errors import SightplanError
 from .base import ENGINE_HELP, app, console
 from .camera_opts import FocalOpt, PlanCameraOpt, cli_camera
 from .errors import cell, friendly_errors
+from .evaluate_cmd import EVALUATION_STAGES
 from .fourd import (
     ActualOpt,
     BasisOpt,
@@ -27,6 +27,12 @@ from .fourd import (
     dated_scene,
 )
 from .loading import georef_kwargs, load_with_progress, print_warnings
+from .stages import StageDisplay, step
+
+#: a validation's stages as the progress lines name them: the plan's evaluation's, then its own
+VALIDATION_STAGES = {**EVALUATION_STAGES, "distances": "measuring the points' distances to the model",
+                     "index": "indexing the points", "comparing": "comparing with the reality",
+                     "completeness": "sampling the model's surfaces (Ct)", "precision": "sampling the reality (precision)"}
 
 
 def validation_table(v, title: str) -> Table:
@@ -177,7 +183,7 @@ def validate_command(
             raise SightplanError(f"the reconstruction has {len(rec.frame_names)} frames and the plan "
                                  f"{len(the_plan)}: reconstruct the photographs of this plan")
     else:
-        with console.status(f"loading {reality.name}…"):
+        with step(console, f"loading the reality {reality.name}"):
             psi = load_reality_input(reality, reality_scale, cache)
         source = reality
     what = (f"{len(psi.faces):,} triangles" if hasattr(psi, "faces") else f"{len(psi.points):,} points")
@@ -185,14 +191,10 @@ def validate_command(
                   f"reality {source.name}: {what}", highlight=False)
     if rec is not None:
         console.print(registration_table(rec))
-    with Progress(TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
-                  TimeRemainingColumn(), console=console, transient=True) as bar:
-        task = bar.add_task("evaluating the plan", total=len(the_plan))
-        ev = evaluate(scene, the_plan, settings, cache_dir=None if cache else False,
-                      progress=lambda i, n: bar.update(task, completed=i))
-        bar.update(task, description="comparing with the reality", completed=0)
+    with StageDisplay(console, VALIDATION_STAGES) as display:
+        ev = evaluate(scene, the_plan, settings, cache_dir=None if cache else False, stages=display)
         v = validate(scene, the_plan, psi, registration_error, settings, ev, point_spacing_m=point_spacing, seed=seed,
-                     progress=lambda i, n: bar.update(task, completed=i))
+                     stages=display)
     print_warnings(console, v.warnings)
     console.print(validation_table(v, f"{Path(str(model)).name} × {Path(plan).name} × {source.name}"))
     out.mkdir(parents=True, exist_ok=True)

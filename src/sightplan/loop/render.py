@@ -173,13 +173,14 @@ def shade_frame(engine, cam: PinholeCamera, R: NDArray, C: NDArray, seeds: NDArr
 
 def render_plan(scene: Scene, plan: Plan, out_dir: str | Path, *, scale: float = 1.0, engine: str = "embree",
                 progress: Progress | None = None, texture_cell_m: float | None = None,
-                threads: int | None = None) -> Renders:
+                threads: int | None = None, stages: Callable[[str, int, int], None] | None = None) -> Renders:
     """Render every frame of ``plan`` over ``scene`` into ``out_dir`` (see the module's description of the files).
 
     scale: resolution scale of the images (the cameras written are the scaled ones). engine: a visibility engine's
     name ("embree", "gl", "trimesh", "auto"). texture_cell_m: the finest texture octave's cell in metres (default:
     :data:`CELL_PER_SSD` times the plan's typical surface sampling distance at this scale). progress(done, total):
-    called after each frame."""
+    called after each frame. stages(name, done, total): hears every stage by name: 'engine' (the engine and the
+    texture cell), 'frames' (after each frame, as ``progress``) and 'writing' (the element maps and depths)."""
     from PIL import Image
 
     from ..engines import make_engine
@@ -206,6 +207,12 @@ def render_plan(scene: Scene, plan: Plan, out_dir: str | Path, *, scale: float =
     depths: dict[str, NDArray] = {}
     blank: list[int] = []
     started = time.perf_counter()
+
+    def stage(name: str, done: int, total: int) -> None:
+        if stages is not None:
+            stages(name, done, total)
+
+    stage("engine", 0, 1)
     with make_engine(engine, scene, threads=threads) as eng:
         engine_name = eng.name
         cell = texture_cell_m
@@ -214,6 +221,8 @@ def render_plan(scene: Scene, plan: Plan, out_dir: str | Path, *, scale: float =
             cell = CELL_PER_SSD * ssd if math.isfinite(ssd) else scene_size(scene) / 200
         if not (cell > 0 and math.isfinite(cell)):
             raise SightplanError(f"the texture cell must be a positive length in metres, got {cell}")
+        stage("engine", 1, 1)
+        stage("frames", 0, len(plan))
         for i in range(len(plan)):
             cam = cams[camera_of[i]]
             image, ids, t = shade_frame(eng, cam, plan.R_world_camera[i], plan.C_world[i], seeds, colours, cell)
@@ -224,6 +233,8 @@ def render_plan(scene: Scene, plan: Plan, out_dir: str | Path, *, scale: float =
                 blank.append(i)
             if progress is not None:
                 progress(i + 1, len(plan))
+            stage("frames", i + 1, len(plan))
+    stage("writing", 0, 0)
     np.savez_compressed(out / ELEMENTS_FILE, **maps)
     np.savez_compressed(out / DEPTH_FILE, **depths)
     _colmap_text(out / POSES_DIR, cams, camera_of, plan.R_world_camera, plan.C_world, names)

@@ -323,14 +323,23 @@ def validate(
     seed: int = 0,
     cache_dir: str | Path | None | bool = None,
     progress: ProgressCallback | None = None,
+    stages: Callable[[str, int, int], None] | None = None,
 ) -> Validation:
     """Validate ``plan`` on ``scene`` (Γ at the capture date) against ``reality`` (Ψ, in Γ's frame and unit).
 
     reality: a Scene (mesh) or a point cloud (:class:`PointCloud` or (n, 3) points).
     registration_error_m: e; λ = 1.2·e. evaluation: the plan's evaluation on ``scene`` (its
     VR_i are the weights); evaluated with ``settings`` when not given. point_spacing_m: the
-    cloud's spacing for splatting (estimated when None). See the module docstring.
+    cloud's spacing for splatting (estimated when None). See the module docstring. progress(done, frames): after
+    each frame cast on Γ and Ψ. stages(name, done, total): hears every stage by name: 'distances' (a point cloud's
+    distances to Γ), the evaluation's own when it is made here, 'index' (a point cloud's k-d tree and spacing),
+    'comparing' (the frames cast on Γ and Ψ), 'completeness' (Ct) and 'precision'.
     """
+
+    def stage(name: str, done: int = 0, total: int = 0) -> None:
+        if stages is not None:
+            stages(name, done, total)
+
     t_start = time.perf_counter()
     settings = settings or EvaluationSettings()
     e = _checked_numbers(registration_error_m, ct_density_per_m2)
@@ -341,13 +350,14 @@ def validate(
     cloud_all = cloud
     if cloud is not None:
         t0 = time.perf_counter()
+        stage("distances")
         distances = cloud_distances(cloud, scene, lam, seed)
         if 0 < distances.n_outliers < len(cloud):
             cloud = cloud[~distances.outlier]
         timings["distances_s"] = time.perf_counter() - t0
     if evaluation is None:
         t0 = time.perf_counter()
-        evaluation = evaluate(scene, plan, settings, cache_dir=cache_dir)
+        evaluation = evaluate(scene, plan, settings, cache_dir=cache_dir, stages=stages)
         timings["evaluation_s"] = time.perf_counter() - t0
     obs = evaluation.observations
     if obs.n_elements != scene.n_elements or obs.n_frames != len(plan):
@@ -359,12 +369,21 @@ def validate(
     visible = em.visible & is_target
     threads = max(1, settings.threads or min(32, os.cpu_count() or 1))
     warnings: list[str] = []
+    if cloud is not None:
+        stage("index")
     tree, spacing = _cloud_index(cloud, point_spacing_m, lam, seed, warnings)
     ct_radius = max(lam, spacing) if cloud is not None else lam
 
     # ---- pixels: A, Ce, Cv
     t0 = time.perf_counter()
-    sums, engine_name = _cast(scene, plan, psi_scene, cloud, spacing, is_target, lam, settings, threads, progress)
+    stage("comparing", 0, len(plan))
+
+    def cast_progress(done: int, frames: int) -> None:
+        if progress is not None:
+            progress(done, frames)
+        stage("comparing", done, frames)
+
+    sums, engine_name = _cast(scene, plan, psi_scene, cloud, spacing, is_target, lam, settings, threads, cast_progress)
     timings["cast_s"] = time.perf_counter() - t0
     back, complete, both_n, diff_sum = sums.back, sums.complete, sums.both, sums.diff_sum
     c = np.where(back > 0, complete / np.maximum(back, 1), 0.0) * is_target
@@ -380,10 +399,12 @@ def validate(
     # ---- surfaces: Ct (recall) and precision
     rng = np.random.default_rng(seed)
     t0 = time.perf_counter()
+    stage("completeness")
     gamma_pts, near = _recall(scene, is_target, psi_scene, tree, ct_radius, ct_density_per_m2, rng)
     Ct = float(near.mean()) if len(gamma_pts) else None
     timings["ct_s"] = time.perf_counter() - t0
     t0 = time.perf_counter()
+    stage("precision")
     psi_pts, prec_hit = _precision(scene, psi_scene, cloud_all, lam, ct_density_per_m2, rng)
     precision = float(prec_hit.mean()) if len(psi_pts) else None
     timings["precision_s"] = time.perf_counter() - t0
