@@ -145,6 +145,9 @@ def test_progress_starts_at_once_is_monotone_and_reaches_one(tiny):
     tess = [s for s in states if s.phase == "tessellating"]
     assert tess[-1].done == tess[-1].total > 50 and all(0 <= s.done <= s.total for s in tess)
     assert [s.done for s in tess] == sorted(s.done for s in tess)
+    # each product's note names the one finished last, and says so: the kernel tells no one what it works on now
+    notes = [s.message for s in tess[1:-1]]
+    assert notes and all(m.startswith("after Ifc") and m.endswith("'") for m in notes), notes[:3]
     assert all(s.eta_s is None or s.eta_s >= 0 for s in states) and [s.elapsed_s for s in states] == sorted(
         s.elapsed_s for s in states)
 

@@ -35,14 +35,14 @@ def test_a_silent_stage_gets_heartbeats_that_name_it():
     with StageDisplay(console, {"tessellating": "tessellating products", "ties": "finding tie pairs"},
                       heartbeat_s=0.1) as display:
         display("reading", 0, 0, "quick.ifc")  # over before a heartbeat: no line
-        display("tessellating", 3, 10, "last done: IfcWall 'W1'")
+        display("tessellating", 3, 10, "after IfcWall 'W1'")
         time.sleep(0.35)
         display("tessellating", 10, 10)
         display("ties", 0, 0)
         time.sleep(0.15)
     text = [line for _, line in out.lines]
     assert not any(line.startswith("reading") for line in text)
-    beats = [line for line in text if line.startswith("tessellating products: 3/10 — last done: IfcWall 'W1' (")]
+    beats = [line for line in text if line.startswith("tessellating products: 3/10 — after IfcWall 'W1' (")]
     assert len(beats) >= 2 and "tessellating products: 10/10 (0 s)" in text
     assert text[-1] == "finding tie pairs: (0 s)"
 

@@ -35,7 +35,7 @@ def load_with_progress(console: Console, model: str, cache: bool, mesh_elements:
     (m²) to meshes grouped in patches and to point clouds.
 
     The phases show as they come: reading the file, then for an IFC the products tessellated / total with an
-    ETA and the last product done, the scene assembled, then the tie pairs found."""
+    ETA and the product finished last ("after IfcWall …"), the scene assembled, then the tie pairs found."""
     from ..model.load import MESH_EXTENSIONS, load_model, resolve_model_path
     from ..model.pointcloud import is_point_cloud
 

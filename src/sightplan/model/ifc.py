@@ -199,6 +199,11 @@ def _tessellate(f: ifcopenshell.file, skip_classes: list[str], num_threads: int,
     by many products (an IfcMappedItem of a type's IfcRepresentationMap, as exports share furniture,
     doors and windows) is built and triangulated once, and placed here by each product's matrix;
     in world coordinates the kernel would rebuild it for every occurrence.
+
+    Its progress names the product finished last ("after IfcWall 'W1'"), not the one in progress: the iterator's
+    threads report a product only once it is done (``get``), and it tells no one which products they work on now
+    (``get_task_products`` lists every task, started or not, and a task that yields no shape is never reported, so
+    which have started cannot be told from which have come back either).
     """
     settings = ifcopenshell.geom.settings()
     settings.set("use-world-coords", False)
@@ -237,7 +242,7 @@ def _tessellate(f: ifcopenshell.file, skip_classes: list[str], num_threads: int,
                 shapes[shape.id] = (verts @ m[:3, :3].T + m[:3, 3], placed)
                 if n_faces > len(faces):
                     oversize[shape.id] = n_faces
-            last = f"last done: {shape.type} {(shape.name or shape.guid)[:40]!r}"
+            last = f"after {shape.type} {(shape.name or shape.guid)[:40]!r}"
             more = it.next()
             share = it.progress() / 100.0
         except Exception as exc:
