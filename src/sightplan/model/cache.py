@@ -42,7 +42,8 @@ def content_hash(path: str | Path, options: dict) -> str:
 
 def cache_root() -> Path:
     """``$SIGHTPLAN_CACHE`` if set, else ``~/.cache/sightplan``. Every cache has its own folder under it:
-    ``scenes`` (tessellated models), ``features`` (simulated feature sets) and ``frames`` (per-frame observations)."""
+    ``scenes`` (tessellated models), ``features`` (simulated feature sets), ``frames`` (per-frame observations) and
+    ``views`` (the views of the report's pictures)."""
     env = os.environ.get("SIGHTPLAN_CACHE")
     return Path(env).expanduser() if env else Path.home() / ".cache" / "sightplan"
 
