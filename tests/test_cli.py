@@ -40,10 +40,18 @@ def run_cli_process(*args: str, cwd: Path) -> subprocess.CompletedProcess:
 def assert_clean_error(res: subprocess.CompletedProcess, *words: str) -> None:
     assert res.returncode != 0, res.stdout
     assert "Traceback" not in res.stderr + res.stdout
-    err = res.stderr.strip()
-    assert err.startswith("error:"), err
+    err = error_text(res.stderr)
+    assert err.startswith("error:"), res.stderr
     for w in words:
         assert w.lower() in err.lower(), err
+
+
+def error_text(stderr: str) -> str:
+    """The one error of a failed command: from its ``error:`` line to the end (a cold load's progress lines may come
+    before it on standard error, nothing after it)."""
+    lines = stderr.strip().splitlines()
+    first = next((i for i, line in enumerate(lines) if line.startswith("error:")), 0)
+    return "\n".join(lines[first:])
 
 
 @pytest.fixture(scope="module")

@@ -27,6 +27,7 @@ from sightplan.study import (
     read_study,
     strength,
 )
+from test_cli import error_text
 
 TABLE2 = Path(__file__).resolve().parents[2] / "shared" / "spec" / "table2.csv"
 
@@ -48,8 +49,8 @@ def run_study(*args: str, cwd: Path) -> subprocess.CompletedProcess:
 def assert_clean_error(res: subprocess.CompletedProcess, *words: str) -> None:
     assert res.returncode != 0, res.stdout
     assert "Traceback" not in res.stderr + res.stdout
-    err = " ".join(res.stderr.split())  # the console may wrap the one message at the terminal width
-    assert err.startswith("error:"), err
+    err = " ".join(error_text(res.stderr).split())  # the console may wrap the one message at the terminal width
+    assert err.startswith("error:"), res.stderr
     for w in words:
         assert w.lower() in err.lower(), err
 

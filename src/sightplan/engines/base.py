@@ -244,7 +244,7 @@ class Engine(ABC):
             return np.zeros(0, np.int32)
         if isinstance(camera, PinholeCamera):
             cand, dirs, dist = index.candidates(C_world, R_world_camera, camera.width, camera.height, camera.fx,
-                                                camera.fy, camera.cx, camera.cy, self.d_max)
+                                                camera.fy, camera.cx, camera.cy, self.d_max, self._pool, self.threads)
         else:
             cand, dirs, dist = index.candidates(C_world, None, 0, 0, 1.0, 1.0, 0.0, 0.0, self.d_max)
         if len(cand) == 0:

@@ -20,6 +20,7 @@ from numpy.typing import NDArray
 
 BLOCK = 64
 _MORTON_BITS = 21
+PARALLEL_BLOCKS = 2048  # blocks above which their tests are split over the engine's threads
 
 
 def _spread(v: NDArray[np.uint64]) -> NDArray[np.uint64]:
@@ -64,13 +65,15 @@ class FeatureIndex:
         return len(self.points)
 
     def candidates(self, C_world: NDArray, R: NDArray | None, width: int, height: int, fx: float, fy: float,
-                   cx: float, cy: float, d_max: float) -> tuple[NDArray[np.int32], NDArray[np.float32], NDArray[np.float64]]:
+                   cx: float, cy: float, d_max: float, pool=None, threads: int = 1
+                   ) -> tuple[NDArray[np.int32], NDArray[np.float32], NDArray[np.float64]]:
         """Features that pass every test but occlusion: (k,) indices into the feature set, in the
         index's spatial order (neighbours together, so their sight lines make coherent packets),
         (k, 3) float32 unit directions from the camera centre, (k,) float64 distances.
 
         R: camera-to-world rotation of a pinhole camera (its columns are the camera axes), or
-        None for a camera that sees every direction (equirectangular).
+        None for a camera that sees every direction (equirectangular). pool, threads: an executor and its
+        size, to test the blocks in as many parts (each part in order, so the result is the same).
         """
         C = np.asarray(C_world, np.float64)
         if R is None:
@@ -84,8 +87,17 @@ class FeatureIndex:
             planes = cam_planes @ R.T
             pinhole = True
         keep = _cull_blocks(self.block_lo, self.block_hi, C, planes, d_max)
-        idx, dirs, dist = _filter(self.points, self.normals, self.block_start, keep, C, R, pinhole,
-                                  float(width), float(height), float(fx), float(fy), float(cx), float(cy), d_max)
+
+        def part(bounds: tuple[int, int]):
+            return _filter(self.points, self.normals, self.block_start, keep, C, R, pinhole, float(width),
+                           float(height), float(fx), float(fy), float(cx), float(cy), d_max, *bounds)
+
+        if pool is None or threads < 2 or len(keep) < PARALLEL_BLOCKS:
+            idx, dirs, dist = part((0, len(keep)))
+        else:
+            cut = np.linspace(0, len(keep), threads + 1).astype(int).tolist()
+            parts = list(pool.map(part, zip(cut[:-1], cut[1:])))
+            idx, dirs, dist = (np.concatenate([p[k] for p in parts]) for k in range(3))
         return self.order[idx], dirs, dist
 
 
@@ -122,17 +134,18 @@ def _cull_blocks(lo, hi, C, planes, d_max):
 
 
 @nb.njit(nogil=True, cache=True)
-def _filter(points, normals, block_start, keep, C, R, pinhole, width, height, fx, fy, cx, cy, d_max):
-    """The tests of METRICS.md §5.2 but occlusion, in float64 as the brute-force test does them."""
+def _filter(points, normals, block_start, keep, C, R, pinhole, width, height, fx, fy, cx, cy, d_max, b0, b1):
+    """The tests of METRICS.md §5.2 but occlusion, in float64 as the brute-force test does them, on the kept blocks
+    among b0..b1."""
     total = 0
-    for b in range(keep.shape[0]):
+    for b in range(b0, b1):
         if keep[b]:
             total += block_start[b + 1] - block_start[b]
     idx = np.empty(total, np.int32)
     dirs = np.empty((total, 3), np.float32)
     dist = np.empty(total, np.float64)
     k = 0
-    for b in range(keep.shape[0]):
+    for b in range(b0, b1):
         if not keep[b]:
             continue
         for i in range(block_start[b], block_start[b + 1]):
