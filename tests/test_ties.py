@@ -253,7 +253,7 @@ def _pipes_generator():
     import sys
     from pathlib import Path
 
-    path = Path(__file__).resolve().parents[1] / "benchmarks" / "pipes.py"
+    path = Path(__file__).resolve().parents[1] / "benchmarks" / "pipe_network.py"
     spec = importlib.util.spec_from_file_location("pipes_benchmark_model", path)
     module = importlib.util.module_from_spec(spec)
     sys.modules.setdefault("pipes_benchmark_model", module)
@@ -294,7 +294,7 @@ def _pipe_ties_match_brute_force(scene) -> dict:
 
 
 def test_a_pipe_network_ties_like_a_brute_force_search(small_pipes):
-    """The small heating network of benchmarks/pipes.py (about 8,000 triangles): fittings, valves and radiators flush
+    """The small heating network of benchmarks/pipe_network.py (about 8,000 triangles): fittings, valves and radiators flush
     with the segments they join (end faces in one plane, sleeves 0.1–0.6 mm off the pipe's facets, other facet
     counts, placements tilted by up to 0.02°). Every pair of faces compared directly: the search finds exactly the
     pairs METRICS.md §2 accepts, segment–fitting pairs from a few hundredths of a degree to several degrees apart

@@ -1,6 +1,6 @@
 """A generated IFC of a heating network, shaped like BlenderBIM and Revit MEP exports (the tie search's hard case).
 
-`python benchmarks/pipes.py [PATH] [--storeys N] [--bays N] [--schema IFC4|IFC2X3]` writes one and prints its
+`python benchmarks/pipe_network.py [PATH] [--storeys N] [--bays N] [--schema IFC4|IFC2X3]` writes one and prints its
 size; :func:`write_pipes_ifc` is the same from Python (tests use :data:`SMALL`, the benchmark :data:`BIG`).
 
 What real MEP exports of heating and plumbing look like, and what this file reproduces:
@@ -44,7 +44,7 @@ from revit_like import _Writer, box  # noqa: E402  (the IFC helpers of the Revit
 #: a model for tests (about 6,000 triangles)
 SMALL = {"storeys": 1, "bays": 1}
 #: the benchmark's model (about 400,000 triangles)
-BIG = {"storeys": 4, "bays": 14}
+BIG = {"storeys": 4, "bays": 20}
 STOREY_H, SLAB_T, WALL_T = 3500.0, 250.0, 200.0  # mm
 BAY = 3000.0  # one radiator per bay of wall
 SEGMENT_MAX = 6000.0  # longest segment; longer legs are joined by couplings
