@@ -149,11 +149,11 @@ def box(lo: tuple[float, float, float], hi: tuple[float, float, float]) -> tuple
 class _Writer:
     """The file being written and the entities every element shares."""
 
-    def __init__(self, seed: int) -> None:
+    def __init__(self, seed: int, schema: str = "IFC2X3") -> None:
         import ifcopenshell
 
         self.rng = np.random.default_rng(seed)
-        self.f = f = ifcopenshell.file(schema="IFC2X3")
+        self.f = f = ifcopenshell.file(schema=schema)
         person = f.createIfcPerson(None, "Architect", None, None, None, None, None, None)
         org = f.createIfcOrganization(None, "Generated", None, None, None)
         app = f.createIfcApplication(org, "2012", "Autodesk Revit Architecture 2012", "Revit")
