@@ -58,7 +58,7 @@ CLASSES: dict[str, MaterialClass] = {m.name: m for m in (
 
 #: Words in a material's or a style's name, first match wins.
 KEYWORDS: tuple[tuple[str, str], ...] = (
-    (r"glass|glazing|glazed|pane", "glass"),
+    (r"glass|glazing|glazed|\bpanes?\b", "glass"),
     (r"brick|klinker|clinker", "brick"),
     (r"concrete|cement|cast.in|precast|block|masonry|stone|screed", "concrete"),
     (r"plaster|stucco|render|gypsum|drywall|paint", "plaster"),

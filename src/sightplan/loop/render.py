@@ -403,14 +403,14 @@ def render_plan(scene: Scene, plan: Plan, out_dir: str | Path, *, scale: float =
             record = {**photo_options.to_dict(), "materials": mats.summary()}
             if photo_options.sun:
                 lo, hi = scene.bounds()
-                sun, record["sun"] = photo.sun_direction(photo_options, scene.metadata, 0.5 * (lo + hi))
+                sun, record["sun_position"] = photo.sun_direction(photo_options, scene.metadata, 0.5 * (lo + hi))
                 ground_z = _ground_z(scene)
                 ground_colour = photo.to_linear(materials.CLASSES["ground"].colour) * 0.5 + \
                     photo.to_linear(np.array([0.55, 0.52, 0.47])) * 0.5
                 light = Lighting(sun, ground_z, ground_colour)
                 record["ground_z_m"] = ground_z
                 if sun[2] <= 0:
-                    raise SightplanError(f"the sun is below the horizon (elevation {record['sun']['elevation_deg']}°)"
+                    raise SightplanError(f"the sun is below the horizon (elevation {record['sun_position']['elevation_deg']}°)"
                                          ": choose another date, time or sun")
             velocities = photo.path_velocities(plan.C_world, photo_options.speed_m_s)
         for i in range(len(plan)):
