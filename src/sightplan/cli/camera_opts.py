@@ -30,7 +30,7 @@ def cli_camera(camera: str | None, focal_mm: float | None = None) -> Camera | No
     return camera_from_option(camera, focal_mm)
 
 
-DEFAULT_PRESET = "full"  # as sightplan.loop.photo.DEFAULT_PRESET, without importing it here
+DEFAULT_PRESET = "shaded"  # as sightplan.loop.photo.DEFAULT_PRESET, without importing it here
 PhotoRealismOpt = Annotated[str, typer.Option(
     "--photo-realism", help="How photograph-like the renders are: flat (a colour per material), textured (material "
                             "textures), shaded (+ sun, shadows, sky, ground), full (+ exposure, white balance, "

@@ -25,7 +25,7 @@ from numpy.typing import NDArray
 from ..errors import SightplanError
 
 PRESETS = ("flat", "textured", "shaded", "full")
-DEFAULT_PRESET = "full"
+DEFAULT_PRESET = "shaded"
 DEFAULT_LATITUDE_DEG = 48.0  # a mid-European site, when the model has no georeference
 DEFAULT_DATE = "2025-06-15"
 DEFAULT_SOLAR_TIME_H = 9.5  # morning: a sun high enough to light two sides, low enough for long shadows
@@ -50,7 +50,7 @@ class PhotoOptions:
     the image's corners (share). distortion: OpenCV's (k1, k2, p1, p2) of every camera, pixels rendered through it.
     """
 
-    preset: str = DEFAULT_PRESET
+    preset: str = "full"  # the flags below default to every factor on: build presets with photo_options()
     seed: int = 0
     texture: bool = True
     sun: bool = True
