@@ -93,7 +93,9 @@ def _quiet_run(out: Clocked, *args: str, cwd) -> str:
     assert res.returncode == 0, res.stdout + res.stderr
     stamps = [start] + [t for t, _ in out.lines] + [end]
     text = "\n".join(line for _, line in out.lines)
-    assert max(b - a for a, b in zip(stamps, stamps[1:])) <= 2.0, text
+    gaps = [b - a for a, b in zip(stamps, stamps[1:])]
+    worst = max(range(len(gaps)), key=gaps.__getitem__)
+    assert gaps[worst] <= 2.0, f"{gaps[worst]:.2f} s after line {worst} of {len(gaps) - 1}:\n{text}"
     assert "\x1b[" not in text and text not in res.stdout
     return text
 

@@ -28,3 +28,14 @@ def cli_camera(camera: str | None, focal_mm: float | None = None) -> Camera | No
             raise CameraError("--focal-mm needs --camera: the camera (catalogue or sensor table) whose lens it gives")
         return None
     return camera_from_option(camera, focal_mm)
+
+
+DEFAULT_PRESET = "noise"  # as sightplan.loop.photo.DEFAULT_PRESET, without importing it here
+PhotoRealismOpt = Annotated[str, typer.Option(
+    "--photo-realism", help="How photograph-like the renders are: noise (each element its own colour under a rich "
+                            "procedural texture, unlit: the upper bound a plan allows), flat (a colour per material), "
+                            "textured (material "
+                            "textures), shaded (+ sun, shadows, sky, ground), full (+ exposure, white balance, "
+                            "noise, motion blur, lens distortion estimated back by the SfM)")]
+SeedOpt = Annotated[int, typer.Option(help="Seed of every random choice of the renders (noise, exposure, white "
+                                           "balance): the same seed gives the same images")]

@@ -10,7 +10,7 @@ from rich.table import Table
 
 from ..engines.base import EngineName
 from .base import ENGINE_HELP, app, console
-from .camera_opts import FocalOpt, PlanCameraOpt, cli_camera
+from .camera_opts import DEFAULT_PRESET, FocalOpt, PhotoRealismOpt, PlanCameraOpt, SeedOpt, cli_camera
 from .errors import cell, friendly_errors
 from .fourd import (
     ActualOpt,
@@ -79,6 +79,8 @@ def loop_command(
     engine: Annotated[EngineName, typer.Option(help=ENGINE_HELP)] = "auto",
     eval_scale: Annotated[float, typer.Option(help="Resolution scale s of the evaluation's rays")] = 1.0,
     omega: Annotated[float, typer.Option(help="Visibility threshold Ω in pixels of the photographs")] = 625.0,
+    photo_realism: PhotoRealismOpt = DEFAULT_PRESET,
+    seed: SeedOpt = 0,
     cache: Annotated[bool, typer.Option(help="Reuse the model cache")] = True,
     threads: Annotated[int | None, typer.Option(help="Worker threads (default: all cores)")] = None,
 ) -> None:
@@ -86,6 +88,7 @@ def loop_command(
     what the reconstruction measured, per element and per frame (out/index.html)."""
     from ..errors import SightplanError
     from ..evaluate import EvaluationSettings
+    from ..loop.photo import photo_options
     from ..loop.run import loop
     from ..metrics import MetricParams
     from ..plan.load import load_plan
@@ -112,10 +115,17 @@ def loop_command(
                       settings=settings, threads=threads, registration_error_m=registration_error,
                       tolerance_m=tolerance, radius_m=radius, threshold=threshold, paper_table=paper_table,
                       reconstruction=reconstruction,
-                      labels={"model": Path(str(model)).name, "plan": Path(str(plan)).name}, progress=progress)
+                      labels={"model": Path(str(model)).name, "plan": Path(str(plan)).name}, progress=progress,
+                      photo_options=photo_options(photo_realism, seed))
     rec, m, v, s = result.reconstruction, result.measures, result.validation, result.study
     print_warnings(console, list(m.warnings) + list(v.warnings))
     summ = m.summary()
+    lens = rec.info.get("distortion")
+    if lens:
+        est = next(iter(lens["estimated"].values()), None)
+        console.print(f"photographs: preset {rec.info.get('photo_realism')}, seed {rec.info.get('photo_seed')}; lens "
+                      f"k1 k2 p1 p2 true {' '.join(f'{x:+.4f}' for x in next(iter(lens['true'].values())))}, "
+                      f"estimated {' '.join(f'{x:+.4f}' for x in est) if est else '—'}", highlight=False)
     console.print(f"frames registered: {rec.n_registered} of {len(rec.frame_names)}; residual {rec.residual_m:.4g} m "
                   f"({100 * rec.residual_share:.3f} % of the scene's {rec.scene_size_m:.3g} m); "
                   f"{summ['points']:,} points, {summ['points_on_model']:,} on the model", highlight=False)

@@ -60,9 +60,10 @@ def progress_command(
     if not date and not every_task:
         raise ScheduleError("give --date (once per capture date) or --every-task")
     scene, _ = load_with_progress(console, model, cache)
-    scene = link_with_schedule(console, scene, model, schedule, rules, prefer_actual)
-    scene = with_reality(console, scene, reality)
-    the_plan = load_plan(plan, camera=cli_camera(camera, focal_mm), **georef_kwargs(scene))
+    with step(console, "linking the schedule and reading the plan"):
+        scene = link_with_schedule(console, scene, model, schedule, rules, prefer_actual)
+        scene = with_reality(console, scene, reality)
+        the_plan = load_plan(plan, camera=cli_camera(camera, focal_mm), **georef_kwargs(scene))
     days = list(date or []) + (schedule_days(scene, date_basis) if every_task else [])  # type: ignore[arg-type]
     settings = EvaluationSettings(engine=engine, scale=scale, feature_density=feature_density)
     with StageDisplay(console, {"dates": "capture dates", **EVALUATION_STAGES}) as display:

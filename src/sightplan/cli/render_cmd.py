@@ -10,7 +10,7 @@ import typer
 
 from ..engines.base import EngineName
 from .base import ENGINE_HELP, app, console
-from .camera_opts import FocalOpt, PlanCameraOpt, cli_camera
+from .camera_opts import DEFAULT_PRESET, FocalOpt, PhotoRealismOpt, PlanCameraOpt, SeedOpt, cli_camera
 from .errors import friendly_errors, writable_folder
 from .fourd import (
     ActualOpt,
@@ -50,11 +50,14 @@ def render_command(
     prefer_actual: ActualOpt = False,
     date_basis: BasisOpt = "finish",
     unscheduled: UnscheduledOpt = "present",
+    photo_realism: PhotoRealismOpt = DEFAULT_PRESET,
+    seed: SeedOpt = 0,
     cache: Annotated[bool, typer.Option(help="Reuse the model cache")] = True,
     threads: Annotated[int | None, typer.Option(help="Worker threads (default: all cores)")] = None,
 ) -> None:
     """Render each frame of a plan as an 8-bit image: every element in its own world-fixed texture, exact intrinsics,
     with the true poses and the per-pixel element map beside the images."""
+    from ..loop.photo import photo_options
     from ..loop.render import render_plan
     from ..plan.load import load_plan
 
@@ -67,10 +70,11 @@ def render_command(
     print_warnings(console, the_plan.parameters.get("warnings", []))
     with StageDisplay(console, RENDER_STAGES, transient=False) as display:
         renders = render_plan(scene, the_plan, out, scale=scale, engine=engine, texture_cell_m=texture_cell,
-                              threads=threads, stages=display)
+                              threads=threads, stages=display, photo_options=photo_options(photo_realism, seed))
     cam = renders.camera(0)
     console.print(f"rendered {len(renders)} frames ({cam.width}×{cam.height} px, engine {renders.engine}, texture cell "
-                  f"{renders.texture_cell_m:.3g} m) into {out}", highlight=False)
+                  f"{renders.texture_cell_m:.3g} m, photo-realism {renders.preset}, seed {seed}) into {out}",
+                  highlight=False)
     if renders.blank_frames:
         shown = ", ".join(renders.frame_names[i] for i in renders.blank_frames[:10])
         more = "…" if len(renders.blank_frames) > 10 else ""

@@ -112,6 +112,22 @@ class Engine(ABC):
         kernels.plane_distances(prim, directions, origin, self._face_normal, self._face_offset, t_out)
         return prim
 
+    def trace(self, C_world: NDArray, directions: NDArray[np.float32]
+              ) -> tuple[NDArray[np.int32], NDArray[np.float64], NDArray[np.int32]]:
+        """What rays from the world point ``C_world`` along (n, 3) unit float32 ``directions`` show, as
+        :meth:`shaded_view` sees a pixel but for any rays (a distorted lens's, say): (n,) element ids (−1: nothing
+        within d_max; on a coincident surface the smallest owner, METRICS.md §2), (n,) distances (inf where −1) and
+        (n,) the triangle hit (−1 where nothing is)."""
+        directions = np.ascontiguousarray(directions, np.float32)
+        C = np.asarray(C_world, dtype=np.float64) - self.centre
+        origin = np.broadcast_to(C.astype(np.float32), directions.shape)
+        prim = self.first_hit(origin, directions)
+        t, _ = self._plane_distance(prim, C, directions)
+        hit = (prim >= 0) & (t <= self.d_max) & (t >= 0)
+        ids = np.where(hit, self._face_element[np.maximum(prim, 0)], -1).astype(np.int32)
+        kernels.smallest_owners(prim, t, directions, C, self._face_element, *self._ties, ids)
+        return ids, np.where(hit, t, np.inf), np.where(hit, prim, -1).astype(np.int32)
+
     @staticmethod
     def pixel_directions(cam: Camera, R: NDArray, p0: int, p1: int, out: NDArray[np.float32]) -> None:
         """Unit world directions of pixels p0..p1 (row-major) of ``cam`` into ``out``."""

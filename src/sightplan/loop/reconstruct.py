@@ -1,6 +1,8 @@
 """Structure from motion on a plan's renders, with pycolmap on the CPU, registered to the model.
 
-SIFT features are extracted with the renders' exact intrinsics (one PINHOLE camera per plan camera, held fixed),
+SIFT features are extracted with the renders' exact intrinsics (one PINHOLE camera per plan camera, held fixed; an
+OPENCV camera when the renders were drawn through a distorted lens, its focal length and principal point held and
+its k1, k2, p1, p2 started at zero and estimated by the bundle adjustment, :func:`estimated_distortion`),
 matched exhaustively (small sets) or between the views that see the same surface (:mod:`.pairs`), and the images
 registered by incremental mapping, every random choice seeded (:data:`SEED`: the RANSAC of the matches' geometric
 verification, the mapper's and the triangulator's). When the mapper ends with several models, each that shares at
@@ -189,13 +191,15 @@ def _run(pycolmap, renders, src: Path, out: Path, matcher: str, threads: int | N
     extraction.num_threads = n_threads
     extraction.use_gpu = False
     extraction.sift.max_num_features = MAX_FEATURES
+    distorted = bool(renders.distortion)
     for cid, cam in renders.cameras.items():
         names = [renders.image_names[i] for i in range(n) if renders.camera_of[i] == cid]
         camera_id = -1
         for part in _chunks(names, 20):
             reader = pycolmap.ImageReaderOptions()
-            reader.camera_model = "PINHOLE"
-            reader.camera_params = ",".join(repr(float(x)) for x in (cam.fx, cam.fy, cam.cx, cam.cy))
+            reader.camera_model = "OPENCV" if distorted else "PINHOLE"
+            params = (cam.fx, cam.fy, cam.cx, cam.cy) + ((0.0, 0.0, 0.0, 0.0) if distorted else ())
+            reader.camera_params = ",".join(repr(float(x)) for x in params)
             reader.existing_camera_id = camera_id
             pycolmap.extract_features(database, src, image_names=part, camera_mode=pycolmap.CameraMode.SINGLE,
                                       reader_options=reader, extraction_options=extraction,
@@ -245,9 +249,9 @@ def _run(pycolmap, renders, src: Path, out: Path, matcher: str, threads: int | N
     options.triangulation.random_seed = SEED
     options.ba_refine_focal_length = False
     options.ba_refine_principal_point = False
-    options.ba_refine_extra_params = False
+    options.ba_refine_extra_params = distorted  # the lens's k1, k2, p1, p2, when the renders have one
     options.mapper.abs_pose_refine_focal_length = False
-    options.mapper.abs_pose_refine_extra_params = False
+    options.mapper.abs_pose_refine_extra_params = distorted
     models_dir = out / "models"
     models_dir.mkdir(exist_ok=True)
     models = pycolmap.incremental_mapping(database, src, models_dir, options=options, next_image_callback=tick)
@@ -315,7 +319,12 @@ def _run(pycolmap, renders, src: Path, out: Path, matcher: str, threads: int | N
         "timings_s": {key: round(v, 3) for key, v in timings.items()},
         "mean_track_length": float(track.mean()) if len(track) else 0.0,
         "mean_reprojection_error_px": float(err.mean()) if len(err) else 0.0,
+        "camera_model": "OPENCV" if distorted else "PINHOLE",
+        "photo_realism": renders.preset, "photo_seed": renders.photo.get("seed"),
     }
+    if distorted:
+        info["distortion"] = {"true": {cid: list(k) for cid, k in renders.distortion.items()},
+                              "estimated": estimated_distortion(model, renders)}
     rec = Reconstruction(points=points, track_length=track, error_px=err, frame_names=renders.frame_names,
                          registered=registered, position_error_m=position_error, rotation_error_deg=rotation_error,
                          scale=s, R=R, t=t, residual_m=residual, scene_size_m=renders.scene_size_m, info=info)
@@ -323,6 +332,21 @@ def _run(pycolmap, renders, src: Path, out: Path, matcher: str, threads: int | N
     if progress is not None:
         progress(total, total)
     return rec
+
+
+def estimated_distortion(model, renders) -> dict[str, list[float]]:
+    """{plan camera: [k1, k2, p1, p2]} as the bundle adjustment of ``model`` left them (OPENCV cameras), for the
+    plan cameras whose images it registered."""
+    out: dict[str, list[float]] = {}
+    index = {name: i for i, name in enumerate(renders.image_names)}
+    for image in model.images.values():
+        i = index.get(image.name)
+        if i is None or not image.has_pose or renders.camera_of[i] in out:
+            continue
+        params = np.asarray(model.cameras[image.camera_id].params, float)
+        if len(params) >= 8:
+            out[renders.camera_of[i]] = [float(x) for x in params[4:8]]
+    return out
 
 
 def _merged(pycolmap, base, others) -> list:

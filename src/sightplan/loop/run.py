@@ -32,6 +32,7 @@ from .estimate import default_scale
 from .files import Reconstruction, read_reconstruction
 from .measure import ReconstructionMeasures, measure_reconstruction, validate_reconstruction
 from .page import write_loop_page
+from .photo import PhotoOptions
 from .study import LoopStudy, loop_study
 
 #: progress(stage, done, total); stages: render, reconstruct, evaluate, validate, measure, study.
@@ -90,6 +91,7 @@ def loop(
     reconstruction: str | Path | None = None,
     labels: dict[str, str] | None = None,
     progress: StageProgress | None = None,
+    photo_options: PhotoOptions | None = None,
 ) -> LoopResult:
     """Render, reconstruct, validate, measure and study ``plan`` on ``scene`` into ``out_dir`` (module docstring).
 
@@ -100,7 +102,8 @@ def loop(
     radius_m: the measures' τ and r (default: :mod:`.measure`'s). paper_table: the paper's Table 2 CSV to set beside
     the correlations (default: the bundled table; False: none). reconstruction: an existing reconstruction folder of
     this plan's renders: render and reconstruct are skipped.
-    labels: ``model`` and ``plan`` names for the page.
+    labels: ``model`` and ``plan`` names for the page. photo_options: how photograph-like the renders are
+    (:func:`.photo.photo_options`; None: the procedural element noise); the preset goes into the study.
     """
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
@@ -117,7 +120,7 @@ def loop(
         from .render import render_plan
 
         renders = render_plan(scene, plan, out / "images", scale=scale, engine=render_engine,
-                              progress=_stage(progress, "render"))
+                              progress=_stage(progress, "render"), photo_options=photo_options)
         timings["render_s"] = time.perf_counter() - t0
         t0 = time.perf_counter()
         rec = reconstruct(renders.directory, out / "recon", matcher=matcher, threads=threads,
@@ -149,6 +152,7 @@ def loop(
     t0 = time.perf_counter()
     study_kwargs = {} if threshold is None else {"threshold": threshold}
     info = {**(labels or {}), "frames": len(plan), "render_scale": scale, "matcher": rec.info.get("matcher", matcher),
+            "photo_realism": rec.info.get("photo_realism", ""), "photo_seed": rec.info.get("photo_seed"),
             "validation": v.plan_metrics()}
     study = loop_study(ev, m, paper_table=paper_table, info=info, **study_kwargs)
     paths.update(study.write(out))

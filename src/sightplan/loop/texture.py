@@ -45,7 +45,7 @@ def _mix(x: NDArray[np.uint64]) -> NDArray[np.uint64]:
     return x ^ (x >> np.uint64(31))
 
 
-def _lattice(ix: NDArray[np.int64], iy: NDArray[np.int64], iz: NDArray[np.int64], seed: NDArray[np.uint64]
+def lattice(ix: NDArray[np.int64], iy: NDArray[np.int64], iz: NDArray[np.int64], seed: NDArray[np.uint64]
              ) -> NDArray[np.float64]:
     """The value in 0..1 at integer lattice corners, for per-point seeds."""
     with np.errstate(over="ignore"):
@@ -68,7 +68,7 @@ def value_noise(p: NDArray[np.float64], seed: NDArray[np.uint64]) -> NDArray[np.
             wy = w[:, 1] if dy else 1 - w[:, 1]
             for dz in (0, 1):
                 wz = w[:, 2] if dz else 1 - w[:, 2]
-                out += wx * wy * wz * _lattice(i[:, 0] + dx, i[:, 1] + dy, i[:, 2] + dz, seed)
+                out += wx * wy * wz * lattice(i[:, 0] + dx, i[:, 1] + dy, i[:, 2] + dz, seed)
     return out
 
 
@@ -85,16 +85,18 @@ def octave_rotations(seeds: NDArray[np.uint64], octave: int) -> NDArray[np.float
     ], axis=1)
 
 
-def albedo(points: NDArray[np.float64], seeds: NDArray[np.uint64], colours: NDArray[np.float64], cell_m: float,
-           footprint_m: NDArray[np.float64] | None = None) -> NDArray[np.float64]:
-    """(n, 3) surface colour in 0..1 at world ``points`` (n, 3) of elements with ``seeds`` (n,) and ``colours``
-    (n, 3): the element's colour, darker or lighter by the multi-scale noise. ``footprint_m`` (n,), the size of a
-    pixel on the surface, fades out the octaves it cannot resolve (None: every octave at full weight)."""
+def noise_contrast(points: NDArray[np.float64], seeds: NDArray[np.uint64], cell_m: float | NDArray,
+                   footprint_m: NDArray[np.float64] | None = None, octaves: int = OCTAVES) -> NDArray[np.float64]:
+    """(n,) the multi-scale noise at world ``points`` (n, 3) for per-point ``seeds``: the weighted mean of the
+    octaves' values less ½, so about −0.5..0.5 and mostly within ±0.15. ``cell_m`` (a length, or one per point):
+    the finest octave's cell. ``footprint_m`` (n,), the size of a pixel on the surface, fades out the octaves it
+    cannot resolve (None: every octave at full weight); where none is resolved the contrast is 0."""
     n = len(points)
     unique_seeds, which = np.unique(seeds, return_inverse=True)
     total = np.zeros(n)
     weight_sum = np.zeros(n)
-    for k in range(OCTAVES):
+    cell_m = np.asarray(cell_m, float)
+    for k in range(octaves):
         cell = cell_m * 2.0**k
         amp = 1.0 / (1.0 + 0.35 * k)  # the fine octaves carry the most corners; the coarse ones give context
         if footprint_m is None:
@@ -106,12 +108,19 @@ def albedo(points: NDArray[np.float64], seeds: NDArray[np.uint64], colours: NDAr
         with np.errstate(over="ignore"):
             octave_seed = seeds + np.uint64(k + 1) * np.uint64(0x632BE59BD9B4E019)
         turned = np.einsum("nij,nj->ni", octave_rotations(unique_seeds, k)[which], points)
-        value = value_noise(turned / cell, octave_seed)
+        value = value_noise(turned / (cell if cell.ndim == 0 else cell[:, None]), octave_seed)
         total += weight * (value - 0.5)
         weight_sum += np.where(weight > 0, amp, 0.0)
-    # the sum of octaves clusters around 0.5: stretch it to use the range, then map to 0.25..1.15 of the colour
     with np.errstate(invalid="ignore", divide="ignore"):
-        contrast = np.where(weight_sum > 0, total / np.maximum(weight_sum, 1e-12), 0.0)
+        return np.where(weight_sum > 0, total / np.maximum(weight_sum, 1e-12), 0.0)
+
+
+def albedo(points: NDArray[np.float64], seeds: NDArray[np.uint64], colours: NDArray[np.float64], cell_m: float,
+           footprint_m: NDArray[np.float64] | None = None) -> NDArray[np.float64]:
+    """(n, 3) surface colour in 0..1 at world ``points`` (n, 3) of elements with ``seeds`` (n,) and ``colours``
+    (n, 3): the element's colour, darker or lighter by the multi-scale noise (:func:`noise_contrast`)."""
+    contrast = noise_contrast(points, seeds, cell_m, footprint_m)
+    # the sum of octaves clusters around 0.5: stretch it to use the range, then map to 0.25..1.15 of the colour
     shade = np.clip(0.7 + 2.4 * contrast, 0.25, 1.15)
     return np.clip(colours * shade[:, None], 0.0, 1.0)
 

@@ -25,7 +25,7 @@ from .scene import ElementTable, Scene
 from .summary import LoadReport
 
 #: Bump when the tessellation or the element rules change, so old entries are not reused.
-CACHE_FORMAT = 6
+CACHE_FORMAT = 7  # 7: metadata carries the elements' surface styles
 _COLUMNS = ("global_id", "name", "ifc_class", "discipline", "storey")
 
 

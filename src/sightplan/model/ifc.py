@@ -189,11 +189,42 @@ def _tessellation_total(f: ifcopenshell.file, skip_classes: list[str]) -> int:
                if p.Representation is not None and skip.isdisjoint(lineage(f.schema_identifier, p.is_a())))
 
 
+def _style_areas(geom, verts: np.ndarray, faces: np.ndarray) -> list[tuple[str, tuple[float, float, float], float,
+                                                                             float]]:
+    """The surface styles of one tessellated geometry: (name, RGB diffuse colour in 0..1, transparency 0..1, m² of
+    its triangles) for each style that colours some of them (areas in the geometry's own frame: placements are
+    rigid). Empty where the file styles nothing."""
+    try:
+        materials = list(geom.materials)
+        ids = np.asarray(geom.material_ids, np.int64)
+    except Exception:  # a kernel without styles: nothing to keep
+        return []
+    if not materials or len(ids) != len(faces) or not len(faces):
+        return []
+    tri = verts[faces]
+    area = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
+    out = []
+    for k, m in enumerate(materials):
+        a = float(area[ids == k].sum())
+        if a <= 0:
+            continue
+        try:
+            d = m.diffuse
+            rgb = (float(d.r()), float(d.g()), float(d.b())) if d is not None else (math.nan,) * 3
+            transparency = float(m.transparency) if m.transparency is not None else 0.0
+        except Exception:
+            rgb, transparency = (math.nan,) * 3, 0.0
+        out.append((str(m.name or ""), rgb, 0.0 if not math.isfinite(transparency) else transparency, a))
+    return out
+
+
 def _tessellate(f: ifcopenshell.file, skip_classes: list[str], num_threads: int, tracker: _Tracker,
-                max_triangles: int | None) -> tuple[dict[int, tuple[np.ndarray, np.ndarray]], dict[int, int]]:
+                max_triangles: int | None, styles: dict[int, list] | None = None
+                ) -> tuple[dict[int, tuple[np.ndarray, np.ndarray]], dict[int, int]]:
     """({product step id: ((n, 3) float64 world metres, (m, 3) int32 local indices)} for every product with
     triangles, {product step id: its triangle count} for the products over ``max_triangles``, whose entry
-    is then their bounding box in their own placement's axes).
+    is then their bounding box in their own placement's axes). ``styles``, when given, receives each product's
+    surface styles (:func:`_style_areas`).
 
     The kernel works in each product's local frame (``use-world-coords`` off), so a representation shared
     by many products (an IfcMappedItem of a type's IfcRepresentationMap, as exports share furniture,
@@ -212,6 +243,7 @@ def _tessellate(f: ifcopenshell.file, skip_classes: list[str], num_threads: int,
     shapes: dict[int, tuple[np.ndarray, np.ndarray]] = {}
     oversize: dict[int, int] = {}
     local: dict[str, tuple[np.ndarray, np.ndarray, int]] = {}  # geometry id -> (verts, faces, kernel's triangles)
+    local_styles: dict[str, list] = {}
     total = _tessellation_total(f, skip_classes)
     tracker.phase("tessellating", total, f"{total:,} products")
     done = 0
@@ -229,6 +261,8 @@ def _tessellate(f: ifcopenshell.file, skip_classes: list[str], num_threads: int,
                 verts = np.frombuffer(geom.verts_buffer, dtype=np.float64).reshape(-1, 3)
                 faces = np.frombuffer(geom.faces_buffer, dtype=np.int32).reshape(-1, 3)
                 n_faces = len(faces)
+                if styles is not None:
+                    local_styles[key] = _style_areas(geom, verts, faces)
                 if max_triangles is not None and n_faces > max_triangles:
                     verts, faces = _box(verts)  # in the product's local frame: an oriented box once placed
                 else:
@@ -240,6 +274,8 @@ def _tessellate(f: ifcopenshell.file, skip_classes: list[str], num_threads: int,
                 # a mirroring placement turns the winding inside out: wind back so normals stay outward
                 placed = faces[:, ::-1] if np.linalg.det(m[:3, :3]) < 0 else faces
                 shapes[shape.id] = (verts @ m[:3, :3].T + m[:3, 3], placed)
+                if styles is not None and local_styles.get(key):
+                    styles[shape.id] = local_styles[key]
                 if n_faces > len(faces):
                     oversize[shape.id] = n_faces
             last = f"after {shape.type} {(shape.name or shape.guid)[:40]!r}"
@@ -397,6 +433,70 @@ def site_location(f: ifcopenshell.file, unit_scale: float) -> dict | None:
     return None
 
 
+def _style_names(f: ifcopenshell.file) -> dict[int, str]:
+    """{step id of a style's rendering or shading: the IfcSurfaceStyle's Name}: the kernel names a style by the
+    rendering it read ("IfcSurfaceStyleRendering-3791"), the file by the style that holds it ("Masonry - Brick")."""
+    names: dict[int, str] = {}
+    for style in f.by_type("IfcSurfaceStyle"):
+        for item in style.Styles or ():
+            if style.Name:
+                names[item.id()] = str(style.Name)
+    return names
+
+
+def _material_name(product: ifcopenshell.entity_instance) -> str:
+    """The name of the product's (or its type's) material: a layer set's first layer (a wall's exterior face), a
+    constituent or profile set's first, a list's first; '' where none is assigned."""
+    try:
+        m = uel.get_material(product, should_skip_usage=True)
+    except Exception:
+        return ""
+    if m is None:
+        return ""
+    for attr, inner in (("MaterialLayers", "Material"), ("MaterialConstituents", "Material"),
+                        ("MaterialProfiles", "Material"), ("Materials", None)):
+        items = getattr(m, attr, None)
+        if items:
+            first = items[0] if inner is None else getattr(items[0], inner, None)
+            return str(getattr(first, "Name", "") or "") if first is not None else ""
+    return str(getattr(m, "Name", "") or "")
+
+
+def element_styles(f: ifcopenshell.file, kept: list, shape_styles: dict[int, list]) -> dict | None:
+    """``scene.metadata["styles"]``: the surface styles the file gives each element, for renders that paint it as
+    styled. ``styles``: one entry per distinct style, {name, rgb (0..1), transparency (0..1)}; ``elements``:
+    {GlobalId: [index of the style over most of its area (−1: none), the share of its area in a style at least half
+    transparent (glazing), its material's name]}. None when the file styles no element and names no material."""
+    names = _style_names(f)
+    index: dict[tuple, int] = {}
+    table: list[dict] = []
+    elements: dict[str, list] = {}
+    for p in kept:
+        parts = shape_styles.get(p.id(), [])
+        material = _material_name(p)
+        if not parts and not material:
+            continue
+        best, total, glazed = -1, 0.0, 0.0
+        areas: dict[int, float] = {}
+        for name, rgb, transparency, area in parts:
+            step = name.rsplit("-", 1)[-1]
+            label = names.get(int(step), name) if step.isdigit() else name
+            k = (label, *(round(c, 4) for c in rgb), round(transparency, 4))
+            if k not in index:
+                index[k] = len(table)
+                table.append({"name": label, "rgb": [None if not math.isfinite(c) else round(c, 4) for c in rgb],
+                              "transparency": round(transparency, 4)})
+            areas[index[k]] = areas.get(index[k], 0.0) + area
+            total += area
+            glazed += area if transparency >= 0.5 else 0.0
+        if areas:
+            best = max(areas, key=lambda j: areas[j])
+        elements[str(p.GlobalId)] = [best, round(glazed / total, 4) if total > 0 else 0.0, material]
+    if not elements:
+        return None
+    return {"format": 1, "styles": table, "elements": elements}
+
+
 def _classify(schema: str, ifc_class: str, names: Iterable[str]) -> bool:
     chain = lineage(schema, ifc_class)
     return any(n in chain for n in names)
@@ -428,8 +528,8 @@ def load_ifc(
     ``occluders``: IFC classes (with subtypes) loaded with ``is_target=False`` unless
     ``include_occluders_as_targets``. ``num_threads``: tessellation threads (default: every core).
     ``scene.metadata``: ``georeference`` (see :func:`georeference`), ``site_location``,
-    ``schema``, ``unit_scale``. Raises :class:`ModelError` for unreadable files and for
-    models without any element geometry.
+    ``schema``, ``unit_scale``, ``styles`` (the elements' surface styles and materials, :func:`element_styles`).
+    Raises :class:`ModelError` for unreadable files and for models without any element geometry.
     """
     t0 = time.perf_counter()
     path = Path(path)
@@ -449,8 +549,9 @@ def load_ifc(
         return [n for n in names if lineage(schema, n)]
 
     excluded_names = in_schema(EXCLUDED_CLASSES)
+    shape_styles: dict[int, list] = {}
     shapes, over = _tessellate(f, excluded_names + in_schema(CONTAINER_CLASSES), num_threads or os.cpu_count() or 1,
-                               tracker, max_triangles)
+                               tracker, max_triangles, shape_styles)
     tracker.phase("assembling", len(shapes), f"{len(shapes):,} elements")
 
     products = sorted(f.by_type("IfcProduct"), key=lambda p: p.id())
@@ -511,6 +612,11 @@ def load_ifc(
     )
     key = content_hash(path, ifc_options(occluders, include_occluders_as_targets, max_triangles, oversize))
     metadata: dict = {"schema": schema, "unit_scale": unit_scale}
+    try:
+        metadata["styles"] = element_styles(f, kept, shape_styles)
+    except (AttributeError, TypeError, ValueError, IndexError, RuntimeError) as exc:  # malformed, never fatal
+        metadata["styles"] = None
+        warnings.append(f"surface styles ignored: {type(exc).__name__}: {exc}")
     for name, read in (("georeference", georeference), ("site_location", site_location)):
         try:
             metadata[name] = read(f, unit_scale)
