@@ -28,9 +28,16 @@ SETTINGS = EvaluationSettings(scale=0.1)
 
 @pytest.fixture(scope="module")
 def client():
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as lc, \
-            distributed.Client(lc) as c:
+    lc = distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None)
+    c = distributed.Client(lc)
+    try:
         yield c
+    finally:
+        c.close()
+        try:
+            lc.close(timeout=60)
+        except TimeoutError:  # on a busy machine a worker outlives its nanny's few seconds of grace and is killed
+            pass
 
 
 @pytest.fixture(scope="module")

@@ -914,6 +914,17 @@ def _geodetic(point, lat0, lon0, north_deg):
     return lat, lon
 
 
+def _click_map_at(page, lat: float, lon: float) -> None:
+    """A mouse click on the map where (lat, lon) is drawn, its position taken in the same moment as the click (on a
+    busy machine, a message appearing between the two would move the map under the mouse)."""
+    page.evaluate(f"""(() => {{
+        const p = window.sightplanTest.map.screenPoint({lat}, {lon});
+        const target = document.elementFromPoint(p.x, p.y);
+        for (const type of ['mousedown', 'mouseup', 'click'])
+            target.dispatchEvent(new MouseEvent(type, {{clientX: p.x, clientY: p.y, bubbles: true, button: 0}}));
+    }})()""")
+
+
 def test_the_map_shows_the_site_where_it_stands_and_places_a_pilot(browser, server, tiles, artifacts, tmp_path):
     """The turned house (model +Y at 310° true) on the map: its footprint's corners at the latitude/longitude the
     site's reference point gives, within 1 m; the loopback tiles drawn behind it; a click places mission 1's pilot,
@@ -952,8 +963,8 @@ def test_the_map_shows_the_site_where_it_stands_and_places_a_pilot(browser, serv
         # place mission 1's pilot 40 m south-west of the house (true bearings), then save and check from there
         want_lon, want_lat, _ = geod.fwd(lon0, lat0, 225.0, 40.0)
         page.select_option("#map-place", "0")
-        at = page.evaluate(f"window.sightplanTest.map.screenPoint({want_lat}, {want_lon})")
-        page.mouse.click(at["x"], at["y"])
+        wait_for(page, "window.sightplanTest.map.still()")
+        _click_map_at(page, want_lat, want_lon)
         wait_for(page, "window.sightplanTest.dirty()")
         placed = page.evaluate("window.sightplanTest.map.drawn('pilots')")["features"]
         lon_p, lat_p = next(f for f in placed if f["properties"]["mission"] == 0)["geometry"]["coordinates"]
@@ -967,8 +978,7 @@ def test_the_map_shows_the_site_where_it_stands_and_places_a_pilot(browser, serv
         assert checks["missions"][0]["ground_station"][:2] == pytest.approx(want_xy, abs=1.0)
         # a click with "ground station of the new-plan form" writes its latitude, longitude there
         page.select_option("#map-place", "form")
-        at = page.evaluate(f"window.sightplanTest.map.screenPoint({want_lat}, {want_lon})")
-        page.mouse.click(at["x"], at["y"])
+        _click_map_at(page, want_lat, want_lon)
         typed = [float(v) for v in page.input_value("#plan-stations").splitlines()[-1].split(",")]
         assert geod.inv(want_lon, want_lat, typed[1], typed[0])[2] < 1.0
         shot(page, artifacts, "27-map")

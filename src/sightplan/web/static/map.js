@@ -314,6 +314,8 @@ export function bindMap() {
 // the test hook's view of the map
 export const mapHook = Object.freeze({
   ready: () => Boolean(map && loaded && map.loaded()),
+  // loaded and not moving (a fit to the site animates): what is on screen is where it stays
+  still: () => Boolean(map && loaded && map.loaded() && !map.isMoving()),
   site: () => (state.site ? JSON.parse(JSON.stringify(state.site)) : null),
   drawn: (name) => (drawn[name] ? JSON.parse(JSON.stringify(drawn[name])) : null),
   // where a latitude/longitude is on screen (client pixels)
