@@ -64,6 +64,11 @@ def model_path(name: str) -> str | None:
             WORKDIR.mkdir(exist_ok=True)
             write_revit_like_ifc(path)
         return str(path)
+    if name == "restaurant":  # the real 27 MB Revit restaurant's facts (benchmarks/revit_like.py --restaurant)
+        from revit_like import RESTAURANT, generated
+
+        WORKDIR.mkdir(exist_ok=True)
+        return str(generated(WORKDIR / "restaurant.ifc", **RESTAURANT)[0])
     if name.startswith("campus-"):
         return name  # built in memory (benchmarks/large.py)
     raise ValueError(f"unknown model {name!r}")
@@ -91,17 +96,18 @@ def frame_rays(engine: EmbreeEngine, cam, R, C_world) -> tuple[np.ndarray, np.nd
     return dirs, (np.asarray(C_world, np.float64) - engine.centre).astype(np.float32)
 
 
-def raw_s(cast_one, pool, threads: int, dirs: np.ndarray, origin: np.ndarray) -> float:
-    """Seconds ``cast_one(origins, directions)`` takes for these rays, split over ``threads`` threads."""
+def raw_s(cast_one, pool, threads: int, dirs: np.ndarray, origin: np.ndarray) -> tuple[float, float]:
+    """Seconds and CPU seconds ``cast_one(origins, directions)`` takes for these rays, split over ``threads``
+    threads."""
     parts = np.array_split(np.arange(len(dirs)), threads)
 
     def part(idx):
         d = dirs[idx[0]: idx[-1] + 1]
         cast_one(np.broadcast_to(origin, d.shape), d)
 
-    t = time.perf_counter()
+    t, c = time.perf_counter(), cpu_s()
     list(pool.map(part, parts))
-    return time.perf_counter() - t
+    return time.perf_counter() - t, cpu_s() - c
 
 
 def frames_case(engine: EmbreeEngine, plan, scale: float) -> dict:
@@ -131,17 +137,21 @@ def frames_case(engine: EmbreeEngine, plan, scale: float) -> dict:
 
 
 def raw_case(engine: EmbreeEngine, plan, scale: float, casts: dict, pool) -> dict:
-    """Seconds per frame of each raw cast of the frames' rays (no generation, reduction or features)."""
+    """Seconds and CPU seconds per frame of each raw cast of the frames' rays (no generation, reduction or
+    features), and its million rays a second."""
     total = dict.fromkeys(casts, 0.0)
+    cpu = dict.fromkeys(casts, 0.0)
     rays = 0
     for i in range(len(plan)):
         cam = plan.camera_of(i)
         cam = cam.scaled(scale) if scale != 1 else cam
         dirs, origin = frame_rays(engine, cam, plan.R_world_camera[i], plan.C_world[i])
         for name, cast_one in casts.items():
-            total[name] += raw_s(cast_one, pool, engine.threads, dirs, origin)
+            s, c = raw_s(cast_one, pool, engine.threads, dirs, origin)
+            total[name] += s
+            cpu[name] += c
         rays += len(dirs)
-    return {name: (s / len(plan), rays / s / 1e6) for name, s in total.items()}
+    return {name: (s / len(plan), rays / s / 1e6, cpu[name] / len(plan)) for name, s in total.items()}
 
 
 def prepare_case(args) -> dict:
@@ -189,8 +199,9 @@ def model_case(args) -> dict:
         for k, (plan, scale) in cases.items():
             raw = raw_case(engine, plan, scale, casts, pool)
             m = measured[k]
-            (s1, r1), (s8, r8) = raw["rtcIntersect1"], raw["rtcIntersect8"]
+            (s1, r1, c1), (s8, r8, _) = raw["rtcIntersect1"], raw["rtcIntersect8"]
             m.update(raw_embree_s_per_frame=s1, raw_embree_mrays_per_s=r1, ratio_to_raw=m["s_per_frame"] / s1,
+                     raw_embree_cpu_s_per_frame=c1, cpu_ratio_to_raw=m["cpu_s_per_frame"] / c1,
                      packets_s_per_frame=s8, packets_mrays_per_s=r8, ratio_to_packets=m["s_per_frame"] / s8)
     res["cases"] = measured
     engine.close()
@@ -240,14 +251,15 @@ def fmt(x, digits: int = 3) -> str:
 
 def print_tables(models: list[dict], plans: list[dict]) -> None:
     t = numeric_table(("model", "triangles", "frame", "s/frame", "CPU s/frame", "features", "rtcIntersect1 s",
-                       "× it", "rtcIntersect8 s", "× it", "× paper", "peak MB"), left=("model", "frame"),
+                       "× it", "CPU × it", "rtcIntersect8 s", "× it", "× paper", "peak MB"), left=("model", "frame"),
                       title="Embree engine, every core, against raw Embree on the same rays "
                             "(paper: 1.78 s per 20 MP P1 frame on a GPU)")
     for m in models:
         for k, c in m["cases"].items():
             t.add_row(m["model"], f"{m['triangles']:,}", k, fmt(c["s_per_frame"]), fmt(c["cpu_s_per_frame"]),
                       f"{100 * (c['feature_share'] or 0):.0f} %", fmt(c["raw_embree_s_per_frame"]),
-                      fmt(c["ratio_to_raw"], 2), fmt(c["packets_s_per_frame"]), fmt(c["ratio_to_packets"], 2),
+                      fmt(c["ratio_to_raw"], 2), fmt(c.get("cpu_ratio_to_raw"), 2), fmt(c["packets_s_per_frame"]),
+                      fmt(c["ratio_to_packets"], 2),
                       fmt(c["s_per_frame"] / PAPER_S_PER_FRAME_P1, 3), f"{c['peak_rss_mb']:.0f}")
     console.print(t)
     t = numeric_table(("model", "first load s", "cached s", "features s", "from cache s", "BVH s", "features",
@@ -272,15 +284,17 @@ def main(argv: list[str] | None = None) -> int:
         return child(argv[1:])
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], formatter_class=argparse.RawTextHelpFormatter)
     p.add_argument("--quick", action="store_true", help="the Duplex and a 1 M-triangle campus, few frames")
-    p.add_argument("--models", default="duplex,prefab,steel,campus-1M,revit-like",
-                   help="comma-separated: duplex, prefab, steel, revit-like, campus-<N>M")
+    p.add_argument("--models", default="duplex,prefab,steel,campus-1M,revit-like,restaurant",
+                   help="comma-separated: duplex, prefab, steel, revit-like, restaurant, campus-<N>M")
     p.add_argument("--frames", type=int, default=24, help="drone frames at scale 0.25 per model")
     p.add_argument("--frames-full", type=int, default=6, help="drone frames at scale 1 per model")
     p.add_argument("--frames-360", type=int, default=3, help="360° frames at scale 1 per model")
+    p.add_argument("--plan-sizes", default=",".join(map(str, PLAN_SIZES)),
+                   help="frames of the Duplex plans evaluated end to end (empty: none)")
     p.add_argument("--out", default=str(HERE / "speed.json"))
     args = p.parse_args(argv)
     models = ["duplex", "campus-1M"] if args.quick else args.models.split(",")
-    sizes = PLAN_SIZES[:2] if args.quick else PLAN_SIZES
+    sizes = PLAN_SIZES[:2] if args.quick else [int(n) for n in args.plan_sizes.split(",") if n.strip()]
     frames = ["--frames", str(8 if args.quick else args.frames), "--frames-full", str(2 if args.quick else
               args.frames_full), "--frames-360", str(1 if args.quick else args.frames_360)]
     results, plans = [], []

@@ -49,11 +49,11 @@ def server(cluster, duplex, tmp_path_factory):
     """A server on the cluster whose scene cache already holds the Duplex (its preparation reads it, as a worker that
     tessellated it before would, instead of tessellating it for 10 s)."""
     data = tmp_path_factory.mktemp("cluster") / "data"
-    (data / "cache").mkdir(parents=True)
+    (data / "cache" / "scenes").mkdir(parents=True)
     cached = list((Path(os.environ["SIGHTPLAN_CACHE"]) / "scenes").glob(f"{duplex.content_hash}.*"))
     assert cached, "the Duplex fixture's scene cache moved"
     for path in cached:
-        shutil.copy(path, data / "cache")
+        shutil.copy(path, data / "cache" / "scenes")
     with TestClient(create_app(ServerConfig(data_dir=data, cluster=cluster[0].scheduler_address))) as c:
         yield c
 

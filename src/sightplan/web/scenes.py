@@ -32,7 +32,7 @@ def evaluation_scene(storage: Storage, session: Session, model_stored_name: str,
         if reality is None or reality.project_id != project_id or reality.status != "ready":
             raise SightplanError(f"reality capture {reality_id} was deleted or is not ready")
         try:
-            real = load_reality(storage.reality_path(reality.stored_name), cache_dir=storage.cache)
+            real = load_reality(storage.reality_path(reality.stored_name), cache_dir=storage.scene_cache)
         except SightplanError as exc:
             raise SightplanError(str(exc).replace(reality.stored_name, reality.original_name)) from None
         scene = combine(scene, real, "occluder")

@@ -34,7 +34,7 @@ def load_scene(storage: Storage, stored_name: str, progress=None) -> tuple[Scene
     extra: dict[str, Any] = {}
     if progress is not None and path.suffix.lower() in IFC_EXTENSIONS:
         extra["progress"] = progress
-    return load_model(path, cache=True, cache_dir=storage.cache, **extra)
+    return load_model(path, cache=True, cache_dir=storage.scene_cache, **extra)
 
 
 def report_summary(report: LoadReport) -> dict[str, Any]:

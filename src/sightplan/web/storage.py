@@ -70,6 +70,11 @@ class Storage:
         return self.schedules / stored_name
 
     @property
+    def scene_cache(self) -> Path:
+        """Tessellated models (and reality models), as ``scenes`` under a command line's cache root: the same layout."""
+        return self.cache / "scenes"
+
+    @property
     def frame_cache(self) -> Path:
         """Per-frame observations by content digest: re-evaluating an edited plan casts only the frames that changed."""
         return self.cache / "frames"

@@ -305,7 +305,7 @@ class Worker:
             facts = PreparedModel.of(*load_scene(self.storage, stored, progress=progress))
         else:  # tessellated on a worker into the data folder's cache, which the next load here reads
             future = self.cluster.client.submit(prepare_model, str(self.storage.model_path(stored)),
-                                                str(self.storage.cache), key=f"prepare_model-{Storage.new_name()}",
+                                                str(self.storage.scene_cache), key=f"prepare_model-{Storage.new_name()}",
                                                 pure=False)
             facts = self._wait(job_id, future, progress)
         with self.db.session() as s:
