@@ -5,9 +5,14 @@ OPENCV camera when the renders were drawn through a distorted lens, its focal le
 its k1, k2, p1, p2 started at zero and estimated by the bundle adjustment, :func:`estimated_distortion`),
 matched exhaustively (small sets) or between the views that see the same surface (:mod:`.pairs`), and the images
 registered by incremental mapping, every random choice seeded (:data:`SEED`: the RANSAC of the matches' geometric
-verification, the mapper's and the triangulator's). When the mapper ends with several models, each that shares at
-least :data:`MIN_REGISTERED` images with the largest is merged into it, aligned by the reprojections of their common
-images (``pycolmap.align_reconstructions_via_reprojections``, as COLMAP's model merger aligns; the true poses play no
+verification, the mapper's and the triangulator's). The result does not depend on the thread count: the images are
+numbered in frame order before their features are extracted (:func:`_register_images`), SIFT and matching give each
+image and each pair the same result on any thread, and the mapping runs on :data:`MAPPER_THREADS` (with more, its
+bundle adjustment splits large problems, and their floating-point sums, by thread, and its search for the initial
+pair and its structure-less registration run their trials on several).
+When the mapper ends with several models, each that shares at least :data:`MIN_REGISTERED` images with the largest
+is merged into it, aligned by the reprojections of their common images
+(``pycolmap.align_reconstructions_via_reprojections``, as COLMAP's model merger aligns; the true poses play no
 part), and its other images count as registered.
 The SfM model's frame is arbitrary: a similarity (scale, rotation, translation; Umeyama's least squares) maps it
 onto the model, fitted to the registered frames' camera centres and to a point ahead of and beside each of them
@@ -42,7 +47,7 @@ SEQUENTIAL_OVERLAP = 10
 MAX_FEATURES = 8192
 MIN_REGISTERED = 3
 SEED = 1  # pycolmap's random seeds: the same images give the same reconstruction
-MAPPER_THREADS = 1  # the incremental mapping's: its bundle adjustments' sums, and so its result, vary with the count
+MAPPER_THREADS = 1  # the incremental mapping's, whatever ``threads`` says: its result varies with the count
 
 Progress = Callable[[int, int], None]
 Stage = Callable[[str], None]
@@ -143,7 +148,8 @@ def reconstruct(images_dir: str | Path, out_dir: str | Path, *, matcher: str = "
 
     matcher: "exhaustive" (every pair), "spatial" (each image with the views that see most of the same surface,
     round corners too: :func:`spatial_pairs`), "sequential" (each image with its next images in plan order), or
-    "auto" (exhaustive up to :data:`EXHAUSTIVE_MAX_IMAGES` images, spatial beyond). threads: CPU threads (default all).
+    "auto" (exhaustive up to :data:`EXHAUSTIVE_MAX_IMAGES` images, spatial beyond). threads: CPU threads for SIFT
+    and matching (default all; the mapping runs on :data:`MAPPER_THREADS` whatever it is).
     progress(done, total): work units over the whole run: one per image extracted, one per image matched (reported
     when matching ends), one per image registered. stage(text): called as each step begins. verbose: let COLMAP
     log its progress to stderr."""
