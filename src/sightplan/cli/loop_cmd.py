@@ -82,7 +82,9 @@ def loop_command(
     photo_realism: PhotoRealismOpt = DEFAULT_PRESET,
     seed: SeedOpt = 0,
     cache: Annotated[bool, typer.Option(help="Reuse the model cache")] = True,
-    threads: Annotated[int | None, typer.Option(help="Worker threads (default: all cores)")] = None,
+    threads: Annotated[int | None, typer.Option(
+        help="Worker threads (default: all cores); the SfM's mapping uses one, so the points and the study are "
+        "the same whatever the count")] = None,
 ) -> None:
     """The closed loop: photographs of the plan, a real SfM run on them, and the predicted metrics set beside
     what the reconstruction measured, per element and per frame (out/index.html)."""

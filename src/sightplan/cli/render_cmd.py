@@ -95,7 +95,9 @@ def reconstruct_command(
         help="Feature matching: exhaustive (every pair), spatial (each frame with the views that see most of the "
              "same surface, round corners too, from the true poses and depths), sequential (neighbours in plan "
              "order), auto (exhaustive up to 60 images, spatial beyond)")] = "auto",
-    threads: Annotated[int | None, typer.Option(help="CPU threads (default: all cores)")] = None,
+    threads: Annotated[int | None, typer.Option(
+        help="CPU threads for SIFT and matching (default: all cores); the mapping uses one, so the result is the "
+        "same whatever the count")] = None,
     verbose: Annotated[bool, typer.Option(help="Show COLMAP's own log")] = False,
 ) -> None:
     """Structure from motion on rendered frames (pycolmap: SIFT, matching, incremental mapping, on the CPU),

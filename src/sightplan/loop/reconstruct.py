@@ -5,9 +5,14 @@ OPENCV camera when the renders were drawn through a distorted lens, its focal le
 its k1, k2, p1, p2 started at zero and estimated by the bundle adjustment, :func:`estimated_distortion`),
 matched exhaustively (small sets) or between the views that see the same surface (:mod:`.pairs`), and the images
 registered by incremental mapping, every random choice seeded (:data:`SEED`: the RANSAC of the matches' geometric
-verification, the mapper's and the triangulator's). When the mapper ends with several models, each that shares at
-least :data:`MIN_REGISTERED` images with the largest is merged into it, aligned by the reprojections of their common
-images (``pycolmap.align_reconstructions_via_reprojections``, as COLMAP's model merger aligns; the true poses play no
+verification, the mapper's and the triangulator's). The result does not depend on the thread count: the images are
+numbered in frame order before their features are extracted (:func:`_register_images`), SIFT and matching give each
+image and each pair the same result on any thread, and the mapping runs on :data:`MAPPER_THREADS` (with more, its
+bundle adjustment splits large problems, and their floating-point sums, by thread, and its search for the initial
+pair and its structure-less registration run their trials on several).
+When the mapper ends with several models, each that shares at least :data:`MIN_REGISTERED` images with the largest
+is merged into it, aligned by the reprojections of their common images
+(``pycolmap.align_reconstructions_via_reprojections``, as COLMAP's model merger aligns; the true poses play no
 part), and its other images count as registered.
 The SfM model's frame is arbitrary: a similarity (scale, rotation, translation; Umeyama's least squares) maps it
 onto the model, fitted to the registered frames' camera centres and to a point ahead of and beside each of them
@@ -42,6 +47,7 @@ SEQUENTIAL_OVERLAP = 10
 MAX_FEATURES = 8192
 MIN_REGISTERED = 3
 SEED = 1  # pycolmap's random seeds: the same images give the same reconstruction
+MAPPER_THREADS = 1  # the incremental mapping's, whatever ``threads`` says: its result varies with the count
 
 Progress = Callable[[int, int], None]
 Stage = Callable[[str], None]
@@ -142,7 +148,8 @@ def reconstruct(images_dir: str | Path, out_dir: str | Path, *, matcher: str = "
 
     matcher: "exhaustive" (every pair), "spatial" (each image with the views that see most of the same surface,
     round corners too: :func:`spatial_pairs`), "sequential" (each image with its next images in plan order), or
-    "auto" (exhaustive up to :data:`EXHAUSTIVE_MAX_IMAGES` images, spatial beyond). threads: CPU threads (default all).
+    "auto" (exhaustive up to :data:`EXHAUSTIVE_MAX_IMAGES` images, spatial beyond). threads: CPU threads for SIFT
+    and matching (default all; the mapping runs on :data:`MAPPER_THREADS` whatever it is).
     progress(done, total): work units over the whole run: one per image extracted, one per image matched (reported
     when matching ends), one per image registered. stage(text): called as each step begins. verbose: let COLMAP
     log its progress to stderr."""
@@ -187,27 +194,16 @@ def _run(pycolmap, renders, src: Path, out: Path, matcher: str, threads: int | N
     started = time.perf_counter()
 
     say("extracting SIFT features")
+    distorted = bool(renders.distortion)
+    _register_images(pycolmap, database, renders, distorted)
     extraction = pycolmap.FeatureExtractionOptions()
     extraction.num_threads = n_threads
     extraction.use_gpu = False
     extraction.sift.max_num_features = MAX_FEATURES
-    distorted = bool(renders.distortion)
-    for cid, cam in renders.cameras.items():
-        names = [renders.image_names[i] for i in range(n) if renders.camera_of[i] == cid]
-        camera_id = -1
-        for part in _chunks(names, 20):
-            reader = pycolmap.ImageReaderOptions()
-            reader.camera_model = "OPENCV" if distorted else "PINHOLE"
-            params = (cam.fx, cam.fy, cam.cx, cam.cy) + ((0.0, 0.0, 0.0, 0.0) if distorted else ())
-            reader.camera_params = ",".join(repr(float(x)) for x in params)
-            reader.existing_camera_id = camera_id
-            pycolmap.extract_features(database, src, image_names=part, camera_mode=pycolmap.CameraMode.SINGLE,
-                                      reader_options=reader, extraction_options=extraction,
-                                      device=pycolmap.Device.cpu)
-            if camera_id < 0:
-                with pycolmap.Database.open(database) as db:
-                    camera_id = max(c.camera_id for c in db.read_all_cameras())
-            tick(len(part))
+    for part in _chunks(list(renders.image_names), 20):
+        pycolmap.extract_features(database, src, image_names=part, camera_mode=pycolmap.CameraMode.SINGLE,
+                                  extraction_options=extraction, device=pycolmap.Device.cpu)
+        tick(len(part))
     t1 = time.perf_counter()
     timings["extract_s"] = t1 - started
 
@@ -243,7 +239,7 @@ def _run(pycolmap, renders, src: Path, out: Path, matcher: str, threads: int | N
 
     say("incremental mapping")
     options = pycolmap.IncrementalPipelineOptions()
-    options.num_threads = n_threads
+    options.num_threads = MAPPER_THREADS
     options.random_seed = SEED
     options.mapper.random_seed = SEED
     options.triangulation.random_seed = SEED
@@ -312,7 +308,7 @@ def _run(pycolmap, renders, src: Path, out: Path, matcher: str, threads: int | N
     timings["total_s"] = time.perf_counter() - started
     info = {
         "images": n, "registered": k, "points": len(points), "matcher": chosen, "pairs": n_pairs,
-        "threads": n_threads,
+        "threads": n_threads, "mapper_threads": MAPPER_THREADS,
         "models": len(models), "models_merged": len(merged), "largest_model_images": model.num_reg_images(),
         "pycolmap": str(pycolmap.__version__), "images_dir": str(src),
         "engine": renders.engine, "render_scale": renders.scale,
@@ -365,6 +361,33 @@ def _merged(pycolmap, base, others) -> list:
         merged.append(other)
         names |= {im.name for im in other.images.values() if im.has_pose}
     return merged
+
+
+def _register_images(pycolmap, database: Path, renders, distorted: bool) -> None:
+    """Write the plan's cameras and every image into a new ``database``, image k + 1 being frame k, before the
+    features are extracted: the extraction's threads finish the images in any order, and when they number the
+    images as they finish, the ids (which break the mapper's ties) change with the thread count. Each plan camera
+    has its exact intrinsics (PINHOLE, or OPENCV with k1, k2, p1, p2 at zero when the renders have a lens) and a
+    rig of its own; each image a frame of its own, as the extraction would have made them."""
+    with pycolmap.Database.open(database) as db:
+        ids: dict[str, tuple[int, int]] = {}
+        for cid, cam in renders.cameras.items():
+            params = [cam.fx, cam.fy, cam.cx, cam.cy] + ([0.0, 0.0, 0.0, 0.0] if distorted else [])
+            camera = pycolmap.Camera(model="OPENCV" if distorted else "PINHOLE", width=int(cam.width),
+                                     height=int(cam.height), params=[float(x) for x in params])
+            camera.has_prior_focal_length = True
+            camera.camera_id = db.write_camera(camera)
+            rig = pycolmap.Rig()
+            rig.add_ref_sensor(camera.sensor_id)
+            ids[cid] = camera.camera_id, db.write_rig(rig)
+        for i, name in enumerate(renders.image_names):
+            camera_id, rig_id = ids[renders.camera_of[i]]
+            image = pycolmap.Image(name=name, camera_id=camera_id)
+            image.image_id = db.write_image(image)
+            frame = pycolmap.Frame()
+            frame.rig_id = rig_id
+            frame.add_data_id(image.data_id)
+            db.write_frame(frame)
 
 
 def _remove_tree(path: Path) -> None:
