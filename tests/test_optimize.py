@@ -171,6 +171,78 @@ def test_a_one_frame_mission_is_not_joined_across_a_leg_too_near_the_model(box):
     assert spans([30.0, -12.0, 4.0], box, G) == [(0, 3)]
 
 
+def test_a_one_frame_mission_is_not_joined_across_a_leg_too_near_at_the_worst_position_error(box):
+    """A leg 11 m from the box's south wall keeps the 10 m nominally but not at ±1.5 m horizontal error: the
+    flight checks' split joins the two missions across it only when there is no error to stray by."""
+    from sightplan.geometry.poses import R_from_gimbal
+    from sightplan.plan.checks.feasibility import merge_single_frames
+    from sightplan.plan.types import Mission, Plan
+
+    station = (4.0, -40.0, 1.5)
+    C = np.array([[0.0, -11.0, 4.0], [4.0, -11.0, 4.0], [30.0, -11.0, 4.0]])
+    plan = Plan.build(CAM, R_from_gimbal(np.zeros(3), np.zeros(3)), C,
+                      missions=(Mission("a", 0, 2, station), Mission("b", 2, 3, station)))
+
+    def spans(error):
+        return [(m.start, m.stop) for m in merge_single_frames(plan, box, G, error).missions]
+
+    assert spans((0.0, 0.0)) == [(0, 3)]
+    assert spans((1.5, 0.5)) == [(0, 2), (2, 3)]
+
+
+def test_the_duplex_leg_the_router_cut_stays_cut_and_passes_the_checks(duplex):
+    """The optimiser's default plan on the Duplex once began with a one-frame mission (the router cut the leg after
+    it: 10.07 m from the model, 8.57 m at the worst of the GNSS position error) that the flight checks' split joined
+    to the next one, and then failed its own safety check. Split and checked with the defaults, it stays apart."""
+    from sightplan.cli.flight import default_flight_settings
+    from sightplan.geometry.poses import R_from_gimbal
+    from sightplan.plan.checks.feasibility import plan_flights
+    from sightplan.plan.types import Mission, Plan
+
+    flight = default_flight_settings(False, None, 500.0, None, None, 120.0, scene=duplex)
+    C = np.array([[-3.68178, 12.17267, 6.02262], [-11.53823, 1.17679, 2.67196], [-14.07859, -5.95804, 2.50966]])
+    plan = Plan.build(CAM, R_from_gimbal(np.zeros(3), np.zeros(3)), C,
+                      missions=(Mission("optimised 1", 0, 1), Mission("optimised 2", 1, 3)))
+    report = plan_flights(duplex, plan, flight)
+    assert report.ok, report.violations
+    assert (0, 1) in [(m.start, m.stop) for m in report.plan.missions]
+
+
+def test_the_optimiser_cuts_any_leg_its_checks_find_too_near(box, monkeypatch):
+    """Whatever order the route gives, the plan returned passes its own flight checks: here the views are flown
+    west to east, so legs from the south side to the north cross the box, and each is cut (the aircraft lands)."""
+    import importlib
+
+    run = importlib.import_module("sightplan.optimize.run")
+
+    def west_to_east(scene, C, *args, **kwargs):
+        return np.argsort(np.asarray(C)[:, 0], kind="stable"), np.zeros(0, np.int64), 0
+
+    monkeypatch.setattr(run, "order_views", west_to_east)
+    flight = FlightSettings(safety_distance_m=G)
+    result = optimize(box, CAM, Targets(k=2), flight=flight,
+                      settings=OptimizeSettings(scale=0.25, cache_dir=False, template_views=False, aimed_views=False))
+    report = check_plan(box, result.plan, flight)
+    assert report.ok and result.report.ok, report.violations
+    assert len(result.plan.missions) > 1
+    assert run.unsafe_legs(result.report, flight).size == 0
+
+
+@pytest.mark.bench
+def test_the_optimisers_default_plan_on_the_duplex_passes_its_flight_checks(duplex, tmp_path):
+    """`sightplan optimize sample` with every default (all targets, no budget, scale 0.25): its plan passes
+    `check_plan` with the default flight settings (a cold cast of the candidates: minutes)."""
+    from sightplan.cli.camera_opts import cli_camera
+    from sightplan.cli.flight import default_flight_settings
+
+    flight = default_flight_settings(False, None, 500.0, None, None, 120.0, scene=duplex)
+    result = optimize(duplex, cli_camera("p4p", None), Targets(), flight=flight,
+                      settings=OptimizeSettings(cache_dir=tmp_path / "cache"))
+    report = check_plan(duplex, result.plan, flight)
+    assert report.ok and result.report.ok, report.violations
+    assert result.n_met > 0
+
+
 def test_targets_from_toml_rules(box, tmp_path):
     f = tmp_path / "targets.toml"
     f.write_text('k = 2\nmax_angle_deg = 40\n\n[[rule]]\nifc_class = "IfcRoof"\nk = 4\nweight = 2.5\n\n'

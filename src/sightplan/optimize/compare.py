@@ -1,11 +1,12 @@
 """An optimised plan beside the best template of a grid: like for like and at equal minutes.
 
 The grid (:func:`template_grid`) is the facade grid (box and outline footprints), the orbit and the lawn-mower (the
-safety distance above the targets' top) at 60, 70 and 80 % overlap, each planned with the optimiser's camera and
-flight settings, split and flight-checked, and scored against the optimiser's targets (:func:`~.run.score_plan`).
-The best template passes the flight checks and meets the most targets, then takes the fewest minutes; one that
-fails the checks (line of sight, battery, safety) cannot be flown as planned, so it is chosen only when none passes.
-Beside it the optimiser runs twice more, its candidates already cast:
+safety distance plus the position error's reach above the targets' top, where the templates place their frames) at
+60, 70 and 80 % overlap, each planned with the optimiser's camera and flight settings, split and flight-checked, and
+scored against the optimiser's targets (:func:`~.run.score_plan`). The best template passes the flight checks and
+meets the most targets, then takes the fewest minutes; one that fails the checks (line of sight, battery, safety)
+cannot be flown as planned, so it is chosen only when none passes. Beside it the optimiser runs twice more, its
+candidates already cast:
 
 - **like for like**: every target the best template does not meet is skipped, so the plan meets what the template
   meets; its frames and minutes against the template's;
@@ -23,6 +24,7 @@ from ..camera.models import Camera
 from ..errors import PlanError
 from ..model.scene import Scene
 from ..plan.checks.feasibility import FeasibilityReport, FlightSettings
+from ..plan.checks.safety import placement_distance
 from ..plan.ground import targets_only
 from ..plan.types import Plan
 from .budget import Budget
@@ -72,13 +74,14 @@ class Comparison:
 def template_grid(scene: Scene, flight: FlightSettings) -> list[tuple[str, str, dict]]:
     """(label, template, parameters) of every template the comparison plans (module docstring)."""
     top = float(targets_only(scene).bounds()[1][2] - scene.bounds()[0][2])
+    clear = placement_distance(flight.safety_distance_m, flight.error)  # over the top as far as the facades stand
     grid = []
     for overlap in OVERLAPS:
         for footprint in ("box", "outline"):
             grid.append((f"facade {footprint} {overlap:.0%}", "facade", {"overlap": overlap, "footprint": footprint}))
         grid.append((f"orbit {overlap:.0%}", "orbit", {"overlap": overlap}))
         grid.append((f"lawnmower {overlap:.0%}", "lawnmower", {"overlap": overlap, "side_overlap": overlap,
-                                                               "altitude_m": top + flight.safety_distance_m}))
+                                                               "altitude_m": top + clear}))
     return grid
 
 

@@ -34,7 +34,7 @@ from ..observations.table import Observations
 from ..plan.checks.battery import Aircraft
 from ..plan.checks.feasibility import FeasibilityReport, FlightSettings, corner_stations, plan_flights
 from ..plan.checks.gate import record_checks
-from ..plan.checks.safety import placement
+from ..plan.checks.safety import CHECK_TOLERANCE_M, placement
 from ..plan.site import with_site
 from ..plan.types import Mission, Plan
 from .budget import Budget, longest_prefix
@@ -184,6 +184,10 @@ def optimize(scene: Scene, camera: Camera, targets: Targets | None = None, budge
         order, cuts, forbidden = order_views(scene, pool.C_world[grown.views], takeoff, g_place, _aircraft(flight), runs,
                                              ids=grown.views, memo=memo, groups=grown.groups)
         report = plan_flights(scene, ordered_plan(pool, grown.views[order], cuts), flight)
+        near = unsafe_legs(report, flight)
+        if len(near):  # a leg the checks find too near at the worst of the position error: the aircraft lands there
+            cuts = np.union1d(cuts, near + 1)
+            report = plan_flights(scene, ordered_plan(pool, grown.views[order], cuts), flight)
         return Flown(report, grown.views[order], forbidden, grown.added, views, grow)
 
     views = sel.views
@@ -254,6 +258,17 @@ def _aimed(scene: Scene, camera: Camera, pool: Plan, obs: Observations, table: C
     g_place, low = _placement(flight)
     return aimed_views(scene, camera, g_place, elements, seen_from, spacing_m,
                        min_height_m=low, altitude_limit_m=flight.altitude_limit_m)
+
+
+def unsafe_legs(report: FeasibilityReport, flight: FlightSettings) -> NDArray[np.int64]:
+    """The legs i→i+1 within a mission of ``report``'s plan that its safety check fails (nearer the model than the
+    safety distance at the worst of the position error). The router keeps every leg it flies at the placement
+    distance (nominal), so there are none unless a later split joined two views across a leg it had cut."""
+    seg = report.safety.segment_worst_m
+    if seg is None or not len(seg):
+        return np.zeros(0, np.int64)
+    with np.errstate(invalid="ignore"):  # NaN: between two missions, not flown
+        return np.flatnonzero(seg < flight.safety_distance_m - CHECK_TOLERANCE_M).astype(np.int64)
 
 
 def _placement(flight: FlightSettings) -> tuple[float, float | None]:

@@ -37,7 +37,6 @@ from .safety import (
     SafetyReport,
     check_safety,
     position_error,
-    segment_distances,
     worst_segment_clearance,
 )
 
@@ -248,17 +247,20 @@ def split_by_line_of_sight(scene: Scene, plan: Plan, radius_m: float, stations: 
     return replace(plan, missions=tuple(missions))
 
 
-def merge_single_frames(plan: Plan, obstacles: Scene | None = None, safety_distance_m: float | None = None) -> Plan:
+def merge_single_frames(plan: Plan, obstacles: Scene | None = None, safety_distance_m: float | None = None,
+                        error_m: tuple[float, float] = (0.0, 0.0)) -> Plan:
     """Each one-frame mission joined to the mission before it (else after it) when that one has the same ground
     station: flying on to one more waypoint needs no flight of its own. The joined mission keeps the other's name.
-    With ``obstacles``, only where the leg that joins them keeps ``safety_distance_m`` from them."""
+    With ``obstacles``, only where the leg that joins them keeps ``safety_distance_m`` from them at the worst of the
+    position error ``error_m`` (h, v), as :func:`~.safety.check_safety` will measure it: a leg a router cut for
+    passing too near is not joined again."""
     missions = list(plan.missions)
 
     def safe(a: int, b: int) -> bool:
         if obstacles is None or safety_distance_m is None:
             return True
-        leg = segment_distances(obstacles, plan.C_world[a:a + 1], plan.C_world[b:b + 1])
-        return bool(leg[0] >= safety_distance_m)
+        leg = worst_segment_clearance(obstacles, plan.C_world[a:a + 1], plan.C_world[b:b + 1], error_m)
+        return bool(leg[0] >= safety_distance_m - CHECK_TOLERANCE_M)
 
     k = 0
     while k < len(missions):
@@ -311,7 +313,7 @@ def plan_flights(scene: Scene, plan: Plan, settings: FlightSettings) -> Feasibil
     stations = _stations(scene, plan, settings)
     if settings.vlos_radius_m is not None:
         plan = merge_single_frames(split_by_line_of_sight(scene, plan, settings.vlos_radius_m, stations),
-                                   without_terrain(scene), settings.safety_distance_m)
+                                   without_terrain(scene), settings.safety_distance_m, settings.error)
     if isinstance(settings.aircraft, Rover):
         plan = split_by_rover(plan, settings.aircraft)[0]
     elif settings.aircraft is not None:
