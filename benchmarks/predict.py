@@ -1,18 +1,21 @@
 """A calibrated prediction of per-element completeness from the plan's metrics, fitted and tested leave one model out.
 
     python benchmarks/predict.py [--model sample --model PATH ...] [--scale 0.1] [--photo-realism noise]
-                                 [--out benchmarks/predict.json] [--collect-only] [--fit-only]
+                                 [--out benchmarks/predict.json] [--collect-only] [--fit-only] [--bundle]
 
-For each model, the facade grid and the orbit of ``benchmarks/loop.py`` (P4P, 10 m safety distance) go through the
-closed loop at ``--scale`` (render, pycolmap, measure; a run whose reconstruction is already in the work folder,
-``benchmarks/.cache/loop/…`` as ``loop.py`` leaves it, is measured again without rendering or reconstructing).
-Per target element, the predictors of :mod:`sightplan.predict.columns` (the plan metrics, the feature seen share,
-the triangulation angles) beside the measured completeness go to ``rows.csv`` in the work folder. Then, leaving
-each model out in turn, the predictor is fitted on the others and judged on it: Pearson r between predicted and
-measured completeness, the calibration slope, and beside it the single predictor with the largest |r| on the
-fitted models and its r on the held-out one. Writes ``--out`` (the tables, the reliability bins, the model fitted
-on every model), ``reliability.png`` beside it (``benchmarks/predict_reliability.png``) and, with ``--bundle``, the
-fitted model as ``src/sightplan/data/completeness_model.json``.
+For each model (by default ``benchmarks/loop.py``'s three, the Duplex, IfcOpenHouse and the Schependomlaan XELLA
+ground floor, and the Schependomlaan precast concrete), the facade grid and the orbit of ``benchmarks/loop.py``
+(P4P, 10 m safety distance) go through the closed loop at ``--scale`` (render, pycolmap, measure). A run whose
+reconstruction is already in the work folder (``benchmarks/.cache/loop/…``, as ``loop.py`` leaves it) is measured
+again without rendering or reconstructing; a run whose SfM places fewer than three images gives no rows and is
+listed as skipped. Per target element, the predictors of :mod:`sightplan.predict.columns` (the plan metrics, the
+feature seen share, the triangulation angles) beside the measured completeness go to each run's
+``predictors.csv``. Then, leaving each model out in turn, the predictor is fitted on the others and judged on it:
+Pearson r between predicted and measured completeness, the calibration slope, and beside it the single predictor
+with the largest |r| on the fitted models and its r on the held-out one; three feature sets are compared so.
+Writes ``--out`` (the tables, the reliability bins, the model fitted on every model),
+``benchmarks/predict_reliability.png`` beside it and, with ``--bundle``, the fitted model as
+``src/sightplan/data/completeness_model.json``.
 """
 
 from __future__ import annotations
@@ -54,16 +57,20 @@ SHARED = HERE.parent.parent / "shared"
 if not (SHARED / "data").is_dir():
     SHARED = Path("/work/shared")
 DEFAULT_MODELS = ["sample", str(SHARED / "data" / "ifc" / "IfcOpenHouse_IFC4.ifc"),
-                  str(SHARED / "data" / "schependomlaan" / "XELLA-Begane grond.ifc")]
+                  str(SHARED / "data" / "schependomlaan" / "XELLA-Begane grond.ifc"),
+                  str(SHARED / "data" / "schependomlaan" / "MULTICOM-Prefab.ifc")]
 PLANS = ("facade", "orbit")
 ROW_FIELDS = ("model", "plan", "global_id", *PREDICTOR_COLUMNS, "loop_seen_share", "points", "completeness")
 
 
-def collect(models: list[str], scale: float, preset: str, work: Path) -> list[dict]:
-    """Run (or reuse) the loop of every model × plan; the per-element rows, and one summary per run."""
+def collect(models: list[str], scale: float, preset: str, work: Path, fallback: bool = False
+            ) -> tuple[list[dict], list[dict]]:
+    """Run (or reuse) the loop of every model × plan, writing each run's per-element rows; one summary per run,
+    and the runs skipped. ``fallback``: measure a plan in which no element reaches Ω pixels with
+    :func:`fallback_tolerance`'s τ."""
     cam = get_camera("p4p")
     flight = FlightSettings(safety_distance_m=10.0)
-    runs = []
+    runs, skipped = [], []
     for model in models:
         scene, _ = load_model(model)
         label = "Duplex (sample)" if model == "sample" else Path(model).stem
@@ -77,8 +84,27 @@ def collect(models: list[str], scale: float, preset: str, work: Path) -> list[di
             recon = out / "recon"
             reuse = (recon / "registration.json").is_file()
             t = time.perf_counter()
-            res = loop(scene, plan, out, scale=scale, paper_table=False, labels={"model": label, "plan": name},
-                       reconstruction=recon if reuse else None, photo_options=photo_options(preset))
+            kwargs = {"scale": scale, "paper_table": False, "labels": {"model": label, "plan": name},
+                      "photo_options": photo_options(preset)}
+            try:
+                res = loop(scene, plan, out, reconstruction=recon if reuse else None, **kwargs)
+                tolerance = None
+            except SightplanError as exc:
+                if "structure from motion registered only" in str(exc):
+                    print(f"{label} {name}: {exc}; no rows (nothing to measure)")
+                    skipped.append({"model": label, "plan": name, "frames": len(plan), "skipped": str(exc)})
+                    continue
+                if "no element is visible" not in str(exc):
+                    raise
+                if not fallback:
+                    print(f"{label} {name}: {exc}; no rows (the measures' τ needs an element seen by Ω pixels; "
+                          "--fallback-tolerance sets one from every observed element)")
+                    skipped.append({"model": label, "plan": name, "frames": len(plan), "skipped": str(exc)})
+                    continue
+                tolerance = fallback_tolerance(scene, plan, scale, recon)
+                print(f"{label} {name}: no element reaches Ω pixels; τ from every observed element's ρ: "
+                      f"{tolerance:.4f} m")
+                res = loop(scene, plan, out, reconstruction=recon, tolerance_m=tolerance, **kwargs)
             ev, photo, m = res.evaluation, res.plan, res.measures
             fs = scene_features(scene, ev.settings)
             if fs.key != ev.observations.meta.get("features"):
@@ -98,10 +124,24 @@ def collect(models: list[str], scale: float, preset: str, work: Path) -> list[di
             cams = {c.width * c.height for c in photo.cameras.values()}
             runs.append({"model": label, "plan": name, "frames": len(plan), "registered": rec.n_registered,
                          "points": len(rec.points), "elements": len(rows), "reused_reconstruction": reuse,
+                         "fallback_tolerance_m": tolerance,
                          "photo_pixels": sorted(cams), "seconds": round(time.perf_counter() - t, 1),
                          "rows": str(out / "predictors.csv")})
             print(json.dumps(runs[-1]), flush=True)
-    return runs
+    return runs, skipped
+
+
+def fallback_tolerance(scene, plan, scale: float, recon: Path) -> float:
+    """τ = 1.2·e + 3·ρ as the loop's measures set it, with ρ the median surface sampling distance over every
+    observation of a target element (the loop's own ρ needs an element seen by Ω pixels)."""
+    from sightplan.evaluate import evaluate
+    from sightplan.loop.files import read_reconstruction
+    from sightplan.loop.run import photographed_plan
+
+    obs = evaluate(scene, photographed_plan(plan, scale), cache_dir=False).observations
+    rho = float(np.median(obs.ssd[obs.is_target[obs.element]]))
+    e = read_reconstruction(recon).residual_m
+    return 1.2 * (e if np.isfinite(e) else 0.0) + 3.0 * rho
 
 
 def _write_rows(rows: list[dict], path: Path) -> None:
@@ -134,6 +174,9 @@ def main(argv=None) -> int:
     ap.add_argument("--out", default=None, help="default: benchmarks/predict.json (noise) or predict-PRESET.json")
     ap.add_argument("--collect-only", action="store_true")
     ap.add_argument("--fit-only", action="store_true", help="fit on the rows of the runs the work folder holds")
+    ap.add_argument("--ridge", type=float, default=RIDGE, help="the fits' L2 penalty on the standardised slopes")
+    ap.add_argument("--fallback-tolerance", action="store_true",
+                    help="measure a plan in which no element reaches Ω pixels with τ from every observed element")
     ap.add_argument("--bundle", action="store_true", help=f"write the model fitted on every model to {BUNDLED.name}")
     args = ap.parse_args(argv)
     suffix = "" if args.photo_realism == "noise" else f"-{args.photo_realism}"
@@ -143,20 +186,43 @@ def main(argv=None) -> int:
     if args.fit_only:
         runs = json.loads((work / "runs.json").read_text(encoding="utf-8"))
     else:
-        runs = collect(args.model or DEFAULT_MODELS, args.scale, args.photo_realism, work)
+        runs, skipped = collect(args.model or DEFAULT_MODELS, args.scale, args.photo_realism, work,
+                                args.fallback_tolerance)
         print(f"collected {len(runs)} runs in {time.perf_counter() - t0:.0f} s, peak "
               f"{resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024:.0f} MB")
-        (work / "runs.json").write_text(json.dumps(runs, indent=1) + "\n", encoding="utf-8")
+        runs = merge_runs(work / "runs.json", runs, skipped)
     if args.collect_only:
         return 0
     result = fit(runs, args, out)
+    gone = work / "skipped.json"
+    result["skipped"] = json.loads(gone.read_text(encoding="utf-8")) if gone.is_file() else []
     result["seconds"] = round(time.perf_counter() - t0, 1)
     out.write_text(json.dumps(result, indent=1, allow_nan=False) + "\n", encoding="utf-8")
     print(f"wrote {out} in {result['seconds']} s")
     return 0
 
 
+def merge_runs(path: Path, runs: list[dict], skipped: list[dict]) -> list[dict]:
+    """The runs recorded in ``path`` with ``runs`` in place of those of the same model and plan (and without the
+    ``skipped`` ones, kept in ``skipped.json`` beside it); written back."""
+    old = json.loads(path.read_text(encoding="utf-8")) if path.is_file() else []
+    new = {(r["model"], r["plan"]) for r in runs + skipped}
+    merged = [r for r in old if (r["model"], r["plan"]) not in new] + runs
+    path.write_text(json.dumps(merged, indent=1) + "\n", encoding="utf-8")
+    gone = path.with_name("skipped.json")
+    before = json.loads(gone.read_text(encoding="utf-8")) if gone.is_file() else []
+    gone.write_text(json.dumps([r for r in before if (r["model"], r["plan"]) not in new] + skipped, indent=1) + "\n",
+                    encoding="utf-8")
+    return merged
+
+
 SINGLES = (*PREDICTOR_COLUMNS, "loop_seen_share")
+#: The feature sets compared leave one model out: the paper's plan metrics alone (with the pixels and the seen
+#: share), with the triangulation angles, and with the stable views too (``FEATURES``, the bundled model's).
+FEATURE_SETS = {"plan metrics": ("log_VR", "visible", "log_R", "O", "log_pixels", "seen_share"),
+                "plan metrics + triangulation": ("log_VR", "visible", "log_R", "O", "log_pixels", "seen_share",
+                                                 "tri_median", "tri_matchable", "triangulable", "log_views"),
+                "all": FEATURES}
 
 
 def _f(v, digits=2) -> str:
@@ -170,9 +236,15 @@ def fit(runs: list[dict], args, out: Path) -> dict:
     ok = np.isfinite(c)
     d = {k: v[ok] for k, v in d.items()}
     c, groups = d["completeness"], d["model"].astype(str)
-    X = feature_matrix(d)
     singles = {k: d[k] for k in SINGLES}
-    held, pred = leave_one_out(X, c, groups, singles)
+    compared = {}
+    for name, feats in FEATURE_SETS.items():
+        h, p = leave_one_out(feature_matrix(d, feats), c, groups, singles, features=feats, ridge=args.ridge)
+        compared[name] = {"features": list(feats), "pooled": calibration(p, c).to_dict(),
+                          "held_out": {x.group: {"n": x.n, "r": x.calibration.r, "slope": x.calibration.slope}
+                                       for x in h}}
+    X = feature_matrix(d)
+    held, pred = leave_one_out(X, c, groups, singles, ridge=args.ridge)
     pooled = calibration(pred, c)
     table2 = SHARED / "spec" / "table2.csv"
     paper = read_study(table2 if table2.is_file() else BUNDLED.parent / "table2.csv")
@@ -184,12 +256,13 @@ def fit(runs: list[dict], args, out: Path) -> dict:
             "render_scale": args.scale, "photo_pixels": sorted({p for r in runs for p in r["photo_pixels"]}),
             "photo_realism": preset, "elements": int(len(c)), "weights": "each model equally",
             "metric": MetricParams().to_dict()}
-    model = fit_completeness(X, c, weights=group_weights(groups), info=info)
+    model = fit_completeness(X, c, weights=group_weights(groups), info=info, ridge=args.ridge)
     model = model.with_intervals(pred, c)
-    lomo = {"pooled": pooled.to_dict(), "held_out": [h.to_dict() for h in held]}
+    lomo = {"pooled": pooled.to_dict(), "held_out": [h.to_dict() for h in held], "feature_sets": compared}
     model.info["lomo"] = {"r": pooled.r, "slope": pooled.slope, "per_model": {
         h.group: {"n": h.n, "r": h.calibration.r, "slope": h.calibration.slope, "coverage": h.coverage,
-                  "best_single": h.best_single, "best_single_r": h.best_single_r} for h in held}}
+                  "best_single": h.best_single, "best_single_r": h.best_single_r,
+                  "best_single_r_aligned": h.best_single_aligned} for h in held}}
     if args.bundle:
         model.write(BUNDLED)
         print(f"wrote {BUNDLED}")
@@ -201,16 +274,21 @@ def fit(runs: list[dict], args, out: Path) -> dict:
         cal = h.calibration
         print(f"| {h.group} | {h.n} | {_f(cal.r)} | {_f(cal.slope)} | {_f(cal.bias, 3)} | {_f(h.coverage)} |")
     print(f"| all held out | {pooled.n} | {_f(pooled.r)} | {_f(pooled.slope)} | {_f(pooled.bias, 3)} | |")
-    print("\n| held-out model | best single metric (on the fitted models) | its r there | its r held out | "
-          "largest single |r| held out |")
-    print("|---|---|---:|---:|---|")
+    print("\n| held-out model | predictor r | best single metric (on the fitted models) | its r there | its r held out "
+          "| signed as fitted | largest single |r| held out |")
+    print("|---|---:|---|---:|---:|---:|---|")
     for h in held:
         top = max(((k, v) for k, v in h.single_r.items() if v is not None), key=lambda kv: abs(kv[1]),
                   default=(None, None))
-        print(f"| {h.group} | {h.best_single} | {_f(h.best_single_r_fitted)} | {_f(h.best_single_r)} | "
-              f"{top[0]} ({_f(top[1])}) |")
+        print(f"| {h.group} | {_f(h.calibration.r)} | {h.best_single} | {_f(h.best_single_r_fitted)} | "
+              f"{_f(h.best_single_r)} | {_f(h.best_single_aligned)} | {top[0]} ({_f(top[1])}) |")
+    print("\n| features | " + " | ".join(f"{h.group} r (slope)" for h in held) + " | all held out r (slope) |")
+    print("|---|" + "---:|" * (len(held) + 1))
+    for name, v in compared.items():
+        cells = [f"{_f(v['held_out'][h.group]['r'])} ({_f(v['held_out'][h.group]['slope'])})" for h in held]
+        print(f"| {name} | " + " | ".join(cells) + f" | {_f(v['pooled']['r'])} ({_f(v['pooled']['slope'])}) |")
     return {"photo_realism": preset, "scale": args.scale, "camera": "p4p", "safety_distance_m": 10.0,
-            "plans": list(PLANS), "features": list(FEATURES), "ridge": RIDGE, "runs": runs, "lomo": lomo,
+            "plans": list(PLANS), "features": list(FEATURES), "ridge": args.ridge, "runs": runs, "lomo": lomo,
             "model": model.to_dict(), "plot": plot.name}
 
 

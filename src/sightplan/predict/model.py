@@ -313,11 +313,20 @@ class HeldOut:
     best_single_r: float | None
     single_r: dict
 
+    @property
+    def best_single_aligned(self) -> float | None:
+        """The best single column's r on the held-out group, signed so that positive is the direction it had on
+        the fitted groups (a metric that falls as completeness rises counts as predicting it there too)."""
+        if self.best_single_r is None or self.best_single_r_fitted is None:
+            return None
+        return math.copysign(1.0, self.best_single_r_fitted) * self.best_single_r
+
     def to_dict(self) -> dict:
         return {"group": self.group, "n": self.n, "r": self.calibration.r, "slope": self.calibration.slope,
                 "intercept": self.calibration.intercept, "bias": self.calibration.bias, "rmse": self.calibration.rmse,
                 "coverage": self.coverage, "best_single": self.best_single,
                 "best_single_r_fitted": self.best_single_r_fitted, "best_single_r": self.best_single_r,
+                "best_single_r_aligned": self.best_single_aligned,
                 "single_r": self.single_r, "reliability": self.calibration.bins}
 
 

@@ -16,7 +16,8 @@ def plot_reliability(held: list[HeldOut], predicted, measured, groups, out: str 
                      title: str = "") -> Path:
     """``out`` (PNG): left, the reliability diagram of the held-out predictions (mean measured against mean
     predicted completeness in tenths of the prediction, per held-out model and pooled, with the diagonal); right,
-    Pearson r on each held-out model of the predictor and of the best single metric, beside the paper's Table 2 r
+    Pearson r on each held-out model of the predictor and of the best single metric (signed so that positive is
+    the direction it had on the fitted models), beside the paper's Table 2 r
     (a :class:`sightplan.study.Study`, when given) of its plan metrics against Ce and Cv."""
     import matplotlib
 
@@ -48,14 +49,16 @@ def plot_reliability(held: list[HeldOut], predicted, measured, groups, out: str 
     for h in held:
         labels.append(h.group)
         ours.append(np.nan if h.calibration.r is None else h.calibration.r)
-        single.append(np.nan if h.best_single_r is None else h.best_single_r)
+        single.append(np.nan if h.best_single_aligned is None else h.best_single_aligned)
     x = np.arange(len(labels))
     bx.bar(x - 0.2, ours, 0.4, color="#1f4e9e", label="predictor, held out")
-    bx.bar(x + 0.2, single, 0.4, color="#9ab", label="best single metric, held out")
+    bx.bar(x + 0.2, single, 0.4, color="#9ab", label="best single metric on the fitted models, held out "
+                                                     "(signed as fitted)")
     for k, h in enumerate(held):
         if h.best_single is not None:
-            bx.text(x[k] + 0.2, 0.02 if not np.isfinite(single[k]) or single[k] >= 0 else single[k] - 0.06,
-                    h.best_single, ha="center", va="bottom", fontsize=7, rotation=90)
+            y = single[k] if np.isfinite(single[k]) else 0.0
+            bx.text(x[k] + 0.2, y + 0.03 if y >= 0 else y - 0.03, h.best_single, ha="center",
+                    va="bottom" if y >= 0 else "top", fontsize=7)
     names = list(labels)
     if paper is not None:
         pr = []
