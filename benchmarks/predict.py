@@ -126,9 +126,17 @@ def collect(models: list[str], scale: float, preset: str, work: Path, fallback: 
                          "points": len(rec.points), "elements": len(rows), "reused_reconstruction": reuse,
                          "fallback_tolerance_m": tolerance,
                          "photo_pixels": sorted(cams), "seconds": round(time.perf_counter() - t, 1),
-                         "rows": str(out / "predictors.csv")})
+                         "rows": _relative(out / "predictors.csv")})
             print(json.dumps(runs[-1]), flush=True)
     return runs, skipped
+
+
+def _relative(path: Path) -> str:
+    """``path`` relative to the repository when inside it (how runs.json and the result name a run's rows)."""
+    try:
+        return str(path.resolve().relative_to(HERE.parent.resolve()))
+    except ValueError:
+        return str(path)
 
 
 def fallback_tolerance(scene, plan, scale: float, recon: Path) -> float:
@@ -231,7 +239,7 @@ def _f(v, digits=2) -> str:
 
 def fit(runs: list[dict], args, out: Path) -> dict:
     """Leave one model out, the model fitted on all, the plot; prints the tables, returns the result."""
-    d = read_rows([Path(r["rows"]) for r in runs])
+    d = read_rows([HERE.parent / r["rows"] for r in runs])
     c = d["completeness"]
     ok = np.isfinite(c)
     d = {k: v[ok] for k, v in d.items()}
