@@ -152,7 +152,7 @@ def test_evaluate_predicts_completeness_with_an_interval(tmp_path):
 
     from test_cli import run_cli
 
-    res = run_cli("evaluate", "sample", "--ring-frames", "6", "--scale", "0.05", "--no-picture", "--no-cache",
+    res = run_cli("evaluate", "sample", "--ring-frames", "6", "--scale", "0.05", "--no-picture",
                   "--predict-completeness", "--out", str(tmp_path / "r"), cwd=tmp_path)
     assert res.returncode == 0, res.stdout + res.stderr
     assert "predicted completeness" in res.stdout and "90 % interval" in res.stdout
