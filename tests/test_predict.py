@@ -83,7 +83,7 @@ def test_two_cameras_looking_at_a_wall_see_it_at_the_geometric_angle():
     assert t.largest_deg[0] == pytest.approx(math.degrees(2 * math.atan(1.5 / 6)), abs=1.5)
     cols = predictor_columns(ev.observations, plan.C_world, fs.points, fs.element, metrics=ev.metrics)
     assert set(cols) == set(PREDICTOR_COLUMNS) and cols["VR"][0] == 2 and cols["stable_views"][0] == 0.0
-    # the same frames as 100 px photographs: a sixth of the pixels per frame at 0.1 of 120,000 … (a = 100/120,000)
+    # the same frames as photographs of 100 px (a = 100 / 120,000 of each 400×300 frame's pixels)
     small = at_photo_size(ev.observations, [cam.width * cam.height] * 2, 100.0)
     assert small.pixels.sum() == pytest.approx(ev.observations.pixels.sum() * 100 / 120_000)
     assert np.allclose(small.ssd, ev.observations.ssd * math.sqrt(1200))
