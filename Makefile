@@ -81,6 +81,7 @@ bench: $(STAMP)
 	$(BIN)/python benchmarks/optimize.py
 	$(BIN)/python benchmarks/ties.py
 	$(BIN)/python benchmarks/loop.py
+	$(BIN)/python benchmarks/predict.py
 	$(BIN)/python benchmarks/robustness.py
 
 clean:

@@ -32,7 +32,10 @@ from .stages import StageDisplay, step
 
 #: an evaluation's stages as the progress lines name them
 EVALUATION_STAGES = {"ties": "finding tie pairs", "features": "simulated features", "engine": "building the engine",
-                     "frames": "casting frames", "report": "writing the report"}
+                     "frames": "casting frames", "predict": "predicting completeness",
+                     "report": "writing the report"}
+#: the elements --predict-completeness prints (the least complete); elements.csv holds them all
+PREDICTION_ROWS = 15
 MAX_RING_FRAMES = 100_000  # as many as a route may have: a ring plan is built before anything is cast
 
 if TYPE_CHECKING:
@@ -87,6 +90,39 @@ def flown_plan(console, path: str, plan, scene, autopilot: str | None):
                   f"{np.median(a):.1f}°); {sum(not p.gimbal_still for p in rep.photos)} taken while the gimbal moved",
                   highlight=False)
     return flown
+
+
+def completeness_prediction(scene, plan, ev, settings, feature_set, cache: bool, model):
+    """The predicted completeness of every element of the evaluated plan (:mod:`sightplan.predict.apply`)."""
+    from ..evaluate import scene_features
+    from ..predict.apply import predict_completeness
+
+    fs = scene_features(scene, settings, feature_set, cache=cache)
+    if fs.key != ev.observations.meta.get("features"):
+        raise SightplanError("--predict-completeness: the features differ from the evaluation's")
+    pixels = np.array([plan.camera_of(f).width * plan.camera_of(f).height for f in range(len(plan))], float)
+    return predict_completeness(ev.observations, pixels, plan.C_world, fs.points, fs.element, model)
+
+
+def prediction_table(prediction, scene) -> Table:
+    """The least complete elements as predicted, with their intervals, and the model's scope in the title."""
+    info = prediction.info
+    seen = np.flatnonzero(np.isfinite(prediction.predicted))
+    order = seen[np.argsort(prediction.predicted[seen], kind="stable")][:PREDICTION_ROWS]
+    level = f"{100 * prediction.level:.0f} %"
+    lomo = info.get("lomo", {})
+    mean = prediction.summary()["mean_predicted"]
+    title = (f"predicted completeness ({len(seen)} elements seen, mean {cell(mean, '.2f')}; the "
+             f"{len(order)} least complete): photographs of {prediction.photo_pixels / 1e6:.2f} Mpx, look "
+             f"'{info.get('photo_realism', '?')}'; on models it was not fitted on r = {cell(lomo.get('r'), '.2f')}, "
+             f"calibration slope {cell(lomo.get('slope'), '.2f')}")
+    t = Table("element", "class", "predicted", f"{level} interval", title=title, title_justify="left")
+    el = scene.elements
+    for i in order:
+        name = str(el.name[i]) or str(el.global_id[i])
+        t.add_row(name[:40], str(el.ifc_class[i]), f"{prediction.predicted[i]:.2f}",
+                  f"{prediction.low[i]:.2f}–{prediction.high[i]:.2f}")
+    return t
 
 
 PLAN_METRICS = (("VC", "VC", "%", 100.0), ("VC_bar", "V̄C", "%", 100.0), ("VR", "VR", "frames", 1.0),
@@ -266,6 +302,13 @@ def evaluate(
              "16 and --draws; --pool equal to --draws: independent draws)")] = None,
     draw_seed: Annotated[int | None, typer.Option(
         help="With --position-error: seed of the draws (default --seed)")] = None,
+    predict_completeness: Annotated[bool, typer.Option(
+        "--predict-completeness", help="Also predict each element's completeness in a reconstruction of the plan's "
+                                       "photographs, with a 90 % interval (the closed loop's fitted model; see "
+                                       "docs/closed-loop.md): printed for the least complete elements, and in "
+                                       "elements.csv and report.json")] = False,
+    completeness_model: Annotated[Path | None, typer.Option(
+        help="With --predict-completeness: a fitted model (JSON) instead of the bundled one")] = None,
 ) -> None:
     """Evaluate a capture plan against a model: VC, V̄C, VR, R, O, T, per element and per frame."""
     from ..evaluate import EvaluationSettings
@@ -281,6 +324,13 @@ def evaluate(
     if not 1 <= ring_frames <= MAX_RING_FRAMES:
         raise SightplanError(f"--ring-frames must be 1 to {MAX_RING_FRAMES:,}, got {ring_frames:,}")
     writable_folder(out, "--out")
+    model_fit = None
+    if completeness_model is not None and not predict_completeness:
+        raise SightplanError("--completeness-model applies to --predict-completeness, which is not given")
+    if predict_completeness:
+        from ..predict.model import CompletenessModel
+
+        model_fit = CompletenessModel.read(completeness_model)
     colour, colour_bounds = _check_report_options(html, gltf, colour_by, bounds)
     the_camera = cli_camera((camera or "p4p") if plan is None else camera, focal_mm)
     settings = EvaluationSettings(engine=engine, scale=scale, d_max=d_max, feature_density=feature_density,
@@ -330,8 +380,13 @@ def evaluate(
         else:
             ev = run_evaluation(scene, the_plan, settings, features=feature_set,
                                 cache_dir=None if cache else False, stages=display)
+        prediction = None
+        if model_fit is not None:
+            display("predict", 0, 0)
+            prediction = completeness_prediction(scene, the_plan, ev, settings, feature_set, cache, model_fit)
         display("report", 0, 0)
-        paths = write_report(ev, scene, the_plan, out, model_path=str(model), plan_path=str(plan or ""))
+        paths = write_report(ev, scene, the_plan, out, model_path=str(model), plan_path=str(plan or ""),
+                             prediction=prediction)
     robust = None
     if pose_error is not None:
         from ..robustness import evaluate_under_error, write_robustness
@@ -376,4 +431,6 @@ def evaluate(
         paths["as_flown"] = write_comparison(base, ev, planned, the_plan, Path(out) / "as_flown.json")
     if robust is not None:
         console.print(robustness_table(robust))
+    if prediction is not None:
+        console.print(prediction_table(prediction, scene))
     console.print("wrote " + ", ".join(str(p) for p in paths.values()))
