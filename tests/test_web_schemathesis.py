@@ -76,6 +76,18 @@ def team(tmp_path_factory):
         spacing.MAX_TEMPLATE_FRAMES = budget
 
 
+def _check(case, response, request: str, auth: dict, failures: dict[str, list[str]]) -> None:
+    """Record a 5xx under "server errors", else every check :data:`CHECKS` fails under "violations"."""
+    if response.status_code >= 500:
+        failures["server errors"].append(f"{request}: {response.text[:200]}")
+        return
+    try:
+        case.validate_response(response, checks=CHECKS, headers=auth)
+    except BaseExceptionGroup as group:
+        failures["violations"] += [f"{request}: {f.title}: {' '.join(str(f.message).split())[:300]}"
+                                   for f in group.exceptions]
+
+
 def _order(operation) -> tuple[int, int]:
     """Reads and changes first, deletions after them, the project's deletion last."""
     return (operation.method.upper() == "DELETE", operation.path == "/api/projects/{project_id}")
@@ -108,14 +120,7 @@ def _cases(operation, mode, examples: int, auth: dict, ids: dict, failures: dict
         response = case.call(headers=auth)
         seen.add(response.status_code)
         request = f"{mode.value} {case.method} {case.formatted_path} {case.query or ''} → {response.status_code}"
-        if response.status_code >= 500:
-            failures["server errors"].append(f"{request}: {response.text[:200]}")
-            return
-        try:
-            case.validate_response(response, checks=CHECKS, headers=auth)
-        except BaseExceptionGroup as group:
-            failures["violations"] += [f"{request}: {f.title}: {' '.join(str(f.message).split())[:300]}"
-                                       for f in group.exceptions]
+        _check(case, response, request, auth, failures)
 
     call()
 
@@ -181,14 +186,7 @@ def test_following_the_links_gets_no_server_error_or_an_undocumented_answer(team
         def validate_response(self, response, case, additional_checks=None, **kwargs):
             request = f"{case.method} {case.formatted_path} → {response.status_code}"
             calls.append(request)
-            if response.status_code >= 500:
-                failures["server errors"].append(f"{request}: {response.text[:200]}")
-                return
-            try:
-                case.validate_response(response, checks=CHECKS, headers=auth)
-            except BaseExceptionGroup as group:
-                failures["violations"] += [f"{request}: {f.title}: {' '.join(str(f.message).split())[:300]}"
-                                           for f in group.exceptions]
+            _check(case, response, request, auth, failures)
 
     assert schema.statistic.transitions.total > 60
     Links.run(settings=settings(max_examples=25, stateful_step_count=6, deadline=None, derandomize=True,
