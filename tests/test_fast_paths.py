@@ -38,7 +38,12 @@ def engine(duplex, features):
 CAMERA = PinholeCamera(400, 300, 330, 330, 200, 150, "test")
 
 
-def test_culled_features_equal_the_brute_force_test(duplex, engine):
+@pytest.mark.parametrize("split", [False, True], ids=["one-pass", "threads"])
+def test_culled_features_equal_the_brute_force_test(duplex, engine, split, monkeypatch):
+    from sightplan.engines import featurecull
+
+    # the Duplex has fewer blocks than the threshold above which the frustum pass is split over the engine's threads
+    monkeypatch.setattr(featurecull, "PARALLEL_BLOCKS", 0 if split else 10**9)
     plan = ring_plan(duplex, CAMERA, n_frames=12, distance_m=6)
     lo, hi = duplex.bounds()
     poses = [(CAMERA, plan.R_world_camera[i], plan.C_world[i]) for i in range(len(plan))]

@@ -118,15 +118,21 @@ class Engine(ABC):
         :meth:`shaded_view` sees a pixel but for any rays (a distorted lens's, say): (n,) element ids (−1: nothing
         within d_max; on a coincident surface the smallest owner, METRICS.md §2), (n,) distances (inf where −1) and
         (n,) the triangle hit (−1 where nothing is)."""
-        directions = np.ascontiguousarray(directions, np.float32)
-        C = np.asarray(C_world, dtype=np.float64) - self.centre
-        origin = np.broadcast_to(C.astype(np.float32), directions.shape)
-        prim = self.first_hit(origin, directions)
-        t, _ = self._plane_distance(prim, C, directions)
+        ids, t, _, prim = self._traced(np.asarray(C_world, dtype=np.float64) - self.centre,
+                                       np.ascontiguousarray(directions, np.float32))
+        return ids, t, prim
+
+    def _traced(self, C: NDArray, dirs: NDArray[np.float32]
+                ) -> tuple[NDArray[np.int32], NDArray[np.float64], NDArray[np.float64], NDArray[np.int32]]:
+        """Rays from the local point ``C`` along ``dirs``: element ids (the ties rule applied), distances, |cos|
+        with the hit triangle's normal (0 on a miss) and the triangles hit, each −1 / inf where nothing is."""
+        origin = np.broadcast_to(C.astype(np.float32), dirs.shape)
+        prim = self.first_hit(origin, dirs)
+        t, dn = self._plane_distance(prim, C, dirs)
         hit = (prim >= 0) & (t <= self.d_max) & (t >= 0)
         ids = np.where(hit, self._face_element[np.maximum(prim, 0)], -1).astype(np.int32)
-        kernels.smallest_owners(prim, t, directions, C, self._face_element, *self._ties, ids)
-        return ids, np.where(hit, t, np.inf), np.where(hit, prim, -1).astype(np.int32)
+        kernels.smallest_owners(prim, t, dirs, C, self._face_element, *self._ties, ids)
+        return ids, np.where(hit, t, np.inf), np.where(hit, np.abs(dn), 0.0), np.where(hit, prim, -1).astype(np.int32)
 
     @staticmethod
     def pixel_directions(cam: Camera, R: NDArray, p0: int, p1: int, out: NDArray[np.float32]) -> None:
@@ -225,15 +231,9 @@ class Engine(ABC):
         n_px = cam.width * cam.height
         dirs = np.empty((n_px, 3), np.float32)
         self.pixel_directions(cam, R, 0, n_px, dirs)
-        origin = np.broadcast_to(C.astype(np.float32), dirs.shape)
-        prim = self.first_hit(origin, dirs)
-        t, dn = self._plane_distance(prim, C, dirs)
-        cos = np.abs(dn)
-        hit = (prim >= 0) & (t <= self.d_max) & (t >= 0)
-        ids = np.where(hit, self._face_element[np.maximum(prim, 0)], -1).astype(np.int32)
-        kernels.smallest_owners(prim, t, dirs, C, self._face_element, *self._ties, ids)
+        ids, t, cos, _ = self._traced(C, dirs)
         shape = (cam.height, cam.width)
-        return ids.reshape(shape), np.where(hit, t, np.inf).reshape(shape), np.where(hit, cos, 0.0).reshape(shape)
+        return ids.reshape(shape), t.reshape(shape), cos.reshape(shape)
 
     # -------------------------------------------------------------- features
     @property
