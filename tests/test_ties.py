@@ -236,6 +236,87 @@ def test_a_long_wall_with_many_flush_plates_counts_each_plate_and_each_overlap(e
         assert got[k + 1][0] == by_hand(x0, x1, -0.3, 0.3)[0], k
 
 
+@pytest.mark.parametrize("engine_name", ALL_ENGINES)
+def test_a_wall_tiled_in_two_directions_counts_each_tile_and_each_overlap(engine_name):
+    """72 tiles (elements 1–72) in 12 columns and 6 rows, each overlapping its neighbours by 5 cm, and a strip across
+    the whole wall (element 73), flush on one wall (element 0): a pixel counts for the wall and for every tile or
+    strip holding it, up to five elements at once. Each wall triangle is tied to more than a hundred triangles, so
+    the tie table gives it a grid of cells in both directions, and the strip lies in a whole row of them."""
+    tiles = [(-1.8 + 0.3 * i, -1.45 + 0.3 * i, -0.9 + 0.3 * j, -0.55 + 0.3 * j) for j in range(6) for i in range(12)]
+    rects = ([wall_y(Y, -2.0, 2.0, -1.0, 1.0, 0)] + [wall_y(Y, *t, k + 1) for k, t in enumerate(tiles)]
+             + [wall_y(Y, -2.0, 2.0, -0.1, 0.1, 73)])
+    scene = build_scene(rects, 74)
+    from sightplan.engines import kernels
+
+    ptr, _, edge = kernels.tie_table(scene.tie_pairs(), scene.vertices, scene.faces, scene.face_element)
+    assert all(edge[ptr[f], 3, 0] > 1 and edge[ptr[f], 1, 3] > 1 for f in (0, 1))  # columns and rows of cells
+    got = counts(engine_name, scene)
+    assert got[0][0] == by_hand(-2.0, 2.0)[0]
+    for k, t in enumerate(tiles):
+        assert got[k + 1][0] == by_hand(*t)[0], k
+    assert got[73] == pytest.approx(by_hand(-2.0, 2.0, -0.1, 0.1), rel=1e-6)
+
+
+def test_the_cells_of_a_tie_table_hold_every_triangle_a_point_lies_on():
+    """A tilted floor (element 0, two triangles) with 1,500 random triangles flush on it (small, slivers, and some
+    long ones across it; elements 1–300): for 4,000 points on the floor, near vertices too, the elements the tie
+    table's window finds equal those of a brute-force search in the floor's own 2-D coordinates (every triangle
+    whose in-plane distance to the point is at most 1 mm)."""
+    from sightplan.engines import kernels
+
+    def cross(a, b):  # of 2-D vectors
+        return a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
+
+    rng = np.random.default_rng(7)
+    e1, e2 = np.array([0.8, 0.6, 0.0]), np.array([-0.36, 0.48, 0.8])  # orthonormal, the floor's plane
+    origin = np.array([3.0, -2.0, 1.0])
+    floor = np.array([[0.0, 0.0], [20.0, 0.0], [20.0, 12.0], [0.0, 12.0]])
+    centre = rng.uniform([0, 0], [20, 12], (1500, 2))
+    size = np.where(rng.random(1500) < 0.05, 8.0, rng.uniform(0.02, 0.6, 1500))[:, None, None]
+    shape = rng.normal(size=(1500, 3, 2))
+    shape[rng.random(1500) < 0.2, 2] *= 0.01  # slivers
+    tri2 = np.clip(centre[:, None, :] + size * shape, [0, 0], [20, 12])
+    flat = np.concatenate([floor, tri2.reshape(-1, 2)])
+    vertices = origin + flat[:, :1] * e1 + flat[:, 1:] * e2
+    faces = np.concatenate([[[0, 1, 2], [0, 2, 3]], 4 + np.arange(4500).reshape(-1, 3)]).astype(np.int32)
+    fe = np.r_[0, 0, rng.integers(1, 301, 1500)].astype(np.int32)
+    keep = np.r_[True, True, np.abs(cross(tri2[:, 1] - tri2[:, 0], tri2[:, 2] - tri2[:, 0])) > 1e-6]
+    faces, fe = faces[keep], fe[keep]
+    pairs = coincident_face_pairs(vertices, faces, fe)
+    ptr, elem, edge = kernels.tie_table(pairs, vertices, faces, fe)
+    assert all(edge[ptr[f], 3, 0] > 2 and edge[ptr[f], 1, 3] > 2 for f in (0, 1))  # the floor's triangles: grids
+    points = np.concatenate([rng.uniform([0, 0], [20, 12], (3000, 2)),
+                             tri2[rng.integers(0, 1500, 1000), rng.integers(0, 3, 1000)]
+                             + rng.choice([-1.0, 1.0], (1000, 2)) * rng.choice([0.0004, 0.0015], (1000, 1))])
+    points = points[(points > 0.01).all(axis=1) & (points < [19.99, 11.99]).all(axis=1)]
+
+    def distance(p, t):  # in-plane distance from 2-D point p to 2-D triangle t
+        d = [cross(t[(k + 1) % 3] - t[k], p - t[k]) for k in range(3)]
+        if min(d) >= 0 or max(d) <= 0:
+            return 0.0
+        best = np.inf
+        for k in range(3):
+            a, b = t[k], t[(k + 1) % 3]
+            s = np.clip((p - a) @ (b - a) / ((b - a) @ (b - a)), 0.0, 1.0)
+            best = min(best, np.linalg.norm(p - a - s * (b - a)))
+        return best
+
+    small = flat[faces[2:]]
+    checked = 0
+    for p in points:
+        f = 0 if cross(floor[2] - floor[0], p - floor[0]) <= 0 else 1
+        x = origin + p[0] * e1 + p[1] * e2
+        found = set()
+        if ptr[f] < ptr[f + 1]:
+            start, stop, s = kernels.tie_window(ptr, edge, f, *x)
+            found = {kernels.tied_owner(elem, edge, j, start, s, *x) for j in range(start, stop)} - {-1}
+        near = ((small.min(axis=1) - 0.002 <= p) & (p <= small.max(axis=1) + 0.002)).all(axis=1)  # boxes first
+        reference = {int(fe[2 + i]) for i in np.flatnonzero(near) if distance(p, small[i]) <= 1e-3}
+        assert found == reference, p
+        checked += len(reference)
+    assert checked > 3000
+
+
 def test_a_scene_at_a_date_keeps_the_pairs_of_the_elements_that_stand(duplex):
     """``with_present`` remaps the pairs it already knows; they equal a search over the remaining faces."""
     from dataclasses import replace

@@ -187,7 +187,7 @@ int face_texel(vec3 c, out ivec2 tex, out vec3 axis) {
 _REDUCE = _COMMON + """
 layout(std430, binding = 2) readonly buffer FaceInfo { ivec2 face_info[]; };  // element, first tie entry
 // 7 per entry (kernels.tie_table): 3 inward edges, (lo, hi, element bits, 0), 3 vertices with the normal in w;
-// a face's header: (axis, span)
+// a face's header: (axis u, 0), (axis v, rows), (u0, v0, 1/cell u, 1/cell v), (columns, ...), then its cells' directory
 layout(std430, binding = 12) readonly buffer Ties { vec4 tie[]; };
 layout(std430, binding = 3) coherent buffer Acc { uint acc[]; };          // 5 per element
 layout(std430, binding = 4) coherent buffer Touched { uint n_touched; uint touched[]; };
@@ -221,6 +221,14 @@ bool holds(int j, float s, vec3 x) {
         best = min(best, length(w - t * e));
     }
     return best <= tie_tol;
+}
+
+// the cell (0..n - 1) of coordinate q along a grid axis (kernels._cell); beyond the grid, its border cell
+int grid_cell(float q, float origin, float inverse, int n) {
+    float k = (q - origin) * inverse;
+    if (!(k > 0.0)) return 0;
+    if (k >= float(n - 1)) return n - 1;
+    return int(k);
 }
 
 // entry j's element when it holds x and no earlier entry of the window of the same element does; else -1
@@ -306,11 +314,22 @@ void main() {
                 // coincident surfaces: the pixel counts for every element whose tied face holds the hit too
                 int h = face_info[p].y, j1 = face_info[p + 1].y;
                 vec3 x = C + t * d;
-                float s = (h < j1) ? dot(tie[7 * h].xyz, x) : 0.0;
-                int a = h + 1, b = j1;
-                while (a < b) {  // the first entry starting at or after s - span
-                    int mid = (a + b) / 2;
-                    if (tie[7 * mid + 3].x < s - tie[7 * h].w) a = mid + 1; else b = mid;
+                float s = 0.0;
+                int a = h, b = h;
+                if (h < j1) {  // the entries of x's cell (kernels.tie_window)
+                    s = dot(tie[7 * h].xyz, x);
+                    int nu = int(tie[7 * h + 3].x), nv = int(tie[7 * h + 1].w), c = 0;
+                    if (nu > 1) c = grid_cell(s, tie[7 * h + 2].x, tie[7 * h + 2].z, nu);
+                    if (nv > 1) c += nu * grid_cell(dot(tie[7 * h + 1].xyz, x), tie[7 * h + 2].y, tie[7 * h + 2].w, nv);
+                    int i = 28 * h + 16 + 2 * c;
+                    a = h + int(tie[i >> 2][i & 3]);
+                    j1 = h + int(tie[(i + 2) >> 2][(i + 2) & 3]);
+                    float lo_bound = s - tie[(i + 1) >> 2][(i + 1) & 3];
+                    b = j1;
+                    while (a < b) {  // the first entry starting at or after s - span
+                        int mid = (a + b) / 2;
+                        if (tie[7 * mid + 3].x < lo_bound) a = mid + 1; else b = mid;
+                    }
                 }
                 for (int j = a; j < j1 && tie[7 * j + 3].x <= s; j++) {
                     int eg = tied_owner(j, a, s, x);
@@ -590,7 +609,8 @@ class GLEngine(Engine):
         self._face_el = ctx.buffer(info.tobytes())
         ties = np.zeros((max(1, len(tie_elem)), kernels.TIE_ROWS, 4), np.float32)
         ties[: len(tie_elem)] = tie_edge
-        ties[: len(tie_elem), 3, 2] = tie_elem.view(np.float32)  # the element's bits, read back with floatBitsToInt
+        entry = tie_elem >= 0  # headers and cell directories keep their values
+        ties[: len(tie_elem)][entry, 3, 2] = tie_elem[entry].view(np.float32)  # the element's bits: floatBitsToInt
         self._ties_buf = ctx.buffer(ties.tobytes())
         self._acc = ctx.buffer(reserve=max(1, self.n_elements) * 5 * 4)
         self._acc.clear()

@@ -92,14 +92,22 @@ def tie_table(pairs: np.ndarray, local_vertices: np.ndarray, faces: np.ndarray, 
     """Per face, the faces of other elements it is tied to (coincident surfaces, METRICS.md §2), for :func:`add_hit`.
 
     Returns ``tie_ptr`` (F + 1,) int64, ``tie_elem`` (k,) int32 and ``tie_edge`` (k, 7, 4) float64, in the engine
-    frame. A face f with ties has the entries ``tie_ptr[f]:tie_ptr[f + 1]`` (most faces have none): first a header
-    (element −1; row 0: the unit axis u along f's longest edge and the longest span of its tied triangles along u),
-    then one entry per tied face, sorted by where it starts along u: its element; rows 0–2 its three edges (vertex k
-    to k + 1) as in-plane inward unit normals m and offsets m·a (m·X − offset is X's distance inside the edge's
-    line); row 3 its span [lo, hi] along u, widened by the tolerance; rows 4–6 its vertices, and in their fourth
-    column its unit normal, for the distance to a corner (:func:`inside_tied`). A hit at u·X = s then tests only the
-    entries with s − span ≤ lo ≤ s (:func:`tie_window`): a long flange tied to many small plates costs a few tests
-    per hit, not one per plate.
+    frame. A face f with ties has the entries ``tie_ptr[f]:tie_ptr[f + 1]`` (most faces have none):
+
+    - a header (element −1): row 0 the unit axis u along f's longest edge; row 1 the in-plane axis v ⟂ u and, in
+      its fourth column, the number of grid rows nv; row 2 the grid's origin (u0, v0) and its inverse cell sizes;
+      row 3 the number of grid columns nu. From its row 4 on, spilling into as many further entries (element −1)
+      as it needs, the cell directory: per cell its first entry (relative to the header) and the longest span
+      along u of its entries, then the end of the last cell;
+    - per cell of the face's nu × nv grid in (u, v), the tied triangles that overlap it, sorted by where they
+      start along u. A triangle spanning several cells is in each. An entry is: its element; rows 0–2 its three
+      edges (vertex k to k + 1) as in-plane inward unit normals m and offsets m·a (m·X − offset is X's distance
+      inside the edge's line); row 3 its span [lo, hi] along u, widened by the tolerance; rows 4–6 its vertices,
+      and in their fourth column its unit normal, for the distance to a corner (:func:`inside_tied`).
+
+    A hit X then tests only the entries of its cell with s − span ≤ lo ≤ s, s = u·X (:func:`tie_window`): a floor
+    tied to thousands of chair legs, or a long flange tied to many small plates, costs a few tests per hit, not
+    one per tied triangle. Faces with few ties have one cell.
     """
     n_faces = len(faces)
     faces = np.asarray(faces)
@@ -109,41 +117,171 @@ def tie_table(pairs: np.ndarray, local_vertices: np.ndarray, faces: np.ndarray, 
     elem = np.asarray(face_element, np.int64)
     if len(src) == 0:
         return np.zeros(n_faces + 1, np.int64), np.zeros(0, np.int32), np.zeros((0, TIE_ROWS, 4))
-    own = local_vertices[faces[src]]  # the hit face's axis: its longest edge
+    own = np.asarray(local_vertices, np.float64)[faces[src]]  # the hit face's axes: u along its longest edge
     edges = np.stack([own[:, 1] - own[:, 0], own[:, 2] - own[:, 1], own[:, 0] - own[:, 2]], axis=1)
     longest = np.argmax(np.linalg.norm(edges, axis=2), axis=1)
-    axis = edges[np.arange(len(src)), longest]
-    axis /= np.maximum(np.linalg.norm(axis, axis=1, keepdims=True), 1e-300)
-    tri = local_vertices[faces[dst]]  # (k, 3, 3)
-    along = np.einsum("kvc,kc->kv", tri, axis)
+    axis_u = _unit(edges[np.arange(len(src)), longest])
+    axis_v = _unit(np.cross(np.cross(edges[:, 0], -edges[:, 2]), axis_u))
+    tri = np.asarray(local_vertices, np.float64)[faces[dst]]  # (k, 3, 3)
+    along = np.einsum("kvc,kc->kv", tri, axis_u)
+    across = np.einsum("kvc,kc->kv", tri, axis_v)
+    own_u = np.einsum("kvc,kc->kv", own, axis_u)
+    own_v = np.einsum("kvc,kc->kv", own, axis_v)
     lo, hi = along.min(axis=1) - TIE_TOL_M, along.max(axis=1) + TIE_TOL_M
     order = np.lexsort((lo, src))
-    src, dst, tri, lo, hi, axis = src[order], dst[order], tri[order], lo[order], hi[order], axis[order]
-    first = np.r_[True, src[1:] != src[:-1]]
-    counts = np.bincount(src, minlength=n_faces)
-    counts[counts > 0] += 1  # the header
+    src, dst, tri, lo, hi = src[order], dst[order], tri[order], lo[order], hi[order]
+    axis_u, axis_v, own_u, own_v, across = axis_u[order], axis_v[order], own_u[order], own_v[order], across[order]
+    first = np.flatnonzero(np.r_[True, src[1:] != src[:-1]])
+    counts = np.diff(np.r_[first, len(src)])
+    vlo, vhi = across.min(axis=1) - TIE_TOL_M, across.max(axis=1) + TIE_TOL_M
+    grid = _tie_grids(first, counts, lo, hi, vlo, vhi, own_u[first].min(axis=1) - TIE_TOL_M,
+                      own_u[first].max(axis=1) + TIE_TOL_M, own_v[first].min(axis=1) - TIE_TOL_M,
+                      own_v[first].max(axis=1) + TIE_TOL_M)
+    sizes = grid[:, 6].astype(np.int64)
+    per_face = np.zeros(n_faces, np.int64)
+    per_face[src[first]] = sizes
     ptr = np.zeros(n_faces + 1, np.int64)
-    np.cumsum(counts, out=ptr[1:])
-    slot = np.arange(len(src)) + np.cumsum(first)  # each entry after its own face's header and every earlier one
-    out_elem = np.full(ptr[-1], -1, np.int32)
-    out_edge = np.zeros((ptr[-1], TIE_ROWS, 4))
-    out_elem[slot] = elem[dst]
-    normal = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
-    normal /= np.maximum(np.linalg.norm(normal, axis=1, keepdims=True), 1e-300)
+    np.cumsum(per_face, out=ptr[1:])
+    rows = np.zeros((len(src), TIE_ROWS, 4))
+    normal = _unit(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]))
     for j in range(3):
         a, b = tri[:, j], tri[:, (j + 1) % 3]
-        m = np.cross(normal, b - a)  # toward the third vertex
-        m /= np.maximum(np.linalg.norm(m, axis=1, keepdims=True), 1e-300)
-        out_edge[slot, j, :3] = m
-        out_edge[slot, j, 3] = np.einsum("ij,ij->i", m, a)
-        out_edge[slot, 4 + j, :3] = a
-        out_edge[slot, 4 + j, 3] = normal[:, j]
-    out_edge[slot, 3, 0] = lo
-    out_edge[slot, 3, 1] = hi
-    head = ptr[src[first]]
-    out_edge[head, 0, :3] = axis[first]
-    out_edge[head, 0, 3] = np.maximum.reduceat(hi - lo, np.flatnonzero(first))
+        m = _unit(np.cross(normal, b - a))  # toward the third vertex
+        rows[:, j, :3] = m
+        rows[:, j, 3] = np.einsum("ij,ij->i", m, a)
+        rows[:, 4 + j, :3] = a
+        rows[:, 4 + j, 3] = normal[:, j]
+    rows[:, 3, 0] = lo
+    rows[:, 3, 1] = hi
+    out_elem = np.full(ptr[-1], -1, np.int32)
+    out_edge = np.zeros((ptr[-1], TIE_ROWS, 4))
+    _fill_ties(first, counts, ptr[src[first]], grid, lo, hi, vlo, vhi, axis_u[first], axis_v[first], rows,
+               elem[dst].astype(np.int32), out_elem, out_edge)
     return ptr, out_elem, out_edge
+
+
+TIE_DIRECTORY = 16  # a header's cell directory starts at its row 4: float 16 of the 28 an entry holds
+TIE_GRID_FROM = 9  # faces with this many tied triangles or more get a grid of cells
+TIE_PER_CELL = 8  # tied triangles per cell a grid aims at
+TIE_COPIES = 2  # a grid holds at most this many copies of each tied triangle on average (else it coarsens)
+TIE_CELL_MARGIN_M = 5e-4  # triangles also join the cells this near, for a hit rounded in float32 (the GL engine)
+
+
+def _unit(v: np.ndarray) -> np.ndarray:
+    return v / np.maximum(np.linalg.norm(v, axis=-1, keepdims=True), 1e-300)
+
+
+@nb.njit(nogil=True, cache=True, inline="always")
+def _cell(x, origin, inverse, n):
+    """The cell (0..n − 1) of coordinate x along a grid axis; beyond the grid, its border cell."""
+    q = (x - origin) * inverse
+    if not q > 0.0:  # also NaN
+        return 0
+    if q >= n - 1:
+        return n - 1
+    return int(q)
+
+
+@nb.njit(cache=True)
+def _tie_grids(first, counts, lo, hi, vlo, vhi, umin, umax, vmin, vmax):
+    """Per face with ties: (nu, nv, u0, v0, 1/cell u, 1/cell v, entries it takes in the table)."""
+    out = np.zeros((len(first), 7))
+    for g in range(len(first)):
+        n = counts[g]
+        a = first[g]
+        lu = max(umax[g] - umin[g], 1e-9)
+        lv = max(vmax[g] - vmin[g], 1e-9)
+        nu = 1
+        nv = 1
+        if n >= TIE_GRID_FROM:
+            cells = max(1, n // TIE_PER_CELL)
+            nu = min(1024, max(1, int(round(math.sqrt(cells * lu / lv)))))
+            nv = min(1024, max(1, (cells + nu - 1) // nu))
+        while True:
+            iu = nu / lu if nu > 1 else 0.0
+            iv = nv / lv if nv > 1 else 0.0
+            copies = 0
+            for k in range(a, a + n):
+                cu = (_cell(hi[k] + TIE_CELL_MARGIN_M, umin[g], iu, nu) - _cell(lo[k] - TIE_CELL_MARGIN_M, umin[g], iu, nu)
+                      + 1)
+                cv = (_cell(vhi[k] + TIE_CELL_MARGIN_M, vmin[g], iv, nv)
+                      - _cell(vlo[k] - TIE_CELL_MARGIN_M, vmin[g], iv, nv) + 1)
+                copies += cu * cv
+            if copies <= TIE_COPIES * n or (nu == 1 and nv == 1):
+                break
+            nu = (nu + 1) // 2
+            nv = (nv + 1) // 2
+        directory = TIE_DIRECTORY + 2 * nu * nv + 1 - 4 * TIE_ROWS  # floats beyond the header
+        spill = 0 if directory <= 0 else (directory + 4 * TIE_ROWS - 1) // (4 * TIE_ROWS)
+        out[g, 0] = nu
+        out[g, 1] = nv
+        out[g, 2] = umin[g]
+        out[g, 3] = vmin[g]
+        out[g, 4] = iu
+        out[g, 5] = iv
+        out[g, 6] = 1 + spill + copies
+    return out
+
+
+@nb.njit(nogil=True, cache=True, inline="always")
+def _tie_float(tie_edge, i):
+    """Float i of the table read as one flat run (28 per entry): the cell directory's values."""
+    e = i // (4 * TIE_ROWS)
+    r = i - e * 4 * TIE_ROWS
+    return tie_edge[e, r >> 2, r & 3]
+
+
+@nb.njit(cache=True)
+def _fill_ties(first, counts, heads, grid, lo, hi, vlo, vhi, axis_u, axis_v, rows, elem, out_elem, out_edge):
+    """Write each face's header, cell directory and cells (see :func:`tie_table`)."""
+    width = 4 * TIE_ROWS
+    for g in range(len(first)):
+        a, n, h = first[g], counts[g], heads[g]
+        nu, nv = int(grid[g, 0]), int(grid[g, 1])
+        u0, v0, iu, iv = grid[g, 2], grid[g, 3], grid[g, 4], grid[g, 5]
+        n_cells = nu * nv
+        for c in range(3):
+            out_edge[h, 0, c] = axis_u[g, c]
+            out_edge[h, 1, c] = axis_v[g, c]
+        out_edge[h, 1, 3] = nv
+        out_edge[h, 2, 0] = u0
+        out_edge[h, 2, 1] = v0
+        out_edge[h, 2, 2] = iu
+        out_edge[h, 2, 3] = iv
+        out_edge[h, 3, 0] = nu
+        in_cell = np.zeros(n_cells + 1, np.int64)
+        for k in range(a, a + n):
+            for jv in range(_cell(vlo[k] - TIE_CELL_MARGIN_M, v0, iv, nv), _cell(vhi[k] + TIE_CELL_MARGIN_M, v0, iv, nv) + 1):
+                for ju in range(_cell(lo[k] - TIE_CELL_MARGIN_M, u0, iu, nu),
+                                _cell(hi[k] + TIE_CELL_MARGIN_M, u0, iu, nu) + 1):
+                    in_cell[jv * nu + ju + 1] += 1
+        directory = TIE_DIRECTORY + 2 * n_cells + 1 - width
+        spill = 0 if directory <= 0 else (directory + width - 1) // width
+        in_cell[0] = 1 + spill  # the first cell starts after the header and the directory's spill
+        for c in range(n_cells):
+            in_cell[c + 1] += in_cell[c]
+        at = in_cell[:n_cells].copy()
+        span = np.zeros(n_cells)
+        for k in range(a, a + n):  # in order of lo, so each cell stays sorted by it
+            for jv in range(_cell(vlo[k] - TIE_CELL_MARGIN_M, v0, iv, nv), _cell(vhi[k] + TIE_CELL_MARGIN_M, v0, iv, nv) + 1):
+                for ju in range(_cell(lo[k] - TIE_CELL_MARGIN_M, u0, iu, nu),
+                                _cell(hi[k] + TIE_CELL_MARGIN_M, u0, iu, nu) + 1):
+                    c = jv * nu + ju
+                    slot = h + at[c]
+                    at[c] += 1
+                    out_elem[slot] = elem[k]
+                    out_edge[slot] = rows[k]
+                    span[c] = max(span[c], hi[k] - lo[k])
+        for c in range(n_cells + 1):
+            i = h * width + TIE_DIRECTORY + 2 * c
+            e = i // width
+            r = i - e * width
+            out_edge[e, r >> 2, r & 3] = in_cell[c]
+            if c < n_cells:
+                i += 1
+                e = i // width
+                r = i - e * width
+                out_edge[e, r >> 2, r & 3] = span[c]
 
 
 @nb.njit(nogil=True, cache=True, inline="always")
@@ -186,12 +324,23 @@ def corner_distance(edge, j, x0, x1, x2, s0, s1, s2):
 
 @nb.njit(nogil=True, cache=True, inline="always")
 def tie_window(tie_ptr, tie_edge, f, x0, x1, x2):
-    """(start, stop, s): the entries of face f that may hold the point x, s its coordinate along f's axis."""
+    """(start, stop, s): the entries of face f that may hold the point x, s its coordinate along f's axis u: those of
+    x's cell that start along u between s − the cell's longest span and s (:func:`tie_table`)."""
     h = tie_ptr[f]
     s = tie_edge[h, 0, 0] * x0 + tie_edge[h, 0, 1] * x1 + tie_edge[h, 0, 2] * x2
-    lo_bound = s - tie_edge[h, 0, 3]
-    a = h + 1
-    b = tie_ptr[f + 1]
+    nu = int(tie_edge[h, 3, 0])
+    nv = int(tie_edge[h, 1, 3])
+    c = 0
+    if nu > 1:
+        c = _cell(s, tie_edge[h, 2, 0], tie_edge[h, 2, 2], nu)
+    if nv > 1:
+        t = tie_edge[h, 1, 0] * x0 + tie_edge[h, 1, 1] * x1 + tie_edge[h, 1, 2] * x2
+        c += nu * _cell(t, tie_edge[h, 2, 1], tie_edge[h, 2, 3], nv)
+    i = h * 4 * TIE_ROWS + TIE_DIRECTORY + 2 * c
+    a = h + int(_tie_float(tie_edge, i))
+    end = h + int(_tie_float(tie_edge, i + 2))
+    lo_bound = s - _tie_float(tie_edge, i + 1)
+    b = end
     while a < b:  # the first entry starting at or after s − span
         mid = (a + b) // 2
         if tie_edge[mid, 3, 0] < lo_bound:
@@ -199,7 +348,6 @@ def tie_window(tie_ptr, tie_edge, f, x0, x1, x2):
         else:
             b = mid
     stop = a
-    end = tie_ptr[f + 1]
     while stop < end and tie_edge[stop, 3, 0] <= s:
         stop += 1
     return a, stop, s
