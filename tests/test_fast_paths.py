@@ -59,6 +59,41 @@ def test_culled_features_equal_the_brute_force_test(duplex, engine, split, monke
     assert seen > 2000  # the frames really see features
 
 
+def test_one_ray_per_block_proves_the_features_behind_a_wall_hidden():
+    """A 20 × 10 m wall (two triangles) 5 m north of the cameras and a post before it; 30,000 features behind the
+    wall, some seen past its edges, some within a millimetre of its back, and 3,000 before it. The features each
+    block's one ray proves hidden (at least 1 mm beyond the triangle it hits, the sight line 0.1 mm inside its
+    edges) cast no ray of their own; the set seen is still exactly that of one ray per feature."""
+    from sightplan.observations.features import FeatureSet
+    from test_engine_analytic import R_NORTH, build_scene, wall_y
+
+    scene = build_scene([wall_y(5.0, -10.0, 10.0, -5.0, 5.0, 0), wall_y(3.0, -0.5, 0.5, -5.0, 5.0, 1)], 2)
+    rng = np.random.default_rng(3)
+    behind = rng.uniform([-14.0, 5.0005, -7.0], [14.0, 12.0, 7.0], (30000, 3))
+    behind[:2000, 1] = 5.0 + rng.uniform(0.0002, 0.0015, 2000)  # on its back face, within the proof's margin or not
+    before = rng.uniform([-6.0, 1.0, -3.0], [6.0, 4.9, 3.0], (3000, 3))
+    points = np.concatenate([behind, before])
+    normals = np.tile([0.0, -1.0, 0.0], (len(points), 1))
+    fs = FeatureSet(points, normals, np.zeros(len(points), np.int8), np.full(len(points), -1, np.int32), {})
+    camera = PinholeCamera(640, 480, 400, 400, 320, 240, "wide")
+    with make_engine("embree", scene, fs, threads=1) as engine:
+        cover = (engine.first_hit, engine.local_vertices, scene.faces, engine.centre)
+        for C in ([0.0, 0.0, 0.0], [3.0, -2.0, 1.0], [-2.0, -8.0, -2.0]):
+            C = np.asarray(C)
+            fast = engine.visible_features(camera, R_NORTH, C)
+            np.testing.assert_array_equal(fast, engine.visible_features_reference(camera, R_NORTH, C))
+            args = (C, R_NORTH, camera.width, camera.height, camera.fx, camera.fy, camera.cx, camera.cy, engine.d_max)
+            every = set(engine.feature_index.candidates(*args)[0].tolist())
+            rays = set(engine.feature_index.candidates(*args, cover=cover)[0].tolist())
+            proven = every - rays
+            assert rays <= every and not proven & set(fast.tolist())
+            assert set(fast.tolist()) & set(range(30000)) and set(fast.tolist()) & set(range(30000, 33000))
+            deep = {i for i in every if i < 30000 and points[i, 1] > 5.0015}  # behind the wall by more than 1.5 mm
+            hidden_deep = deep - set(fast.tolist())
+            assert len(proven & hidden_deep) > 0.7 * len(hidden_deep), (len(proven), len(hidden_deep))
+            assert not proven & {i for i in every if i < 2000 and points[i, 1] < 5.001}  # nearer than 1 mm: rays
+
+
 def test_frustum_candidates_equal_the_per_feature_tests():
     """Random features and random cameras: culled blocks never hold a feature that passes."""
     rng = np.random.default_rng(1)

@@ -252,17 +252,20 @@ class Engine(ABC):
 
         Observed iff it projects inside the image, lies within d_max, faces the camera,
         and nothing is hit along the ray from the centre closer than its distance − 0.5 mm.
-        Only the features of blocks in the view frustum are tested (:mod:`.featurecull`);
-        the result equals :meth:`visible_features_reference`.
+        Only the features of blocks in the view frustum are tested, and only those that one
+        ray per block does not prove hidden cast their own (:mod:`.featurecull`); the result
+        equals :meth:`visible_features_reference`.
         """
         index = self.feature_index
         if index is None:
             return np.zeros(0, np.int32)
+        cover = (self.first_hit, self.local_vertices, self.scene.faces, self.centre)
         if isinstance(camera, PinholeCamera):
             cand, dirs, dist = index.candidates(C_world, R_world_camera, camera.width, camera.height, camera.fx,
-                                                camera.fy, camera.cx, camera.cy, self.d_max, self._pool, self.threads)
+                                                camera.fy, camera.cx, camera.cy, self.d_max, self._pool, self.threads,
+                                                cover)
         else:
-            cand, dirs, dist = index.candidates(C_world, None, 0, 0, 1.0, 1.0, 0.0, 0.0, self.d_max)
+            cand, dirs, dist = index.candidates(C_world, None, 0, 0, 1.0, 1.0, 0.0, 0.0, self.d_max, cover=cover)
         if len(cand) == 0:
             return cand
         origin = (np.asarray(C_world, np.float64) - self.centre).astype(np.float32)

@@ -8,6 +8,15 @@ Morton curve and cut into blocks of :data:`BLOCK` with their bounding boxes. A f
 then skips every block that lies outside its view frustum (or beyond d_max) and tests
 only the features of the others, exactly as the brute-force test does, in one compiled
 loop. The result is the same set: culling a block only skips features that would fail.
+
+Most features that pass those tests on a large building are hidden: the furniture behind
+its walls and roof. An occlusion ray costs as much as the geometry tests of ten features,
+so each kept block first casts one ray, toward its box's centre. Where the triangle it
+hits lies between the camera and a feature, with the feature at least
+:data:`COVER_BEHIND_M` beyond the triangle's plane and the sight line crossing the
+triangle at least :data:`COVER_INSIDE_M` inside its edges, the feature's own ray could
+only report that triangle or something nearer: it is occluded, and needs no ray. The
+margins are many times the float32 rounding of a ray, so the set stays the same.
 """
 
 from __future__ import annotations
@@ -21,6 +30,9 @@ from numpy.typing import NDArray
 BLOCK = 64
 _MORTON_BITS = 21
 PARALLEL_BLOCKS = 2048  # blocks above which their tests are split over the engine's threads
+COVER_BEHIND_M = 0.001  # a feature proven occluded lies this far beyond the covering triangle's plane (2× the tolerance)
+COVER_INSIDE_M = 1e-4  # and its sight line crosses the triangle this far inside its edges, plus COVER_INSIDE_REL × d
+COVER_INSIDE_REL = 1e-6
 
 
 def _spread(v: NDArray[np.uint64]) -> NDArray[np.uint64]:
@@ -65,7 +77,7 @@ class FeatureIndex:
         return len(self.points)
 
     def candidates(self, C_world: NDArray, R: NDArray | None, width: int, height: int, fx: float, fy: float,
-                   cx: float, cy: float, d_max: float, pool=None, threads: int = 1
+                   cx: float, cy: float, d_max: float, pool=None, threads: int = 1, cover=None
                    ) -> tuple[NDArray[np.int32], NDArray[np.float32], NDArray[np.float64]]:
         """Features that pass every test but occlusion: (k,) indices into the feature set, in the
         index's spatial order (neighbours together, so their sight lines make coherent packets),
@@ -74,6 +86,9 @@ class FeatureIndex:
         R: camera-to-world rotation of a pinhole camera (its columns are the camera axes), or
         None for a camera that sees every direction (equirectangular). pool, threads: an executor and its
         size, to test the blocks in as many parts (each part in order, so the result is the same).
+        cover: (first_hit, vertices, faces, centre) of the engine, to leave out the features a block's one ray
+        proves occluded (module docstring): first_hit(origins, directions) on float32 rays in the local frame
+        (world − centre), vertices in that frame.
         """
         C = np.asarray(C_world, np.float64)
         if R is None:
@@ -87,10 +102,21 @@ class FeatureIndex:
             planes = cam_planes @ R.T
             pinhole = True
         keep = _cull_blocks(self.block_lo, self.block_hi, C, planes, d_max)
+        cover_prim = np.full(len(keep), -1, np.int32)
+        vertices, faces, centre = np.zeros((0, 3)), np.zeros((0, 3), np.int32), np.zeros(3)
+        if cover is not None and keep.any():
+            first_hit, vertices, faces, centre = cover
+            kept = np.flatnonzero(keep)
+            towards = 0.5 * (self.block_lo[kept] + self.block_hi[kept]) - C
+            length = np.linalg.norm(towards, axis=1)
+            ok = length > 0
+            origin = np.broadcast_to((C - centre).astype(np.float32), (int(ok.sum()), 3))
+            cover_prim[kept[ok]] = first_hit(origin, (towards[ok] / length[ok, None]).astype(np.float32))
 
         def part(bounds: tuple[int, int]):
             return _filter(self.points, self.normals, self.block_start, keep, C, R, pinhole, float(width),
-                           float(height), float(fx), float(fy), float(cx), float(cy), d_max, *bounds)
+                           float(height), float(fx), float(fy), float(cx), float(cy), d_max, *bounds, cover_prim,
+                           vertices, faces, centre, self.block_lo, self.block_hi)
 
         if pool is None or threads < 2 or len(keep) < PARALLEL_BLOCKS:
             idx, dirs, dist = part((0, len(keep)))
@@ -134,9 +160,10 @@ def _cull_blocks(lo, hi, C, planes, d_max):
 
 
 @nb.njit(nogil=True, cache=True)
-def _filter(points, normals, block_start, keep, C, R, pinhole, width, height, fx, fy, cx, cy, d_max, b0, b1):
+def _filter(points, normals, block_start, keep, C, R, pinhole, width, height, fx, fy, cx, cy, d_max, b0, b1,
+            cover_prim, vertices, faces, centre, block_lo, block_hi):
     """The tests of METRICS.md §5.2 but occlusion, in float64 as the brute-force test does them, on the kept blocks
-    among b0..b1."""
+    among b0..b1; features their block's covering triangle proves occluded are left out (:func:`_covered`)."""
     total = 0
     for b in range(b0, b1):
         if keep[b]:
@@ -144,10 +171,15 @@ def _filter(points, normals, block_start, keep, C, R, pinhole, width, height, fx
     idx = np.empty(total, np.int32)
     dirs = np.empty((total, 3), np.float32)
     dist = np.empty(total, np.float64)
+    cover = np.zeros(16)
+    corners = np.zeros((3, 3))
     k = 0
     for b in range(b0, b1):
         if not keep[b]:
             continue
+        covering = cover_prim[b] >= 0 and _cover_setup(vertices, faces, cover_prim[b], C, centre, cover, corners)
+        if covering and _box_covered(cover, block_lo[b], block_hi[b], C):
+            continue  # every sight line into the block's box crosses the triangle: all its features are hidden
         for i in range(block_start[b], block_start[b + 1]):
             r0 = points[i, 0] - C[0]
             r1 = points[i, 1] - C[1]
@@ -165,6 +197,8 @@ def _filter(points, normals, block_start, keep, C, R, pinhole, width, height, fx
                 y = fy * (r0 * R[0, 1] + r1 * R[1, 1] + r2 * R[2, 1]) / zc + cy
                 if not (x >= 0.0 and x < width and y >= 0.0 and y < height):
                     continue
+            if covering and _covered(cover, r0, r1, r2, d):
+                continue
             idx[k] = i
             dirs[k, 0] = r0 / d
             dirs[k, 1] = r1 / d
@@ -172,3 +206,82 @@ def _filter(points, normals, block_start, keep, C, R, pinhole, width, height, fx
             dist[k] = d
             k += 1
     return idx[:k], dirs[:k], dist[:k]
+
+
+@nb.njit(nogil=True, cache=True)
+def _cover_setup(vertices, faces, f, C, centre, out, p):
+    """Triangle f as seen from C, into ``out`` (16,), relative to C: its unit normal turned away from C (0–2), C's
+    distance to its plane (3), then per edge k its inward in-plane unit normal m_k (4k + 4 … 4k + 6) and offset
+    m_k·(a_k − C) (4k + 7). False where C lies in the plane or the triangle is degenerate. Scalars only: it runs
+    once per block."""
+    l0, l1, l2 = C[0] - centre[0], C[1] - centre[1], C[2] - centre[2]
+    # p (3, 3): scratch for the corners relative to C
+    for k in range(3):
+        v = faces[f, k]
+        p[k, 0] = vertices[v, 0] - l0
+        p[k, 1] = vertices[v, 1] - l1
+        p[k, 2] = vertices[v, 2] - l2
+    u0, u1, u2 = p[1, 0] - p[0, 0], p[1, 1] - p[0, 1], p[1, 2] - p[0, 2]
+    w0, w1, w2 = p[2, 0] - p[0, 0], p[2, 1] - p[0, 1], p[2, 2] - p[0, 2]
+    n0, n1, n2 = u1 * w2 - u2 * w1, u2 * w0 - u0 * w2, u0 * w1 - u1 * w0
+    length = math.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
+    if not length > 0.0:
+        return False
+    n0, n1, n2 = n0 / length, n1 / length, n2 / length
+    front = n0 * p[0, 0] + n1 * p[0, 1] + n2 * p[0, 2]  # the plane's distance from C along n
+    if front < 0.0:
+        n0, n1, n2, front = -n0, -n1, -n2, -front
+    if not front > 0.0:
+        return False
+    out[0], out[1], out[2], out[3] = n0, n1, n2, front
+    for k in range(3):
+        a, b, c = k, (k + 1) % 3, (k + 2) % 3
+        e0, e1, e2 = p[b, 0] - p[a, 0], p[b, 1] - p[a, 1], p[b, 2] - p[a, 2]
+        m0, m1, m2 = n1 * e2 - n2 * e1, n2 * e0 - n0 * e2, n0 * e1 - n1 * e0
+        ml = math.sqrt(m0 * m0 + m1 * m1 + m2 * m2)
+        if not ml > 0.0:
+            return False
+        if m0 * (p[c, 0] - p[a, 0]) + m1 * (p[c, 1] - p[a, 1]) + m2 * (p[c, 2] - p[a, 2]) < 0.0:
+            ml = -ml  # toward the third vertex
+        m0, m1, m2 = m0 / ml, m1 / ml, m2 / ml
+        out[4 * k + 4], out[4 * k + 5], out[4 * k + 6] = m0, m1, m2
+        out[4 * k + 7] = m0 * p[a, 0] + m1 * p[a, 1] + m2 * p[a, 2]
+    return True
+
+
+@nb.njit(nogil=True, cache=True)
+def _box_covered(cover, lo, hi, C):
+    """Whether :func:`_covered` holds for every point of the box lo..hi: it does at its eight corners, with the
+    margin of the farthest. Each of its tests is a half-space (the edge tests through C, since the sight line's
+    crossing of the plane is a central projection), so the corners decide."""
+    far = 0.0
+    for k in range(8):
+        r0 = (hi[0] if k & 1 else lo[0]) - C[0]
+        r1 = (hi[1] if k & 2 else lo[1]) - C[1]
+        r2 = (hi[2] if k & 4 else lo[2]) - C[2]
+        far = max(far, math.sqrt(r0 * r0 + r1 * r1 + r2 * r2))
+    for k in range(8):
+        r0 = (hi[0] if k & 1 else lo[0]) - C[0]
+        r1 = (hi[1] if k & 2 else lo[1]) - C[1]
+        r2 = (hi[2] if k & 4 else lo[2]) - C[2]
+        if not _covered(cover, r0, r1, r2, far):
+            return False
+    return True
+
+
+@nb.njit(nogil=True, cache=True, inline="always")
+def _covered(cover, r0, r1, r2, d):
+    """Whether the feature at r (relative to C, d = |r|) lies at least COVER_BEHIND_M beyond the triangle of
+    :func:`_cover_setup` and its sight line crosses the triangle at least COVER_INSIDE_M (+ COVER_INSIDE_REL·d)
+    inside each edge."""
+    along = cover[0] * r0 + cover[1] * r1 + cover[2] * r2
+    if not along - cover[3] >= COVER_BEHIND_M:
+        return False
+    t = cover[3] / along  # the sight line meets the plane at t·r
+    x0, x1, x2 = t * r0, t * r1, t * r2
+    inside = COVER_INSIDE_M + COVER_INSIDE_REL * d
+    for k in range(3):
+        j = 4 * k + 4
+        if cover[j] * x0 + cover[j + 1] * x1 + cover[j + 2] * x2 - cover[j + 3] < inside:
+            return False
+    return True
