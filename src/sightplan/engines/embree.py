@@ -15,6 +15,8 @@ from ..errors import EngineError
 from . import kernels, rtc
 from .base import Engine
 
+_UNBOUNDED = np.zeros(0, np.float32)  # no far limit on the rays (packets.first_hits)
+
 try:  # keep the error until this engine is asked for
     from . import packets as _packets
 
@@ -49,7 +51,8 @@ class EmbreeEngine(Engine):
         if self._empty or len(directions) == 0:
             return out
         o = np.broadcast_to(np.asarray(origins, np.float32), directions.shape)
-        _packets.first_hits(self._rtc.handle, o, np.asarray(directions, np.float32), out, rtc.packet_buffer())
+        _packets.first_hits(self._rtc.handle, o, np.asarray(directions, np.float32), out, rtc.packet_buffer(),
+                            _UNBOUNDED)
         return out
 
     def _chunk_caster(self, cam: Camera, R: NDArray, C: NDArray, max_rays: int):
@@ -60,11 +63,12 @@ class EmbreeEngine(Engine):
             mode, fx, fy, cx, cy = kernels.MODE_EQUIRECT, 1.0, 1.0, 0.0, 0.0
         else:
             mode, fx, fy, cx, cy = kernels.MODE_PINHOLE, cam.fx, cam.fy, cam.cx, cam.cy
+        cols, rows = kernels.direction_tables(mode, cam.width, cam.height, float(fx), float(fy), float(cx), float(cy))
 
         def cast(p0: int, p1: int, count: NDArray, depth: NDArray, angle: NDArray) -> None:
             if not self._empty:
-                _packets.cast_pixels(self._rtc.handle, p0, p1, mode, cam.width, cam.height, float(fx), float(fy),
-                                     float(cx), float(cy), R, C32, C, self._face_normal, self._face_offset,
+                _packets.cast_pixels(self._rtc.handle, p0, p1, mode, cam.width, cols, rows, R, C32, C,
+                                     self._face_normal, self._face_offset,
                                      self._face_element, *self._ties, self.d_max, count, depth, angle, buf)
 
         return cast

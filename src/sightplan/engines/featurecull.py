@@ -27,6 +27,8 @@ import numba as nb
 import numpy as np
 from numpy.typing import NDArray
 
+from .kernels import no_refs, per_ray
+
 BLOCK = 64
 _MORTON_BITS = 21
 PARALLEL_BLOCKS = 2048  # blocks above which their tests are split over the engine's threads
@@ -110,13 +112,24 @@ class FeatureIndex:
             towards = 0.5 * (self.block_lo[kept] + self.block_hi[kept]) - C
             length = np.linalg.norm(towards, axis=1)
             ok = length > 0
-            origin = np.broadcast_to((C - centre).astype(np.float32), (int(ok.sum()), 3))
-            cover_prim[kept[ok]] = first_hit(origin, (towards[ok] / length[ok, None]).astype(np.float32))
+            rays = (towards[ok] / length[ok, None]).astype(np.float32)
+            origin = np.broadcast_to((C - centre).astype(np.float32), rays.shape)
+            if pool is None or threads < 2 or len(rays) < PARALLEL_BLOCKS:
+                cover_prim[kept[ok]] = first_hit(origin, rays)
+            else:
+                cut = np.linspace(0, len(rays), threads + 1).astype(int).tolist()
+                cover_prim[kept[ok]] = np.concatenate(list(pool.map(lambda a, b: first_hit(origin[a:b], rays[a:b]),
+                                                                    cut[:-1], cut[1:])))
+
+        sizes = np.where(keep, np.diff(self.block_start), 0)
 
         def part(bounds: tuple[int, int]):
-            return _filter(self.points, self.normals, self.block_start, keep, C, R, pinhole, float(width),
-                           float(height), float(fx), float(fy), float(cx), float(cy), d_max, *bounds, cover_prim,
-                           vertices, faces, centre, self.block_lo, self.block_hi)
+            total = int(sizes[bounds[0]:bounds[1]].sum())
+            idx, dirs, dist = np.empty(total, np.int32), np.empty((total, 3), np.float32), np.empty(total)
+            k = _filter(self.points, self.normals, self.block_start, keep, C, R, pinhole, float(width),
+                        float(height), float(fx), float(fy), float(cx), float(cy), d_max, *bounds, cover_prim,
+                        vertices, faces, centre, self.block_lo, self.block_hi, np.zeros(16), idx, dirs, dist)
+            return idx[:k], dirs[:k], dist[:k]
 
         if pool is None or threads < 2 or len(keep) < PARALLEL_BLOCKS:
             idx, dirs, dist = part((0, len(keep)))
@@ -159,25 +172,18 @@ def _cull_blocks(lo, hi, C, planes, d_max):
     return keep
 
 
-@nb.njit(nogil=True, cache=True)
+@no_refs
 def _filter(points, normals, block_start, keep, C, R, pinhole, width, height, fx, fy, cx, cy, d_max, b0, b1,
-            cover_prim, vertices, faces, centre, block_lo, block_hi):
+            cover_prim, vertices, faces, centre, block_lo, block_hi, cover, idx, dirs, dist):
     """The tests of METRICS.md §5.2 but occlusion, in float64 as the brute-force test does them, on the kept blocks
-    among b0..b1; features their block's covering triangle proves occluded are left out (:func:`_covered`)."""
-    total = 0
-    for b in range(b0, b1):
-        if keep[b]:
-            total += block_start[b + 1] - block_start[b]
-    idx = np.empty(total, np.int32)
-    dirs = np.empty((total, 3), np.float32)
-    dist = np.empty(total, np.float64)
-    cover = np.zeros(16)
-    corners = np.zeros((3, 3))
+    among b0..b1; features their block's covering triangle proves occluded are left out (:func:`_covered`). Writes
+    the features that pass into idx, dirs and dist (room for every feature of those blocks) and returns how many;
+    cover (16,): scratch."""
     k = 0
     for b in range(b0, b1):
         if not keep[b]:
             continue
-        covering = cover_prim[b] >= 0 and _cover_setup(vertices, faces, cover_prim[b], C, centre, cover, corners)
+        covering = cover_prim[b] >= 0 and _cover_setup(vertices, faces, cover_prim[b], C, centre, cover)
         if covering and _box_covered(cover, block_lo[b], block_hi[b], C):
             continue  # every sight line into the block's box crosses the triangle: all its features are hidden
         for i in range(block_start[b], block_start[b + 1]):
@@ -205,51 +211,53 @@ def _filter(points, normals, block_start, keep, C, R, pinhole, width, height, fx
             dirs[k, 2] = r2 / d
             dist[k] = d
             k += 1
-    return idx[:k], dirs[:k], dist[:k]
+    return k
 
 
-@nb.njit(nogil=True, cache=True)
-def _cover_setup(vertices, faces, f, C, centre, out, p):
+@per_ray
+def _cover_setup(vertices, faces, f, C, centre, out):
     """Triangle f as seen from C, into ``out`` (16,), relative to C: its unit normal turned away from C (0–2), C's
     distance to its plane (3), then per edge k its inward in-plane unit normal m_k (4k + 4 … 4k + 6) and offset
-    m_k·(a_k − C) (4k + 7). False where C lies in the plane or the triangle is degenerate. Scalars only: it runs
-    once per block."""
+    m_k·(a_k − C) (4k + 7). False where C lies in the plane or the triangle is degenerate."""
     l0, l1, l2 = C[0] - centre[0], C[1] - centre[1], C[2] - centre[2]
-    # p (3, 3): scratch for the corners relative to C
-    for k in range(3):
-        v = faces[f, k]
-        p[k, 0] = vertices[v, 0] - l0
-        p[k, 1] = vertices[v, 1] - l1
-        p[k, 2] = vertices[v, 2] - l2
-    u0, u1, u2 = p[1, 0] - p[0, 0], p[1, 1] - p[0, 1], p[1, 2] - p[0, 2]
-    w0, w1, w2 = p[2, 0] - p[0, 0], p[2, 1] - p[0, 1], p[2, 2] - p[0, 2]
+    i, j, k = faces[f, 0], faces[f, 1], faces[f, 2]
+    a0, a1, a2 = vertices[i, 0] - l0, vertices[i, 1] - l1, vertices[i, 2] - l2  # the corners relative to C
+    b0, b1, b2 = vertices[j, 0] - l0, vertices[j, 1] - l1, vertices[j, 2] - l2
+    c0, c1, c2 = vertices[k, 0] - l0, vertices[k, 1] - l1, vertices[k, 2] - l2
+    u0, u1, u2 = b0 - a0, b1 - a1, b2 - a2
+    w0, w1, w2 = c0 - a0, c1 - a1, c2 - a2
     n0, n1, n2 = u1 * w2 - u2 * w1, u2 * w0 - u0 * w2, u0 * w1 - u1 * w0
     length = math.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
     if not length > 0.0:
         return False
     n0, n1, n2 = n0 / length, n1 / length, n2 / length
-    front = n0 * p[0, 0] + n1 * p[0, 1] + n2 * p[0, 2]  # the plane's distance from C along n
+    front = n0 * a0 + n1 * a1 + n2 * a2  # the plane's distance from C along n
     if front < 0.0:
         n0, n1, n2, front = -n0, -n1, -n2, -front
     if not front > 0.0:
         return False
     out[0], out[1], out[2], out[3] = n0, n1, n2, front
-    for k in range(3):
-        a, b, c = k, (k + 1) % 3, (k + 2) % 3
-        e0, e1, e2 = p[b, 0] - p[a, 0], p[b, 1] - p[a, 1], p[b, 2] - p[a, 2]
+    for e in range(3):  # edge p → q, r the third corner
+        if e == 0:
+            p0, p1, p2, q0, q1, q2, r0, r1, r2 = a0, a1, a2, b0, b1, b2, c0, c1, c2
+        elif e == 1:
+            p0, p1, p2, q0, q1, q2, r0, r1, r2 = b0, b1, b2, c0, c1, c2, a0, a1, a2
+        else:
+            p0, p1, p2, q0, q1, q2, r0, r1, r2 = c0, c1, c2, a0, a1, a2, b0, b1, b2
+        e0, e1, e2 = q0 - p0, q1 - p1, q2 - p2
         m0, m1, m2 = n1 * e2 - n2 * e1, n2 * e0 - n0 * e2, n0 * e1 - n1 * e0
         ml = math.sqrt(m0 * m0 + m1 * m1 + m2 * m2)
         if not ml > 0.0:
             return False
-        if m0 * (p[c, 0] - p[a, 0]) + m1 * (p[c, 1] - p[a, 1]) + m2 * (p[c, 2] - p[a, 2]) < 0.0:
-            ml = -ml  # toward the third vertex
+        if m0 * (r0 - p0) + m1 * (r1 - p1) + m2 * (r2 - p2) < 0.0:
+            ml = -ml  # toward the third corner
         m0, m1, m2 = m0 / ml, m1 / ml, m2 / ml
-        out[4 * k + 4], out[4 * k + 5], out[4 * k + 6] = m0, m1, m2
-        out[4 * k + 7] = m0 * p[a, 0] + m1 * p[a, 1] + m2 * p[a, 2]
+        out[4 * e + 4], out[4 * e + 5], out[4 * e + 6] = m0, m1, m2
+        out[4 * e + 7] = m0 * p0 + m1 * p1 + m2 * p2
     return True
 
 
-@nb.njit(nogil=True, cache=True)
+@per_ray
 def _box_covered(cover, lo, hi, C):
     """Whether :func:`_covered` holds for every point of the box lo..hi: it does at its eight corners, with the
     margin of the farthest. Each of its tests is a half-space (the edge tests through C, since the sight line's
@@ -269,7 +277,7 @@ def _box_covered(cover, lo, hi, C):
     return True
 
 
-@nb.njit(nogil=True, cache=True, inline="always")
+@per_ray
 def _covered(cover, r0, r1, r2, d):
     """Whether the feature at r (relative to C, d = |r|) lies at least COVER_BEHIND_M beyond the triangle of
     :func:`_cover_setup` and its sight line crosses the triangle at least COVER_INSIDE_M (+ COVER_INSIDE_REL·d)

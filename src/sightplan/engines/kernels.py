@@ -19,6 +19,13 @@ MODE_PINHOLE = 0
 MODE_EQUIRECT = 1
 TIE_ROWS = 7  # rows of 4 per tie entry (:func:`tie_table`)
 
+# The loops over pixels, hits and features, and the helpers they call once per item, allocate nothing: they are
+# compiled without numba's reference counting (``_nrt=False``), the helpers inlined into them. With it, every call
+# that passes arrays added and dropped a reference to each (atomic operations, inlined or not), and the per-hit sums
+# of a frame cost as much as casting its rays.
+per_ray = nb.njit(nogil=True, cache=True, _nrt=False, inline="always")  # a helper called per item
+no_refs = nb.njit(nogil=True, cache=True, _nrt=False)  # a loop that allocates nothing
+
 
 @nb.njit(nogil=True, cache=True)
 def direction_tables(mode, width, height, fx, fy, cx, cy):
@@ -47,7 +54,7 @@ def direction_tables(mode, width, height, fx, fy, cx, cy):
     return cols, rows
 
 
-@nb.njit(nogil=True, cache=True, inline="always")
+@per_ray
 def table_direction(mode, p, width, cols, rows, R):
     """Unit world direction (float64 x, y, z) of pixel p (row-major), from :func:`direction_tables`; R: camera to world."""
     u = p % width
@@ -171,7 +178,7 @@ def _unit(v: np.ndarray) -> np.ndarray:
     return v / np.maximum(np.linalg.norm(v, axis=-1, keepdims=True), 1e-300)
 
 
-@nb.njit(nogil=True, cache=True, inline="always")
+@per_ray
 def _cell(x, origin, inverse, n):
     """The cell (0..n − 1) of coordinate x along a grid axis; beyond the grid, its border cell."""
     q = (x - origin) * inverse
@@ -223,7 +230,7 @@ def _tie_grids(first, counts, lo, hi, vlo, vhi, umin, umax, vmin, vmax):
     return out
 
 
-@nb.njit(nogil=True, cache=True, inline="always")
+@per_ray
 def _tie_float(tie_edge, i):
     """Float i of the table read as one flat run (28 per entry): the cell directory's values."""
     e = i // (4 * TIE_ROWS)
@@ -284,7 +291,7 @@ def _fill_ties(first, counts, heads, grid, lo, hi, vlo, vhi, axis_u, axis_v, row
                 out_edge[e, r >> 2, r & 3] = span[c]
 
 
-@nb.njit(nogil=True, cache=True, inline="always")
+@per_ray
 def inside_tied(edge, j, x0, x1, x2):
     """Whether point x, projected into the plane of tie entry j's triangle, lies within :data:`TIE_TOL_M` of the
     triangle (METRICS.md §2): inside its three edges, or no farther than that from its nearest edge or corner (never
@@ -299,7 +306,7 @@ def inside_tied(edge, j, x0, x1, x2):
     return corner_distance(edge, j, x0, x1, x2, s0, s1, s2) <= TIE_TOL_M
 
 
-@nb.njit(nogil=True, cache=True)
+@per_ray
 def corner_distance(edge, j, x0, x1, x2, s0, s1, s2):
     """In-plane distance from x to tie entry j's triangle, for a point outside some edge (s_k < 0): the nearest
     point lies on one of those edges."""
@@ -322,7 +329,7 @@ def corner_distance(edge, j, x0, x1, x2, s0, s1, s2):
     return best
 
 
-@nb.njit(nogil=True, cache=True, inline="always")
+@per_ray
 def tie_window(tie_ptr, tie_edge, f, x0, x1, x2):
     """(start, stop, s): the entries of face f that may hold the point x, s its coordinate along f's axis u: those of
     x's cell that start along u between s − the cell's longest span and s (:func:`tie_table`)."""
@@ -353,7 +360,7 @@ def tie_window(tie_ptr, tie_edge, f, x0, x1, x2):
     return a, stop, s
 
 
-@nb.njit(nogil=True, cache=True, inline="always")
+@per_ray
 def tied_owner(tie_elem, tie_edge, j, start, s, x0, x1, x2):
     """Entry j's element when its triangle holds x and no earlier entry of the window (from ``start``) of the same
     element does (each element counts once per pixel); else −1."""
@@ -366,7 +373,7 @@ def tied_owner(tie_elem, tie_edge, j, start, s, x0, x1, x2):
     return e
 
 
-@nb.njit(nogil=True, cache=True, inline="always")
+@per_ray
 def add_hit(f, d0, d1, d2, origin, R, mode, face_normal, face_offset, face_element, tie_ptr, tie_elem, tie_edge,
             d_max, count, depth_sum, angle_sum):
     """Add one ray's first hit (triangle f, float64 unit direction d) to the per-element sums.
@@ -439,7 +446,7 @@ def add_hit(f, d0, d1, d2, origin, R, mode, face_normal, face_offset, face_eleme
             angle_sum[eg] += a
 
 
-@nb.njit(nogil=True, cache=True, fastmath=False)
+@no_refs
 def accumulate_hits(prim, dirs, origin, R, mode, face_normal, face_offset, face_element, tie_ptr, tie_elem, tie_edge,
                     d_max, count, depth_sum, angle_sum):
     """Add each ray's first hit to per-element sums (see :func:`add_hit`).
@@ -456,7 +463,7 @@ def accumulate_hits(prim, dirs, origin, R, mode, face_normal, face_offset, face_
                     angle_sum)
 
 
-@nb.njit(nogil=True, cache=True)
+@no_refs
 def smallest_owners(prim, t, dirs, origin, face_element, tie_ptr, tie_elem, tie_edge, ids):
     """Where a ray's hit (triangle prim, distance t, float32 unit direction) lies on a coincident surface, set its
     ``ids`` entry to the smallest element that owns the pixel (METRICS.md §2), so element maps do not depend on
@@ -474,7 +481,7 @@ def smallest_owners(prim, t, dirs, origin, face_element, tie_ptr, tie_elem, tie_
                 ids[k] = tie_elem[j]
 
 
-@nb.njit(nogil=True, cache=True)
+@no_refs
 def plane_distances(prim, dirs, origin, face_normal, face_offset, out):
     """Distance along each ray (float32 unit direction) from ``origin`` to its hit triangle's plane; inf on a miss
     (prim < 0), a ray parallel to the plane or a plane behind the origin."""

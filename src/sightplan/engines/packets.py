@@ -18,7 +18,7 @@ import numba as nb
 import numpy as np
 
 from . import rtc
-from .kernels import add_hit, direction_tables, table_direction
+from .kernels import add_hit, table_direction
 
 LANES = rtc.LANES
 _intersect8 = rtc.intersect8
@@ -43,7 +43,7 @@ def _packet(buf):
     return f, u, valid, addr, addr + _VALID * 4
 
 
-@nb.njit(nogil=True, inline="always")
+@nb.njit(nogil=True, _nrt=False, inline="always")
 def _reset_lanes(f, u):
     for k in range(LANES):
         f[_TNEAR + k] = 0.0
@@ -53,13 +53,14 @@ def _reset_lanes(f, u):
         u[_FLAGS + k] = 0
 
 
-@nb.njit(nogil=True)
-def cast_pixels(scene, p0, p1, mode, width, height, fx, fy, cx, cy, R, origin32, origin, face_normal, face_offset,
+@nb.njit(nogil=True, _nrt=False)
+def cast_pixels(scene, p0, p1, mode, width, cols, rows, R, origin32, origin, face_normal, face_offset,
                 face_element, tie_ptr, tie_elem, tie_edge, d_max, count, depth_sum, angle_sum, buf):
     """Cast pixels p0..p1 (row-major) of one camera from ``origin`` and add their first hits to the sums.
 
-    origin32: (3,) float32 camera centre in the scene's frame, as cast; origin: the same in
-    float64, for the distances. Other arguments as :func:`sightplan.engines.kernels.add_hit`.
+    cols, rows: the frame's :func:`sightplan.engines.kernels.direction_tables`. origin32: (3,) float32 camera
+    centre in the scene's frame, as cast; origin: the same in float64, for the distances. Other arguments as
+    :func:`sightplan.engines.kernels.add_hit`. Compiled without reference counting, as the kernels' loops.
     """
     f, u, valid, addr, vaddr = _packet(buf)
     _reset_lanes(f, u)
@@ -67,7 +68,6 @@ def cast_pixels(scene, p0, p1, mode, width, height, fx, fy, cx, cy, R, origin32,
         f[_ORG_X + k] = origin32[0]
         f[_ORG_Y + k] = origin32[1]
         f[_ORG_Z + k] = origin32[2]
-    cols, rows = direction_tables(mode, width, height, fx, fy, cx, cy)
     for start in range(p0, p1, LANES):
         n = min(LANES, p1 - start)
         for k in range(LANES):
@@ -89,7 +89,7 @@ def cast_pixels(scene, p0, p1, mode, width, height, fx, fy, cx, cy, R, origin32,
                         tie_elem, tie_edge, d_max, count, depth_sum, angle_sum)
 
 
-@nb.njit(nogil=True, inline="always")
+@nb.njit(nogil=True, _nrt=False, inline="always")
 def _load(f, u, valid, origins, directions, tfar, start, n_rays):
     """Lanes 0..7 of the packet from rays start..start+8 (origins may be a broadcast view); the others off.
     ``tfar`` (n,) per ray, or an empty array for "unbounded" (then the hit ids are reset too). Returns the lanes used."""
@@ -114,12 +114,12 @@ def _load(f, u, valid, origins, directions, tfar, start, n_rays):
     return n
 
 
-@nb.njit(nogil=True)
-def first_hits(scene, origins, directions, out, buf):
-    """out[i] = the first triangle hit by ray i (−1 on a miss); origins may be a broadcast (n, 3) view."""
+@nb.njit(nogil=True, _nrt=False)
+def first_hits(scene, origins, directions, out, buf, unbounded):
+    """out[i] = the first triangle hit by ray i (−1 on a miss); origins may be a broadcast (n, 3) view; unbounded: an
+    empty float32 array (no ray has a far limit)."""
     f, u, valid, addr, vaddr = _packet(buf)
     _reset_lanes(f, u)
-    unbounded = np.zeros(0, np.float32)
     for start in range(0, directions.shape[0], LANES):
         n = _load(f, u, valid, origins, directions, unbounded, start, directions.shape[0])
         _intersect8(vaddr, scene, addr, 0)
@@ -127,7 +127,7 @@ def first_hits(scene, origins, directions, out, buf):
             out[start + k] = -1 if u[_GEOM_ID + k] == _INVALID else np.int32(u[_PRIM_ID + k])
 
 
-@nb.njit(nogil=True)
+@nb.njit(nogil=True, _nrt=False)
 def unoccluded(scene, origins, directions, tfar, out, buf):
     """out[i] = True when nothing is hit along ray i before ``tfar[i]`` (``rtcOccluded8``); origins as :func:`first_hits`."""
     f, u, valid, addr, vaddr = _packet(buf)
