@@ -94,6 +94,21 @@ def test_one_ray_per_block_proves_the_features_behind_a_wall_hidden():
             assert not proven & {i for i in every if i < 2000 and points[i, 1] < 5.001}  # nearer than 1 mm: rays
 
 
+def test_a_frame_gives_the_same_bits_whatever_the_threads(duplex, features):
+    """The threads take a frame's chunks as they free up; each chunk's sums are added in the chunks' order, so one,
+    two and three threads give the same floating-point sums, to the bit."""
+    plan = ring_plan(duplex, CAMERA, n_frames=4, distance_m=6)
+    got = []
+    for threads in (1, 2, 3):
+        with make_engine("embree", duplex, features, threads=threads) as e:
+            got.append([e.observe(CAMERA, plan.R_world_camera[i], plan.C_world[i]) for i in range(len(plan))])
+    for other in got[1:]:
+        for a, b in zip(got[0], other):
+            assert len(a.element) > 10
+            for name in ("element", "count", "depth_mean", "angle_mean", "features"):
+                assert np.array_equal(getattr(a, name), getattr(b, name)), name
+
+
 def test_frustum_candidates_equal_the_per_feature_tests():
     """Random features and random cameras: culled blocks never hold a feature that passes."""
     rng = np.random.default_rng(1)

@@ -29,6 +29,8 @@ EngineName = Literal["auto", "embree", "gl", "trimesh"]
 D_MAX_M = 1000.0
 OCCLUSION_TOLERANCE_M = 0.0005
 DEFAULT_CHUNK_RAYS = 1 << 19  # ~512k rays: best Embree throughput per call on this class of CPU
+CHUNKS_PER_FRAME = 64  # a frame is cut into this many chunks, taken by the threads as they free up
+MIN_CHUNK_RAYS = 1 << 14  # but none smaller than this (each has its own per-element sums)
 
 
 class Engine(ABC):
@@ -163,16 +165,39 @@ class Engine(ABC):
         C_world = np.asarray(C_world, dtype=np.float64)
         C = C_world - self.centre
         n_px = cam.width * cam.height
-        starts = list(range(0, n_px, self.chunk_rays))
+        # chunks of at most chunk_rays, small enough that every worker gets several: the workers take the next
+        # chunk as they finish one, so a part of the frame dense with geometry leaves no thread idle. Each chunk
+        # has its own sums, added in the chunks' order: the same numbers whichever thread cast which chunk, and
+        # whatever the number of threads (the chunks do not depend on it).
+        size = max(MIN_CHUNK_RAYS, min(self.chunk_rays, -(-n_px // CHUNKS_PER_FRAME)))
+        size = -(-size // 64) * 64  # whole 8-ray packets
+        starts = list(range(0, n_px, size)) or [0]
         n_workers = min(self.threads, len(starts))
-        groups = [starts[j::n_workers] for j in range(n_workers)]
+        queue = iter(starts)
+        lock = threading.Lock()
+
+        def next_chunk():
+            while True:
+                with lock:
+                    p0 = next(queue, None)
+                if p0 is None:
+                    return
+                yield p0
+
+        def work(_=None):
+            return self._cast_chunks(cam, R, C, next_chunk(), size, n_px)
+
         if self._pool is None or n_workers == 1:
-            parts = [self._cast_chunks(cam, R, C, g, n_px) for g in groups]
+            done = work()
         else:
-            parts = list(self._pool.map(lambda g: self._cast_chunks(cam, R, C, g, n_px), groups))
-        count = sum(p[0] for p in parts)
-        depth = sum(p[1] for p in parts)
-        angle = sum(p[2] for p in parts)
+            done = [c for part in self._pool.map(work, range(n_workers)) for c in part]
+        done.sort(key=lambda c: c[0])
+        z = self.n_elements
+        count, depth, angle = np.zeros(z, np.int64), np.zeros(z), np.zeros(z)
+        for _, seen, c, d, a in done:  # each chunk's elements are distinct: plain fancy-index sums
+            count[seen] += c
+            depth[seen] += d
+            angle[seen] += a
         seen = np.flatnonzero(count).astype(np.int32)
         c = count[seen]
         return FrameObservation(
@@ -185,14 +210,21 @@ class Engine(ABC):
             sampling_focal_px=camera.sampling_focal_px,
         )
 
-    def _cast_chunks(self, cam: Camera, R: NDArray, C: NDArray, starts: list[int], n_px: int):
-        """Per-element sums (pixels, distance, angle) of the chunks of pixels starting at ``starts``."""
+    def _cast_chunks(self, cam: Camera, R: NDArray, C: NDArray, starts, size: int, n_px: int):
+        """[(p0, elements, their pixels, distance sums, angle sums)] of the chunks of ``size`` pixels starting at
+        ``starts``: each chunk's sums kept apart, over the elements it saw."""
         z = self.n_elements
-        sums = (np.zeros(z, np.int64), np.zeros(z, np.float64), np.zeros(z, np.float64))
-        cast = self._chunk_caster(cam, R, C, min(self.chunk_rays, n_px))
+        count, depth, angle = np.zeros(z, np.int64), np.zeros(z), np.zeros(z)
+        cast = self._chunk_caster(cam, R, C, min(max(size, 1), max(n_px, 1)))
+        out = []
         for p0 in starts:
-            cast(p0, min(p0 + self.chunk_rays, n_px), *sums)
-        return sums
+            cast(p0, min(p0 + size, n_px), count, depth, angle)
+            seen = np.flatnonzero(count)
+            out.append((p0, seen, count[seen], depth[seen], angle[seen]))
+            count[seen] = 0
+            depth[seen] = 0.0
+            angle[seen] = 0.0
+        return out
 
     def _chunk_caster(self, cam: Camera, R: NDArray, C: NDArray, max_rays: int):
         """``cast(p0, p1, count, depth, angle)``: add pixels p0..p1 of one frame to the sums. This one makes the

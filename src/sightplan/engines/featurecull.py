@@ -108,17 +108,13 @@ class FeatureIndex:
         vertices, faces, centre = np.zeros((0, 3)), np.zeros((0, 3), np.int32), np.zeros(3)
         if cover is not None and keep.any():
             first_hit, vertices, faces, centre = cover
-            kept = np.flatnonzero(keep)
-            towards = 0.5 * (self.block_lo[kept] + self.block_hi[kept]) - C
-            length = np.linalg.norm(towards, axis=1)
-            ok = length > 0
-            rays = (towards[ok] / length[ok, None]).astype(np.float32)
+            kept, rays = _block_rays(keep, self.block_lo, self.block_hi, C)
             origin = np.broadcast_to((C - centre).astype(np.float32), rays.shape)
             if pool is None or threads < 2 or len(rays) < PARALLEL_BLOCKS:
-                cover_prim[kept[ok]] = first_hit(origin, rays)
+                cover_prim[kept] = first_hit(origin, rays)
             else:
                 cut = np.linspace(0, len(rays), threads + 1).astype(int).tolist()
-                cover_prim[kept[ok]] = np.concatenate(list(pool.map(lambda a, b: first_hit(origin[a:b], rays[a:b]),
+                cover_prim[kept] = np.concatenate(list(pool.map(lambda a, b: first_hit(origin[a:b], rays[a:b]),
                                                                     cut[:-1], cut[1:])))
 
         sizes = np.where(keep, np.diff(self.block_start), 0)
@@ -138,6 +134,26 @@ class FeatureIndex:
             parts = list(pool.map(part, zip(cut[:-1], cut[1:])))
             idx, dirs, dist = (np.concatenate([p[k] for p in parts]) for k in range(3))
         return self.order[idx], dirs, dist
+
+
+@nb.njit(nogil=True, cache=True)
+def _block_rays(keep, lo, hi, C):
+    """The kept blocks whose box centre is not C, and the float32 unit directions from C to those centres."""
+    kept = np.empty(keep.shape[0], np.int64)
+    rays = np.empty((keep.shape[0], 3), np.float32)
+    n = 0
+    for b in range(keep.shape[0]):
+        if not keep[b]:
+            continue
+        r0 = 0.5 * (lo[b, 0] + hi[b, 0]) - C[0]
+        r1 = 0.5 * (lo[b, 1] + hi[b, 1]) - C[1]
+        r2 = 0.5 * (lo[b, 2] + hi[b, 2]) - C[2]
+        length = math.sqrt(r0 * r0 + r1 * r1 + r2 * r2)
+        if length > 0.0:
+            kept[n] = b
+            rays[n, 0], rays[n, 1], rays[n, 2] = r0 / length, r1 / length, r2 / length
+            n += 1
+    return kept[:n], rays[:n]
 
 
 @nb.njit(nogil=True, cache=True)
@@ -195,6 +211,8 @@ def _filter(points, normals, block_start, keep, C, R, pinhole, width, height, fx
             d = math.sqrt(r0 * r0 + r1 * r1 + r2 * r2)
             if not (d <= d_max and d > 0.0):
                 continue
+            if covering and _covered(cover, r0, r1, r2, d):
+                continue  # hidden whether it is in view or not
             if pinhole:
                 zc = r0 * R[0, 2] + r1 * R[1, 2] + r2 * R[2, 2]
                 if not zc > 0.0:
@@ -203,8 +221,6 @@ def _filter(points, normals, block_start, keep, C, R, pinhole, width, height, fx
                 y = fy * (r0 * R[0, 1] + r1 * R[1, 1] + r2 * R[2, 1]) / zc + cy
                 if not (x >= 0.0 and x < width and y >= 0.0 and y < height):
                     continue
-            if covering and _covered(cover, r0, r1, r2, d):
-                continue
             idx[k] = i
             dirs[k, 0] = r0 / d
             dirs[k, 1] = r1 / d
