@@ -58,6 +58,7 @@ class EmbreeEngine(Engine):
     def _chunk_caster(self, cam: Camera, R: NDArray, C: NDArray, max_rays: int):
         """Rays, packets and reduction fused in one compiled loop (:func:`.packets.cast_pixels`)."""
         buf = rtc.packet_buffer()
+        pending = np.zeros((rtc.LANES, 6))
         C32 = C.astype(np.float32)
         if isinstance(cam, EquirectangularCamera):
             mode, fx, fy, cx, cy = kernels.MODE_EQUIRECT, 1.0, 1.0, 0.0, 0.0
@@ -69,7 +70,8 @@ class EmbreeEngine(Engine):
             if not self._empty:
                 _packets.cast_pixels(self._rtc.handle, p0, p1, mode, cam.width, cols, rows, R, C32, C,
                                      self._face_normal, self._face_offset,
-                                     self._face_element, *self._ties, self.d_max, count, depth, angle, buf)
+                                     self._face_element, *self._ties, self.d_max, count, depth, angle, buf,
+                                     pending)
 
         return cast
 

@@ -374,13 +374,10 @@ def tied_owner(tie_elem, tie_edge, j, start, s, x0, x1, x2):
 
 
 @per_ray
-def add_hit(f, d0, d1, d2, origin, R, mode, face_normal, face_offset, face_element, tie_ptr, tie_elem, tie_edge,
-            d_max, count, depth_sum, angle_sum):
-    """Add one ray's first hit (triangle f, float64 unit direction d) to the per-element sums.
-
-    The pixel counts for the hit face's element and, where the hit lies on a surface it shares with other
-    elements (the tie entries of f, :func:`tie_table`: inside the other triangle within 1 mm of its edges), for
-    each of those elements too, with the same distance and angle (METRICS.md §2, coincident surfaces).
+def hit_sums(f, d0, d1, d2, origin, R, mode, face_normal, face_offset, face_element, d_max, count, depth_sum,
+             angle_sum):
+    """Add one ray's first hit (triangle f, float64 unit direction d) to the sums of the hit face's element; return
+    its distance t and angle (t = −1 where the hit does not count: beyond d_max, behind, or along the plane).
 
     The hit distance is recomputed in float64 from the hit triangle's plane
     (face_normal · X = face_offset), so engines that return only triangle ids give the
@@ -393,10 +390,10 @@ def add_hit(f, d0, d1, d2, origin, R, mode, face_normal, face_offset, face_eleme
     n2 = face_normal[f, 2]
     dn = n0 * d0 + n1 * d1 + n2 * d2
     if dn == 0.0:
-        return
+        return -1.0, 0.0
     t = (face_offset[f] - (n0 * origin[0] + n1 * origin[1] + n2 * origin[2])) / dn
     if t > d_max or t < 0.0:
-        return
+        return -1.0, 0.0
     if dn > 0.0:  # turn the normal toward the camera
         n0 = -n0
         n1 = -n1
@@ -432,11 +429,29 @@ def add_hit(f, d0, d1, d2, origin, R, mode, face_normal, face_offset, face_eleme
     count[e] += 1
     depth_sum[e] += t
     angle_sum[e] += a
-    if tie_ptr[f] == tie_ptr[f + 1]:
-        return
-    x0 = origin[0] + t * d0
-    x1 = origin[1] + t * d1
-    x2 = origin[2] + t * d2
+    return t, a
+
+
+@per_ray
+def add_hit(f, d0, d1, d2, origin, R, mode, face_normal, face_offset, face_element, tie_ptr, tie_elem, tie_edge,
+            d_max, count, depth_sum, angle_sum):
+    """Add one ray's first hit (triangle f, float64 unit direction d) to the per-element sums (:func:`hit_sums`).
+
+    The pixel counts for the hit face's element and, where the hit lies on a surface it shares with other
+    elements (the tie entries of f, :func:`tie_table`: inside the other triangle within 1 mm of its edges), for
+    each of those elements too, with the same distance and angle (METRICS.md §2, coincident surfaces).
+    """
+    t, a = hit_sums(f, d0, d1, d2, origin, R, mode, face_normal, face_offset, face_element, d_max, count, depth_sum,
+                    angle_sum)
+    if t >= 0.0 and tie_ptr[f] != tie_ptr[f + 1]:
+        add_ties(f, face_element[f], origin[0] + t * d0, origin[1] + t * d1, origin[2] + t * d2, t, a, tie_ptr,
+                 tie_elem, tie_edge, count, depth_sum, angle_sum)
+
+
+@per_ray
+def add_ties(f, e, x0, x1, x2, t, a, tie_ptr, tie_elem, tie_edge, count, depth_sum, angle_sum):
+    """The tail of :func:`add_hit` for a hit X on a face with ties: count the pixel for each other element whose tied
+    triangle holds X."""
     start, stop, s = tie_window(tie_ptr, tie_edge, f, x0, x1, x2)
     for j in range(start, stop):
         eg = tied_owner(tie_elem, tie_edge, j, start, s, x0, x1, x2)
@@ -444,6 +459,18 @@ def add_hit(f, d0, d1, d2, origin, R, mode, face_normal, face_offset, face_eleme
             count[eg] += 1
             depth_sum[eg] += t
             angle_sum[eg] += a
+
+
+@no_refs
+def add_pending_ties(pending, n, face_element, tie_ptr, tie_elem, tie_edge, count, depth_sum, angle_sum):
+    """:func:`add_ties` for the n hits in ``pending`` (rows: face, x, y, z, t, angle), as the Embree caster collects
+    them per packet: one call for several hits. Not inlined into the caster, which cannot be cached (it calls Embree
+    by its address in the process): compiled once and cached here, the ties' code is not compiled again by every
+    process."""
+    for k in range(n):
+        f = np.int64(pending[k, 0])
+        add_ties(f, face_element[f], pending[k, 1], pending[k, 2], pending[k, 3], pending[k, 4], pending[k, 5],
+                 tie_ptr, tie_elem, tie_edge, count, depth_sum, angle_sum)
 
 
 @no_refs

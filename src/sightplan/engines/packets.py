@@ -18,7 +18,7 @@ import numba as nb
 import numpy as np
 
 from . import rtc
-from .kernels import add_hit, table_direction
+from .kernels import add_pending_ties, hit_sums, table_direction
 
 LANES = rtc.LANES
 _intersect8 = rtc.intersect8
@@ -55,12 +55,14 @@ def _reset_lanes(f, u):
 
 @nb.njit(nogil=True, _nrt=False)
 def cast_pixels(scene, p0, p1, mode, width, cols, rows, R, origin32, origin, face_normal, face_offset,
-                face_element, tie_ptr, tie_elem, tie_edge, d_max, count, depth_sum, angle_sum, buf):
+                face_element, tie_ptr, tie_elem, tie_edge, d_max, count, depth_sum, angle_sum, buf, pending):
     """Cast pixels p0..p1 (row-major) of one camera from ``origin`` and add their first hits to the sums.
 
     cols, rows: the frame's :func:`sightplan.engines.kernels.direction_tables`. origin32: (3,) float32 camera
     centre in the scene's frame, as cast; origin: the same in float64, for the distances. Other arguments as
-    :func:`sightplan.engines.kernels.add_hit`. Compiled without reference counting, as the kernels' loops.
+    :func:`sightplan.engines.kernels.add_hit`; pending: (8, 6) float64 scratch for a packet's hits on faces with
+    ties, whose other elements are counted once per packet. Compiled without reference counting, as the kernels'
+    loops.
     """
     f, u, valid, addr, vaddr = _packet(buf)
     _reset_lanes(f, u)
@@ -82,11 +84,23 @@ def cast_pixels(scene, p0, p1, mode, width, cols, rows, R, origin32, origin, fac
             else:
                 valid[k] = 0
         _intersect8(vaddr, scene, addr, 0)
+        m = 0
         for k in range(n):
             if u[_GEOM_ID + k] != _INVALID:
-                add_hit(np.int64(u[_PRIM_ID + k]), np.float64(f[_DIR_X + k]), np.float64(f[_DIR_Y + k]),
-                        np.float64(f[_DIR_Z + k]), origin, R, mode, face_normal, face_offset, face_element, tie_ptr,
-                        tie_elem, tie_edge, d_max, count, depth_sum, angle_sum)
+                p = np.int64(u[_PRIM_ID + k])
+                d0, d1, d2 = np.float64(f[_DIR_X + k]), np.float64(f[_DIR_Y + k]), np.float64(f[_DIR_Z + k])
+                t, a = hit_sums(p, d0, d1, d2, origin, R, mode, face_normal, face_offset, face_element, d_max, count,
+                                depth_sum, angle_sum)
+                if t >= 0.0 and tie_ptr[p] != tie_ptr[p + 1]:  # on a face with ties: after the packet
+                    pending[m, 0] = p
+                    pending[m, 1] = origin[0] + t * d0
+                    pending[m, 2] = origin[1] + t * d1
+                    pending[m, 3] = origin[2] + t * d2
+                    pending[m, 4] = t
+                    pending[m, 5] = a
+                    m += 1
+        if m:
+            add_pending_ties(pending, m, face_element, tie_ptr, tie_elem, tie_edge, count, depth_sum, angle_sum)
 
 
 @nb.njit(nogil=True, _nrt=False, inline="always")
