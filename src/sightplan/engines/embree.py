@@ -58,7 +58,7 @@ class EmbreeEngine(Engine):
     def _chunk_caster(self, cam: Camera, R: NDArray, C: NDArray, max_rays: int):
         """Rays, packets and reduction fused in one compiled loop (:func:`.packets.cast_pixels`)."""
         buf = rtc.packet_buffer()
-        pending = np.zeros((rtc.LANES, 6))
+        pending = np.zeros((32 * rtc.LANES, 6))  # hits on faces with ties, counted 256 at a time
         C32 = C.astype(np.float32)
         if isinstance(cam, EquirectangularCamera):
             mode, fx, fy, cx, cy = kernels.MODE_EQUIRECT, 1.0, 1.0, 0.0, 0.0

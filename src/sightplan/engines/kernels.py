@@ -464,7 +464,7 @@ def add_ties(f, e, x0, x1, x2, t, a, tie_ptr, tie_elem, tie_edge, count, depth_s
 @no_refs
 def add_pending_ties(pending, n, face_element, tie_ptr, tie_elem, tie_edge, count, depth_sum, angle_sum):
     """:func:`add_ties` for the n hits in ``pending`` (rows: face, x, y, z, t, angle), as the Embree caster collects
-    them per packet: one call for several hits. Not inlined into the caster, which cannot be cached (it calls Embree
+    them: one call for many hits. Not inlined into the caster, which cannot be cached (it calls Embree
     by its address in the process): compiled once and cached here, the ties' code is not compiled again by every
     process."""
     for k in range(n):

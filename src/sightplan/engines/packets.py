@@ -60,9 +60,9 @@ def cast_pixels(scene, p0, p1, mode, width, cols, rows, R, origin32, origin, fac
 
     cols, rows: the frame's :func:`sightplan.engines.kernels.direction_tables`. origin32: (3,) float32 camera
     centre in the scene's frame, as cast; origin: the same in float64, for the distances. Other arguments as
-    :func:`sightplan.engines.kernels.add_hit`; pending: (8, 6) float64 scratch for a packet's hits on faces with
-    ties, whose other elements are counted once per packet. Compiled without reference counting, as the kernels'
-    loops.
+    :func:`sightplan.engines.kernels.add_hit`; pending: (k ≥ 8, 6) float64 scratch for hits on faces with ties,
+    whose other elements are counted k at a time by one call (:func:`sightplan.engines.kernels.add_pending_ties`).
+    Compiled without reference counting, as the kernels' loops.
     """
     f, u, valid, addr, vaddr = _packet(buf)
     _reset_lanes(f, u)
@@ -70,6 +70,7 @@ def cast_pixels(scene, p0, p1, mode, width, cols, rows, R, origin32, origin, fac
         f[_ORG_X + k] = origin32[0]
         f[_ORG_Y + k] = origin32[1]
         f[_ORG_Z + k] = origin32[2]
+    m = 0  # hits waiting in ``pending``
     for start in range(p0, p1, LANES):
         n = min(LANES, p1 - start)
         for k in range(LANES):
@@ -84,14 +85,16 @@ def cast_pixels(scene, p0, p1, mode, width, cols, rows, R, origin32, origin, fac
             else:
                 valid[k] = 0
         _intersect8(vaddr, scene, addr, 0)
-        m = 0
+        if m > pending.shape[0] - LANES:  # no room for another packet's hits
+            add_pending_ties(pending, m, face_element, tie_ptr, tie_elem, tie_edge, count, depth_sum, angle_sum)
+            m = 0
         for k in range(n):
             if u[_GEOM_ID + k] != _INVALID:
                 p = np.int64(u[_PRIM_ID + k])
                 d0, d1, d2 = np.float64(f[_DIR_X + k]), np.float64(f[_DIR_Y + k]), np.float64(f[_DIR_Z + k])
                 t, a = hit_sums(p, d0, d1, d2, origin, R, mode, face_normal, face_offset, face_element, d_max, count,
                                 depth_sum, angle_sum)
-                if t >= 0.0 and tie_ptr[p] != tie_ptr[p + 1]:  # on a face with ties: after the packet
+                if t >= 0.0 and tie_ptr[p] != tie_ptr[p + 1]:  # on a face with ties: later, with others
                     pending[m, 0] = p
                     pending[m, 1] = origin[0] + t * d0
                     pending[m, 2] = origin[1] + t * d1
@@ -99,8 +102,8 @@ def cast_pixels(scene, p0, p1, mode, width, cols, rows, R, origin32, origin, fac
                     pending[m, 4] = t
                     pending[m, 5] = a
                     m += 1
-        if m:
-            add_pending_ties(pending, m, face_element, tie_ptr, tie_elem, tie_edge, count, depth_sum, angle_sum)
+    if m:
+        add_pending_ties(pending, m, face_element, tie_ptr, tie_elem, tie_edge, count, depth_sum, angle_sum)
 
 
 @nb.njit(nogil=True, _nrt=False, inline="always")
