@@ -259,7 +259,7 @@ def test_a_wall_tiled_in_two_directions_counts_each_tile_and_each_overlap(engine
 
 def test_the_cells_of_a_tie_table_hold_every_triangle_a_point_lies_on():
     """A tilted floor (element 0, two triangles) with 1,500 random triangles flush on it (small, slivers, and some
-    long ones across it; elements 1–300): for 4,000 points on the floor, near vertices too, the elements the tie
+    long ones across it; elements 1–300): for 2,000 points on the floor, near vertices too, the elements the tie
     table's window finds equal those of a brute-force search in the floor's own 2-D coordinates (every triangle
     whose in-plane distance to the point is at most 1 mm)."""
     from sightplan.engines import kernels
@@ -285,9 +285,9 @@ def test_the_cells_of_a_tie_table_hold_every_triangle_a_point_lies_on():
     pairs = coincident_face_pairs(vertices, faces, fe)
     ptr, elem, edge = kernels.tie_table(pairs, vertices, faces, fe)
     assert all(edge[ptr[f], 3, 0] > 2 and edge[ptr[f], 1, 3] > 2 for f in (0, 1))  # the floor's triangles: grids
-    points = np.concatenate([rng.uniform([0, 0], [20, 12], (3000, 2)),
-                             tri2[rng.integers(0, 1500, 1000), rng.integers(0, 3, 1000)]
-                             + rng.choice([-1.0, 1.0], (1000, 2)) * rng.choice([0.0004, 0.0015], (1000, 1))])
+    points = np.concatenate([rng.uniform([0, 0], [20, 12], (1400, 2)),
+                             tri2[rng.integers(0, 1500, 600), rng.integers(0, 3, 600)]
+                             + rng.choice([-1.0, 1.0], (600, 2)) * rng.choice([0.0004, 0.0015], (600, 1))])
     points = points[(points > 0.01).all(axis=1) & (points < [19.99, 11.99]).all(axis=1)]
 
     def distance(p, t):  # in-plane distance from 2-D point p to 2-D triangle t
@@ -314,7 +314,7 @@ def test_the_cells_of_a_tie_table_hold_every_triangle_a_point_lies_on():
         reference = {int(fe[2 + i]) for i in np.flatnonzero(near) if distance(p, small[i]) <= 1e-3}
         assert found == reference, p
         checked += len(reference)
-    assert checked > 3000
+    assert checked > 1500
 
 
 def test_a_scene_at_a_date_keeps_the_pairs_of_the_elements_that_stand(duplex):
