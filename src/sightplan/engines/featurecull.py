@@ -230,7 +230,7 @@ def _filter(points, normals, block_start, keep, C, R, pinhole, width, height, fx
     return k
 
 
-@per_ray
+@no_refs
 def _cover_setup(vertices, faces, f, C, centre, out):
     """Triangle f as seen from C, into ``out`` (16,), relative to C: its unit normal turned away from C (0–2), C's
     distance to its plane (3), then per edge k its inward in-plane unit normal m_k (4k + 4 … 4k + 6) and offset
@@ -273,7 +273,7 @@ def _cover_setup(vertices, faces, f, C, centre, out):
     return True
 
 
-@per_ray
+@no_refs
 def _box_covered(cover, lo, hi, C):
     """Whether :func:`_covered` holds for every point of the box lo..hi: it does at its eight corners, with the
     margin of the farthest. Each of its tests is a half-space (the edge tests through C, since the sight line's

@@ -23,8 +23,10 @@ TIE_ROWS = 7  # rows of 4 per tie entry (:func:`tie_table`)
 # compiled without numba's reference counting (``_nrt=False``), the helpers inlined into them. With it, every call
 # that passes arrays added and dropped a reference to each (atomic operations, inlined or not), and the per-hit sums
 # of a frame cost as much as casting its rays.
-per_ray = nb.njit(nogil=True, cache=True, _nrt=False, inline="always")  # a helper called per item
-no_refs = nb.njit(nogil=True, cache=True, _nrt=False)  # a loop that allocates nothing
+per_ray = nb.njit(nogil=True, cache=True, _nrt=False, inline="always")  # a small helper called per item
+no_refs = nb.njit(nogil=True, cache=True, _nrt=False)  # a loop that allocates nothing, or a larger helper: called,
+# not inlined, so the ties' tests are compiled once rather than into every loop that uses them (minutes on a fresh
+# install otherwise)
 
 
 @nb.njit(nogil=True, cache=True)
@@ -141,12 +143,17 @@ def tie_table(pairs: np.ndarray, local_vertices: np.ndarray, faces: np.ndarray, 
     first = np.flatnonzero(np.r_[True, src[1:] != src[:-1]])
     counts = np.diff(np.r_[first, len(src)])
     vlo, vhi = across.min(axis=1) - TIE_TOL_M, across.max(axis=1) + TIE_TOL_M
-    grid = _tie_grids(first, counts, lo, hi, vlo, vhi, own_u[first].min(axis=1) - TIE_TOL_M,
-                      own_u[first].max(axis=1) + TIE_TOL_M, own_v[first].min(axis=1) - TIE_TOL_M,
-                      own_v[first].max(axis=1) + TIE_TOL_M)
-    sizes = grid[:, 6].astype(np.int64)
+    umin = own_u[first].min(axis=1) - TIE_TOL_M
+    vmin = own_v[first].min(axis=1) - TIE_TOL_M
+    group = np.repeat(np.arange(len(first)), counts)
+    nu, nv, iu, iv, cells = _tie_grids(counts, group, lo, hi, vlo, vhi, umin, own_u[first].max(axis=1) + TIE_TOL_M,
+                                       vmin, own_v[first].max(axis=1) + TIE_TOL_M)
+    n_cells = nu * nv
+    spill = np.maximum(0, -(-(TIE_DIRECTORY + 2 * n_cells + 1 - 4 * TIE_ROWS) // (4 * TIE_ROWS)))
+    copies = np.bincount(group, weights=(cells[1] - cells[0] + 1) * (cells[3] - cells[2] + 1),
+                         minlength=len(first)).astype(np.int64)
     per_face = np.zeros(n_faces, np.int64)
-    per_face[src[first]] = sizes
+    per_face[src[first]] = 1 + spill + copies
     ptr = np.zeros(n_faces + 1, np.int64)
     np.cumsum(per_face, out=ptr[1:])
     rows = np.zeros((len(src), TIE_ROWS, 4))
@@ -162,8 +169,40 @@ def tie_table(pairs: np.ndarray, local_vertices: np.ndarray, faces: np.ndarray, 
     rows[:, 3, 1] = hi
     out_elem = np.full(ptr[-1], -1, np.int32)
     out_edge = np.zeros((ptr[-1], TIE_ROWS, 4))
-    _fill_ties(first, counts, ptr[src[first]], grid, lo, hi, vlo, vhi, axis_u[first], axis_v[first], rows,
-               elem[dst].astype(np.int32), out_elem, out_edge)
+    head = ptr[src[first]]
+    # every (triangle, cell) copy, in the order of group, cell, then lo (the entries are sorted by lo already)
+    wide = cells[1] - cells[0] + 1
+    n_copy = wide * (cells[3] - cells[2] + 1)
+    entry = np.repeat(np.arange(len(src)), n_copy)
+    k = np.arange(len(entry)) - np.repeat(np.cumsum(n_copy) - n_copy, n_copy)
+    cell = (cells[2][entry] + k // wide[entry]) * nu[group[entry]] + cells[0][entry] + k % wide[entry]
+    order = np.lexsort((entry, cell, group[entry]))
+    entry, cell = entry[order], cell[order]
+    g = group[entry]
+    cell_base = np.cumsum(n_cells) - n_cells  # each group's first cell among all groups' cells
+    in_cell = np.bincount(cell_base[g] + cell, minlength=int(n_cells.sum()))
+    before = np.cumsum(in_cell) - in_cell  # copies in the earlier cells of every group
+    group_start = before[cell_base]
+    slot = head[g] + 1 + spill[g] + np.arange(len(entry)) - (np.cumsum(copies) - copies)[g]
+    out_elem[slot] = elem[dst][entry]
+    out_edge[slot] = rows[entry]
+    out_edge[head, 0, :3] = axis_u[first]
+    out_edge[head, 1, :3] = axis_v[first]
+    out_edge[head, 1, 3] = nv
+    out_edge[head, 2, 0] = umin
+    out_edge[head, 2, 1] = vmin
+    out_edge[head, 2, 2] = iu
+    out_edge[head, 2, 3] = iv
+    out_edge[head, 3, 0] = nu
+    # the directory: per cell its first entry after the header and the longest span of its entries, then the end
+    span = np.zeros(len(in_cell))
+    np.maximum.at(span, cell_base[g] + cell, hi[entry] - lo[entry])
+    cell_group = np.repeat(np.arange(len(first)), n_cells)
+    at = head[cell_group] * 4 * TIE_ROWS + TIE_DIRECTORY + 2 * (np.arange(len(in_cell)) - cell_base[cell_group])
+    flat = out_edge.reshape(-1)
+    flat[at] = 1 + spill[cell_group] + before - group_start[cell_group]
+    flat[at + 1] = span
+    flat[head * 4 * TIE_ROWS + TIE_DIRECTORY + 2 * n_cells] = 1 + spill + copies
     return ptr, out_elem, out_edge
 
 
@@ -189,45 +228,36 @@ def _cell(x, origin, inverse, n):
     return int(q)
 
 
-@nb.njit(cache=True)
-def _tie_grids(first, counts, lo, hi, vlo, vhi, umin, umax, vmin, vmax):
-    """Per face with ties: (nu, nv, u0, v0, 1/cell u, 1/cell v, entries it takes in the table)."""
-    out = np.zeros((len(first), 7))
-    for g in range(len(first)):
-        n = counts[g]
-        a = first[g]
-        lu = max(umax[g] - umin[g], 1e-9)
-        lv = max(vmax[g] - vmin[g], 1e-9)
-        nu = 1
-        nv = 1
-        if n >= TIE_GRID_FROM:
-            cells = max(1, n // TIE_PER_CELL)
-            nu = min(1024, max(1, int(round(math.sqrt(cells * lu / lv)))))
-            nv = min(1024, max(1, (cells + nu - 1) // nu))
-        while True:
-            iu = nu / lu if nu > 1 else 0.0
-            iv = nv / lv if nv > 1 else 0.0
-            copies = 0
-            for k in range(a, a + n):
-                cu = (_cell(hi[k] + TIE_CELL_MARGIN_M, umin[g], iu, nu) - _cell(lo[k] - TIE_CELL_MARGIN_M, umin[g], iu, nu)
-                      + 1)
-                cv = (_cell(vhi[k] + TIE_CELL_MARGIN_M, vmin[g], iv, nv)
-                      - _cell(vlo[k] - TIE_CELL_MARGIN_M, vmin[g], iv, nv) + 1)
-                copies += cu * cv
-            if copies <= TIE_COPIES * n or (nu == 1 and nv == 1):
-                break
-            nu = (nu + 1) // 2
-            nv = (nv + 1) // 2
-        directory = TIE_DIRECTORY + 2 * nu * nv + 1 - 4 * TIE_ROWS  # floats beyond the header
-        spill = 0 if directory <= 0 else (directory + 4 * TIE_ROWS - 1) // (4 * TIE_ROWS)
-        out[g, 0] = nu
-        out[g, 1] = nv
-        out[g, 2] = umin[g]
-        out[g, 3] = vmin[g]
-        out[g, 4] = iu
-        out[g, 5] = iv
-        out[g, 6] = 1 + spill + copies
-    return out
+def _cells(x, origin, inverse, n):
+    """:func:`_cell` over arrays: the cell of each coordinate, beyond the grid its border cell."""
+    q = (x - origin) * inverse
+    return np.where(q > 0.0, np.minimum(np.floor(np.where(q > 0.0, q, 0.0)), n - 1), 0).astype(np.int64)
+
+
+def _tie_grids(counts, group, lo, hi, vlo, vhi, umin, umax, vmin, vmax):
+    """Per face with ties, its grid: (nu, nv, 1/cell u, 1/cell v) and per tied triangle the range of cells it
+    overlaps, (u0, u1, v0, v1). About TIE_PER_CELL triangles a cell; a grid whose triangles would be copied more than
+    TIE_COPIES times on average is halved until they are not."""
+    lu = np.maximum(umax - umin, 1e-9)
+    lv = np.maximum(vmax - vmin, 1e-9)
+    many = counts >= TIE_GRID_FROM
+    want = np.maximum(1, counts // TIE_PER_CELL)
+    nu = np.where(many, np.clip(np.round(np.sqrt(want * lu / lv)), 1, 1024), 1).astype(np.int64)
+    nv = np.where(many, np.clip(-(-want // nu), 1, 1024), 1).astype(np.int64)
+    while True:
+        iu = np.where(nu > 1, nu / lu, 0.0)
+        iv = np.where(nv > 1, nv / lv, 0.0)
+        cells = (_cells(lo - TIE_CELL_MARGIN_M, umin[group], iu[group], nu[group]),
+                 _cells(hi + TIE_CELL_MARGIN_M, umin[group], iu[group], nu[group]),
+                 _cells(vlo - TIE_CELL_MARGIN_M, vmin[group], iv[group], nv[group]),
+                 _cells(vhi + TIE_CELL_MARGIN_M, vmin[group], iv[group], nv[group]))
+        copies = np.bincount(group, weights=(cells[1] - cells[0] + 1) * (cells[3] - cells[2] + 1),
+                             minlength=len(counts))
+        coarsen = (copies > TIE_COPIES * counts) & ((nu > 1) | (nv > 1))
+        if not coarsen.any():
+            return nu, nv, iu, iv, cells
+        nu = np.where(coarsen, (nu + 1) // 2, nu)
+        nv = np.where(coarsen, (nv + 1) // 2, nv)
 
 
 @per_ray
@@ -238,60 +268,7 @@ def _tie_float(tie_edge, i):
     return tie_edge[e, r >> 2, r & 3]
 
 
-@nb.njit(cache=True)
-def _fill_ties(first, counts, heads, grid, lo, hi, vlo, vhi, axis_u, axis_v, rows, elem, out_elem, out_edge):
-    """Write each face's header, cell directory and cells (see :func:`tie_table`)."""
-    width = 4 * TIE_ROWS
-    for g in range(len(first)):
-        a, n, h = first[g], counts[g], heads[g]
-        nu, nv = int(grid[g, 0]), int(grid[g, 1])
-        u0, v0, iu, iv = grid[g, 2], grid[g, 3], grid[g, 4], grid[g, 5]
-        n_cells = nu * nv
-        for c in range(3):
-            out_edge[h, 0, c] = axis_u[g, c]
-            out_edge[h, 1, c] = axis_v[g, c]
-        out_edge[h, 1, 3] = nv
-        out_edge[h, 2, 0] = u0
-        out_edge[h, 2, 1] = v0
-        out_edge[h, 2, 2] = iu
-        out_edge[h, 2, 3] = iv
-        out_edge[h, 3, 0] = nu
-        in_cell = np.zeros(n_cells + 1, np.int64)
-        for k in range(a, a + n):
-            for jv in range(_cell(vlo[k] - TIE_CELL_MARGIN_M, v0, iv, nv), _cell(vhi[k] + TIE_CELL_MARGIN_M, v0, iv, nv) + 1):
-                for ju in range(_cell(lo[k] - TIE_CELL_MARGIN_M, u0, iu, nu),
-                                _cell(hi[k] + TIE_CELL_MARGIN_M, u0, iu, nu) + 1):
-                    in_cell[jv * nu + ju + 1] += 1
-        directory = TIE_DIRECTORY + 2 * n_cells + 1 - width
-        spill = 0 if directory <= 0 else (directory + width - 1) // width
-        in_cell[0] = 1 + spill  # the first cell starts after the header and the directory's spill
-        for c in range(n_cells):
-            in_cell[c + 1] += in_cell[c]
-        at = in_cell[:n_cells].copy()
-        span = np.zeros(n_cells)
-        for k in range(a, a + n):  # in order of lo, so each cell stays sorted by it
-            for jv in range(_cell(vlo[k] - TIE_CELL_MARGIN_M, v0, iv, nv), _cell(vhi[k] + TIE_CELL_MARGIN_M, v0, iv, nv) + 1):
-                for ju in range(_cell(lo[k] - TIE_CELL_MARGIN_M, u0, iu, nu),
-                                _cell(hi[k] + TIE_CELL_MARGIN_M, u0, iu, nu) + 1):
-                    c = jv * nu + ju
-                    slot = h + at[c]
-                    at[c] += 1
-                    out_elem[slot] = elem[k]
-                    out_edge[slot] = rows[k]
-                    span[c] = max(span[c], hi[k] - lo[k])
-        for c in range(n_cells + 1):
-            i = h * width + TIE_DIRECTORY + 2 * c
-            e = i // width
-            r = i - e * width
-            out_edge[e, r >> 2, r & 3] = in_cell[c]
-            if c < n_cells:
-                i += 1
-                e = i // width
-                r = i - e * width
-                out_edge[e, r >> 2, r & 3] = span[c]
-
-
-@per_ray
+@no_refs
 def inside_tied(edge, j, x0, x1, x2):
     """Whether point x, projected into the plane of tie entry j's triangle, lies within :data:`TIE_TOL_M` of the
     triangle (METRICS.md §2): inside its three edges, or no farther than that from its nearest edge or corner (never
@@ -306,7 +283,7 @@ def inside_tied(edge, j, x0, x1, x2):
     return corner_distance(edge, j, x0, x1, x2, s0, s1, s2) <= TIE_TOL_M
 
 
-@per_ray
+@no_refs
 def corner_distance(edge, j, x0, x1, x2, s0, s1, s2):
     """In-plane distance from x to tie entry j's triangle, for a point outside some edge (s_k < 0): the nearest
     point lies on one of those edges."""
