@@ -514,6 +514,7 @@ def ply_wall(n: int = 200_000) -> bytes:
     return buf.getvalue()
 
 
+@pytest.mark.bench  # its API twin, test_web_reality.py's mesh capture that occludes, runs in make test
 def test_reality_captures_are_drawn_beside_the_model_and_occlude(browser, server, artifacts, duplex):
     pytest.importorskip("plyfile")
     project, model = duplex
@@ -620,6 +621,7 @@ def team_server(tmp_path_factory):
     s.stop()
 
 
+@pytest.mark.bench  # its API twins, test_web_access.py's login, roles and share links, run in make test
 def test_team_mode_login_members_share_links_and_roles(browser, team_server, artifacts):
     server = team_server
     cube = box((6, 4, 3), (0, 0, 0))

@@ -268,7 +268,7 @@ def _tie_float(tie_edge, i):
     return tie_edge[e, r >> 2, r & 3]
 
 
-@no_refs
+@per_ray
 def inside_tied(edge, j, x0, x1, x2):
     """Whether point x, projected into the plane of tie entry j's triangle, lies within :data:`TIE_TOL_M` of the
     triangle (METRICS.md §2): inside its three edges, or no farther than that from its nearest edge or corner (never
