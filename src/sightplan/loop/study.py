@@ -140,8 +140,9 @@ class LogisticFit:
 
 def fit_logistic(X, y, predictors: tuple[str, ...] | None = None, ridge: float = RIDGE) -> LogisticFit:
     """Logistic regression of 0/1 ``y`` on the (n, k) ``X`` (module docstring); rows with a NaN are left out."""
-    from scipy.optimize import minimize
     from scipy.stats import norm
+
+    from ..predict.model import ridge_logistic
 
     X = np.asarray(X, float)
     X = X.reshape(len(X), -1)
@@ -161,14 +162,7 @@ def fit_logistic(X, y, predictors: tuple[str, ...] | None = None, ridge: float =
     scale = np.where(scale > 0, scale, 1.0)
     Z = np.column_stack([np.ones(n), (X - mean) / scale])
     penalty = np.r_[0.0, np.full(k, ridge)]
-
-    def loss(beta):
-        eta = Z @ beta
-        mu = 1.0 / (1.0 + np.exp(-eta))
-        f = float(np.mean(np.logaddexp(0.0, eta) - y * eta) + 0.5 * (penalty * beta * beta).sum())
-        return f, Z.T @ (mu - y) / n + penalty * beta
-
-    res = minimize(loss, np.zeros(k + 1), jac=True, method="L-BFGS-B", options={"maxiter": 1000, "gtol": 1e-10})
+    res = ridge_logistic(Z, y, ridge)
     beta = res.x
     mu = 1.0 / (1.0 + np.exp(-(Z @ beta)))
     info = (Z * (mu * (1 - mu))[:, None]).T @ Z + n * np.diag(penalty)

@@ -179,12 +179,31 @@ def group_weights(groups: NDArray) -> NDArray[np.float64]:
     return w * len(w) / w.sum()
 
 
+def ridge_logistic(Z: NDArray, y: NDArray, ridge: float, weights: NDArray | None = None, beta0: NDArray | None = None,
+                   *, maxiter: int = 1000, gtol: float = 1e-10):
+    """Minimise the weighted mean logistic loss of outcomes ``y`` in [0, 1] (0/1, or fractions) on the design
+    ``Z`` (n, 1 + k: a column of ones, then standardised predictors), plus ``ridge``/2 · Σ β_k² on all but the
+    intercept, by L-BFGS from ``beta0`` (zeros by default). Returns scipy's result (``x``: the intercept, then
+    the coefficients; ``success``)."""
+    from scipy.optimize import minimize
+
+    n, width = Z.shape
+    w = np.ones(n) if weights is None else weights
+    penalty = np.r_[0.0, np.full(width - 1, ridge)]
+
+    def loss(beta):
+        eta = Z @ beta
+        f = float(np.mean(w * (np.logaddexp(0.0, eta) - y * eta)) + 0.5 * (penalty * beta * beta).sum())
+        return f, Z.T @ (w * (_sigmoid(eta) - y)) / n + penalty * beta
+
+    start = np.zeros(width) if beta0 is None else beta0
+    return minimize(loss, start, jac=True, method="L-BFGS-B", options={"maxiter": maxiter, "gtol": gtol})
+
+
 def fit_completeness(X: NDArray, c: NDArray, *, features: tuple[str, ...] = FEATURES, weights: NDArray | None = None,
                      ridge: float = RIDGE, info: dict | None = None) -> CompletenessModel:
     """The fractional logistic fit of completeness ``c`` (m,) on the raw features ``X`` (m, k) (module
     docstring); rows where c is not a number are left out."""
-    from scipy.optimize import minimize
-
     X = np.asarray(X, float).reshape(len(X), -1)
     c = np.asarray(c, float)
     w = np.ones(len(c)) if weights is None else np.asarray(weights, float)
@@ -204,16 +223,9 @@ def fit_completeness(X: NDArray, c: NDArray, *, features: tuple[str, ...] = FEAT
     scale = np.sqrt(np.average((Xf - mean) ** 2, axis=0, weights=w)) if k else np.zeros(0)
     scale = np.where(scale > 1e-12, scale, 1.0)
     Z = np.column_stack([np.ones(n), (Xf - mean) / scale])
-    penalty = np.r_[0.0, np.full(k, ridge)]
-
-    def loss(beta):
-        eta = Z @ beta
-        f = float(np.mean(w * (np.logaddexp(0.0, eta) - c * eta)) + 0.5 * (penalty * beta * beta).sum())
-        return f, Z.T @ (w * (_sigmoid(eta) - c)) / n + penalty * beta
-
     rate = float(np.clip(np.average(c, weights=w), 1e-6, 1 - 1e-6))
     beta0 = np.r_[math.log(rate / (1 - rate)), np.zeros(k)]
-    res = minimize(loss, beta0, jac=True, method="L-BFGS-B", options={"maxiter": 2000, "gtol": 1e-9})
+    res = ridge_logistic(Z, c, ridge, w, beta0, maxiter=2000, gtol=1e-9)
     return CompletenessModel(tuple(features), res.x[1:].copy(), float(res.x[0]), mean, scale, float(ridge), int(n),
                              info={**(info or {}), "converged": bool(res.success)})
 
