@@ -71,6 +71,7 @@ bench: $(STAMP)
 	$(BIN)/python benchmarks/speed.py
 	$(BIN)/python benchmarks/load.py
 	$(BIN)/python benchmarks/lean.py
+	$(BIN)/python benchmarks/features.py
 	$(BIN)/python benchmarks/run.py
 	$(BIN)/python benchmarks/planning.py
 	$(BIN)/python benchmarks/checks.py

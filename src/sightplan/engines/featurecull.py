@@ -69,6 +69,7 @@ class FeatureIndex:
         self.normals = np.ascontiguousarray(normals[order])
         starts = np.arange(0, n, BLOCK)
         self.block_start = np.r_[starts, n].astype(np.int64)
+        self.block_size = np.diff(self.block_start)
         if n:
             self.block_lo = np.minimum.reduceat(self.points, starts, axis=0)
             self.block_hi = np.maximum.reduceat(self.points, starts, axis=0)
@@ -117,7 +118,7 @@ class FeatureIndex:
                 cover_prim[kept] = np.concatenate(list(pool.map(lambda a, b: first_hit(origin[a:b], rays[a:b]),
                                                                     cut[:-1], cut[1:])))
 
-        sizes = np.where(keep, np.diff(self.block_start), 0)
+        sizes = np.where(keep, self.block_size, 0)
 
         def part(bounds: tuple[int, int]):
             total = int(sizes[bounds[0]:bounds[1]].sum())

@@ -1,0 +1,79 @@
+"""The feature test on real sizes: `python benchmarks/features.py` (`--model duplex`, `--frames N`, `--no-reference`).
+
+On the drone rings of `benchmarks/speed.py` (Phantom 4 Pro at scale 0.25), per frame: the blocks of features the view
+frustum keeps, those one ray proves hidden whole, the features that pass the geometric tests (each would cast a
+ray without the proof), those that still cast their own, those seen, and the CPU seconds of the whole test. With the
+reference (the default), every frame's set is compared with `visible_features_reference` (one ray per feature) and
+the mismatches counted. Writes benchmarks/features.json.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from pathlib import Path
+
+import numpy as np
+
+from run import cell_plan
+from sightplan.engines import featurecull
+from sightplan.engines.embree import EmbreeEngine
+from sightplan.model.load import load_model
+from sightplan.observations.features import cached_features
+from speed import model_path
+
+HERE = Path(__file__).resolve().parent
+
+
+def frame_counts(engine: EmbreeEngine, cam, R, C) -> dict:
+    """The blocks kept and hidden whole, the features passing the geometric tests and those casting a ray."""
+    index = engine.feature_index
+    args = (C, R, cam.width, cam.height, cam.fx, cam.fy, cam.cx, cam.cy, engine.d_max)
+    cover = (engine.first_hit, engine.local_vertices, engine.scene.faces, engine.centre)
+    planes = np.array([[cam.fx, 0.0, cam.cx], [-cam.fx, 0.0, cam.width - cam.cx], [0.0, cam.fy, cam.cy],
+                       [0.0, -cam.fy, cam.height - cam.cy]]) @ R.T
+    keep = featurecull._cull_blocks(index.block_lo, index.block_hi, C, planes, engine.d_max)
+    kept, rays = featurecull._block_rays(keep, index.block_lo, index.block_hi, C)
+    prim = engine.first_hit(np.broadcast_to((C - engine.centre).astype(np.float32), rays.shape), rays)
+    scratch, hidden = np.zeros(16), 0
+    for b, f in zip(kept.tolist(), prim.tolist()):
+        if f >= 0 and featurecull._cover_setup(engine.local_vertices, engine.scene.faces, f, C, engine.centre,
+                                               scratch):
+            hidden += bool(featurecull._box_covered(scratch, index.block_lo[b], index.block_hi[b], C))
+    return {"blocks_kept": int(keep.sum()), "blocks_hidden_whole": hidden,
+            "candidates": len(index.candidates(*args)[0]), "rays": len(index.candidates(*args, cover=cover)[0])}
+
+
+def main() -> None:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--model", default="restaurant", help="a model of benchmarks/speed.py (default restaurant)")
+    p.add_argument("--frames", type=int, default=16)
+    p.add_argument("--no-reference", action="store_true", help="do not compare with one ray per feature")
+    p.add_argument("--out", default=str(HERE / "features.json"))
+    args = p.parse_args()
+    scene, _ = load_model(model_path(args.model))
+    features = cached_features(scene, 1.0, 0)
+    engine = EmbreeEngine(scene, features)
+    plan = cell_plan(scene, "drone", args.frames)
+    rows = []
+    for i in range(len(plan)):
+        cam, R, C = plan.camera_of(i).scaled(0.25), plan.R_world_camera[i], plan.C_world[i]
+        engine.visible_features(cam, R, C)  # the first frame compiles
+        t = time.process_time()
+        seen = engine.visible_features(cam, R, C)
+        row = {"frame": i, "cpu_s": time.process_time() - t, "seen": len(seen), **frame_counts(engine, cam, R, C)}
+        if not args.no_reference:
+            row["mismatches"] = len(np.setxor1d(seen, engine.visible_features_reference(cam, R, C)))
+        rows.append(row)
+        print(row, flush=True)
+    mean = {k: float(np.mean([r[k] for r in rows])) for k in rows[0] if k != "frame"}
+    result = {"model": args.model, "triangles": int(len(scene.faces)), "features": len(features), "scale": 0.25,
+              "frames": rows, "mean": mean}
+    Path(args.out).write_text(json.dumps(result, indent=1))
+    print("per frame:", {k: round(v, 4) for k, v in mean.items()})
+    print(f"wrote {args.out}")
+
+
+if __name__ == "__main__":
+    main()
