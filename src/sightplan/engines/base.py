@@ -28,6 +28,9 @@ EngineName = Literal["auto", "embree", "gl", "trimesh"]
 
 D_MAX_M = 1000.0
 OCCLUSION_TOLERANCE_M = 0.0005
+# float32 rays round their hits: within this of the limit an occlusion query is not trusted (≫ a float32 ulp)
+OCCLUSION_BAND_REL = 1e-6
+OCCLUSION_BAND_M = 1e-6
 DEFAULT_CHUNK_RAYS = 1 << 19  # ~512k rays: best Embree throughput per call on this class of CPU
 CHUNKS_PER_FRAME = 64  # a frame is cut into this many chunks, taken by the threads as they free up
 MIN_CHUNK_RAYS = 1 << 14  # but none smaller than this (each has its own per-element sums)
@@ -301,7 +304,22 @@ class Engine(ABC):
         if len(cand) == 0:
             return cand
         origin = (np.asarray(C_world, np.float64) - self.centre).astype(np.float32)
-        return np.sort(cand[self.unoccluded_rays(origin, dirs, dist - OCCLUSION_TOLERANCE_M)])
+        return np.sort(cand[self._seen_from(origin, dirs, dist)])
+
+    def _seen_from(self, origin32: NDArray[np.float32], dirs: NDArray[np.float32], dist: NDArray) -> NDArray[np.bool_]:
+        """(k,) whether the first hit along each ray lies no nearer than its feature's distance − 0.5 mm, decided as
+        :meth:`visible_features_reference` decides it: by occlusion queries (cheaper than first hits) up to just
+        before and just after that limit, and, for the rare rays whose first hit falls between the two (within float32
+        rounding of the limit), by the first hit's distance itself."""
+        limit = dist - OCCLUSION_TOLERANCE_M
+        band = OCCLUSION_BAND_REL * dist + OCCLUSION_BAND_M
+        seen = self.unoccluded_rays(origin32, dirs, limit - band)
+        maybe = np.flatnonzero(seen)
+        unsure = maybe[~self.unoccluded_rays(origin32, dirs[maybe], (limit + band)[maybe])]
+        if len(unsure):
+            t = self.hit_distance(np.broadcast_to(origin32, (len(unsure), 3)), dirs[unsure])
+            seen[unsure] = t >= limit[unsure]
+        return seen
 
     def unoccluded_rays(self, origin32: NDArray[np.float32], directions: NDArray[np.float32],
                         tfar: NDArray[np.float64]) -> NDArray[np.bool_]:
