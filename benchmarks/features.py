@@ -1,10 +1,11 @@
 """The feature test on real sizes: `python benchmarks/features.py` (`--model duplex`, `--frames N`, `--no-reference`).
 
 On the drone rings of `benchmarks/speed.py` (Phantom 4 Pro at scale 0.25), per frame: the blocks of features the view
-frustum keeps, those one ray proves hidden whole, the features that pass the geometric tests (each would cast a
-ray without the proof), those that still cast their own, those seen, and the CPU seconds of the whole test. With the
-reference (the default), every frame's set is compared with `visible_features_reference` (one ray per feature) and
-the mismatches counted. Writes benchmarks/features.json.
+frustum keeps, the features that pass the geometric tests (each would cast a ray without a proof of occlusion), those
+that still cast their own after one ray per block and the first big triangle behind it (the test on its own), and
+after the triangles the frame's pixels hit too (the test inside `Engine.observe`), those seen, and the CPU seconds of
+the test as `observe` runs it. With the reference (the default), every frame's set is compared with
+`visible_features_reference` (one ray per feature) and the mismatches counted. Writes benchmarks/features.json.
 """
 
 from __future__ import annotations
@@ -21,28 +22,30 @@ from sightplan.engines import featurecull
 from sightplan.engines.embree import EmbreeEngine
 from sightplan.model.load import load_model
 from sightplan.observations.features import cached_features
-from speed import model_path
+from speed import frame_rays, model_path
 
 HERE = Path(__file__).resolve().parent
 
 
-def frame_counts(engine: EmbreeEngine, cam, R, C) -> dict:
-    """The blocks kept and hidden whole, the features passing the geometric tests and those casting a ray."""
+def frame_pixels(engine: EmbreeEngine, camera, R, C) -> tuple[np.ndarray, float, float]:
+    """The triangle each pixel of the frame at scale 0.25 hits, as `Engine.observe` hands them to the feature test."""
+    cam = camera.scaled(0.25)
+    dirs, origin = frame_rays(engine, cam, R, C)
+    prims = engine.first_hit(np.broadcast_to(origin, dirs.shape), dirs).reshape(cam.height, cam.width)
+    return prims, cam.width / camera.width, cam.height / camera.height
+
+
+def frame_counts(engine: EmbreeEngine, cam, R, C, pixels) -> dict:
+    """The blocks kept, the features passing the geometric tests and those casting a ray, without and with the
+    pixels' triangles."""
     index = engine.feature_index
     args = (C, R, cam.width, cam.height, cam.fx, cam.fy, cam.cx, cam.cy, engine.d_max)
-    cover = (engine.first_hit, engine.local_vertices, engine.scene.faces, engine.centre)
     planes = np.array([[cam.fx, 0.0, cam.cx], [-cam.fx, 0.0, cam.width - cam.cx], [0.0, cam.fy, cam.cy],
                        [0.0, -cam.fy, cam.height - cam.cy]]) @ R.T
     keep = featurecull._cull_blocks(index.block_lo, index.block_hi, C, planes, engine.d_max)
-    kept, rays = featurecull._block_rays(keep, index.block_lo, index.block_hi, C)
-    prim = engine.first_hit(np.broadcast_to((C - engine.centre).astype(np.float32), rays.shape), rays)
-    scratch, hidden = np.zeros(16), 0
-    for b, f in zip(kept.tolist(), prim.tolist()):
-        if f >= 0 and featurecull._cover_setup(engine.local_vertices, engine.scene.faces, f, C, engine.centre,
-                                               scratch):
-            hidden += bool(featurecull._box_covered(scratch, index.block_lo[b], index.block_hi[b], C))
-    return {"blocks_kept": int(keep.sum()), "blocks_hidden_whole": hidden,
-            "candidates": len(index.candidates(*args)[0]), "rays": len(index.candidates(*args, cover=cover)[0])}
+    return {"blocks_kept": int(keep.sum()), "candidates": len(index.candidates(*args)[0]),
+            "rays_alone": len(index.candidates(*args, cover=engine.occluders)[0]),
+            "rays": len(index.candidates(*args, cover=engine.occluders, pixels=pixels)[0])}
 
 
 def main() -> None:
@@ -58,11 +61,13 @@ def main() -> None:
     plan = cell_plan(scene, "drone", args.frames)
     rows = []
     for i in range(len(plan)):
-        cam, R, C = plan.camera_of(i).scaled(0.25), plan.R_world_camera[i], plan.C_world[i]
-        engine.visible_features(cam, R, C)  # the first frame compiles
+        cam, R, C = plan.camera_of(i), plan.R_world_camera[i], plan.C_world[i]
+        pixels = frame_pixels(engine, cam, R, C)
+        engine.visible_features(cam, R, C, pixels=pixels)  # the first frame compiles
         t = time.process_time()
-        seen = engine.visible_features(cam, R, C)
-        row = {"frame": i, "cpu_s": time.process_time() - t, "seen": len(seen), **frame_counts(engine, cam, R, C)}
+        seen = engine.visible_features(cam, R, C, pixels=pixels)
+        row = {"frame": i, "cpu_s": time.process_time() - t, "seen": len(seen),
+               **frame_counts(engine, cam, R, C, pixels)}
         if not args.no_reference:
             row["mismatches"] = len(np.setxor1d(seen, engine.visible_features_reference(cam, R, C)))
         rows.append(row)

@@ -22,7 +22,7 @@ from ..model.scene import Scene
 from ..observations.features import FeatureSet
 from ..observations.table import FrameObservation
 from . import kernels
-from .featurecull import FeatureIndex
+from .featurecull import FeatureIndex, Occluders
 
 EngineName = Literal["auto", "embree", "gl", "trimesh"]
 
@@ -34,6 +34,7 @@ OCCLUSION_BAND_M = 1e-6
 DEFAULT_CHUNK_RAYS = 1 << 19  # ~512k rays: best Embree throughput per call on this class of CPU
 CHUNKS_PER_FRAME = 64  # a frame is cut into this many chunks, taken by the threads as they free up
 MIN_CHUNK_RAYS = 1 << 14  # but none smaller than this (each has its own per-element sums)
+PIXEL_PRIMS_MAX = 1 << 22  # a pinhole frame of at most this many pixels keeps each one's triangle for its features
 
 
 class Engine(ABC):
@@ -175,6 +176,10 @@ class Engine(ABC):
         size = max(MIN_CHUNK_RAYS, min(self.chunk_rays, -(-n_px // CHUNKS_PER_FRAME)))
         size = -(-size // 64) * 64  # whole 8-ray packets
         starts = list(range(0, n_px, size)) or [0]
+        # the triangle each pixel hits: the feature test's proofs of occlusion, for free (:mod:`.featurecull`)
+        keep_prims = (self.features is not None and len(self.features) > 0 and isinstance(cam, PinholeCamera)
+                      and n_px <= PIXEL_PRIMS_MAX)
+        prims = np.full(n_px, -1, np.int32) if keep_prims else None
         n_workers = min(self.threads, len(starts))
         queue = iter(starts)
         lock = threading.Lock()
@@ -188,7 +193,7 @@ class Engine(ABC):
                 yield p0
 
         def work(_=None):
-            return self._cast_chunks(cam, R, C, next_chunk(), size, n_px)
+            return self._cast_chunks(cam, R, C, next_chunk(), size, n_px, prims)
 
         if self._pool is None or n_workers == 1:
             done = work()
@@ -208,17 +213,20 @@ class Engine(ABC):
             count=c.astype(np.int64),
             depth_mean=depth[seen] / c,
             angle_mean=angle[seen] / c,
-            features=self.visible_features(camera, R, C_world),
+            features=self.visible_features(camera, R, C_world, pixels=None if prims is None else (
+                prims.reshape(cam.height, cam.width), cam.width / camera.width, cam.height / camera.height)),
             pixel_scale=(camera.width * camera.height) / n_px,
             sampling_focal_px=camera.sampling_focal_px,
         )
 
-    def _cast_chunks(self, cam: Camera, R: NDArray, C: NDArray, starts, size: int, n_px: int):
+    def _cast_chunks(self, cam: Camera, R: NDArray, C: NDArray, starts, size: int, n_px: int,
+                     prims: NDArray[np.int32] | None = None):
         """[(p0, elements, their pixels, distance sums, angle sums)] of the chunks of ``size`` pixels starting at
-        ``starts``: each chunk's sums kept apart, over the elements it saw."""
+        ``starts``: each chunk's sums kept apart, over the elements it saw. prims: (n_px,) to receive the triangle
+        each pixel hits (−1 where none), or None."""
         z = self.n_elements
         count, depth, angle = np.zeros(z, np.int64), np.zeros(z), np.zeros(z)
-        cast = self._chunk_caster(cam, R, C, min(max(size, 1), max(n_px, 1)))
+        cast = self._chunk_caster(cam, R, C, min(max(size, 1), max(n_px, 1)), prims)
         out = []
         for p0 in starts:
             cast(p0, min(p0 + size, n_px), count, depth, angle)
@@ -229,9 +237,10 @@ class Engine(ABC):
             angle[seen] = 0.0
         return out
 
-    def _chunk_caster(self, cam: Camera, R: NDArray, C: NDArray, max_rays: int):
-        """``cast(p0, p1, count, depth, angle)``: add pixels p0..p1 of one frame to the sums. This one makes the
-        rays, asks :meth:`first_hit` and reduces; an engine may fuse the three (the Embree engine does)."""
+    def _chunk_caster(self, cam: Camera, R: NDArray, C: NDArray, max_rays: int, prims: NDArray | None = None):
+        """``cast(p0, p1, count, depth, angle)``: add pixels p0..p1 of one frame to the sums, and their triangles
+        to ``prims`` when given. This one makes the rays, asks :meth:`first_hit` and reduces; an engine may fuse the
+        three (the Embree engine does)."""
         buf = np.empty((max_rays, 3), np.float32)
         C32 = C.astype(np.float32)
         mode = kernels.MODE_EQUIRECT if isinstance(cam, EquirectangularCamera) else kernels.MODE_PINHOLE
@@ -240,6 +249,8 @@ class Engine(ABC):
             dirs = buf[: p1 - p0]
             self.pixel_directions(cam, R, p0, p1, dirs)
             prim = self.first_hit(np.broadcast_to(C32, dirs.shape), dirs)
+            if prims is not None:
+                prims[p0:p1] = prim
             kernels.accumulate_hits(prim, dirs, C, R, mode, self._face_normal, self._face_offset, self._face_element,
                                     *self._ties, self.d_max, count, depth, angle)
 
@@ -282,23 +293,35 @@ class Engine(ABC):
                     self._feature_index = FeatureIndex(self.features.points, self.features.normals)
         return self._feature_index
 
-    def visible_features(self, camera: Camera, R_world_camera: NDArray, C_world: NDArray) -> NDArray[np.int32]:
+    @property
+    def occluders(self) -> Occluders:
+        """This engine's triangles for the feature test's proofs of occlusion (:mod:`.featurecull`)."""
+        return Occluders(self.first_hit, self.local_vertices, self.scene.faces, self.centre, self._big_hit())
+
+    def _big_hit(self):
+        """first_hit among the scene's big triangles only (:func:`.featurecull.big_triangles`), or None where the
+        engine has no second BVH to cast them in."""
+        return None
+
+    def visible_features(self, camera: Camera, R_world_camera: NDArray, C_world: NDArray, *,
+                         pixels: tuple[NDArray[np.int32], float, float] | None = None) -> NDArray[np.int32]:
         """(q,) int32 ascending indices of the features observed from this pose (METRICS.md §5.2).
 
         Observed iff it projects inside the image, lies within d_max, faces the camera,
         and nothing is hit along the ray from the centre closer than its distance − 0.5 mm.
-        Only the features of blocks in the view frustum are tested, and only those that one
-        ray per block does not prove hidden cast their own (:mod:`.featurecull`); the result
-        equals :meth:`visible_features_reference`.
+        Only the features of blocks in the view frustum are tested, and only those that no
+        triangle hit proves hidden cast their own ray (:mod:`.featurecull`); the result
+        equals :meth:`visible_features_reference`. pixels: the triangles the frame's pixels
+        just hit (:meth:`observe`), to prove with (see :meth:`FeatureIndex.candidates`).
         """
         index = self.feature_index
         if index is None:
             return np.zeros(0, np.int32)
-        cover = (self.first_hit, self.local_vertices, self.scene.faces, self.centre)
+        cover = self.occluders
         if isinstance(camera, PinholeCamera):
             cand, dirs, dist = index.candidates(C_world, R_world_camera, camera.width, camera.height, camera.fx,
                                                 camera.fy, camera.cx, camera.cy, self.d_max, self._pool, self.threads,
-                                                cover)
+                                                cover, pixels)
         else:
             cand, dirs, dist = index.candidates(C_world, None, 0, 0, 1.0, 1.0, 0.0, 0.0, self.d_max, cover=cover)
         if len(cand) == 0:
@@ -315,22 +338,29 @@ class Engine(ABC):
         band = OCCLUSION_BAND_REL * dist + OCCLUSION_BAND_M
         seen = self.unoccluded_rays(origin32, dirs, limit - band)
         maybe = np.flatnonzero(seen)
-        unsure = maybe[~self.unoccluded_rays(origin32, dirs[maybe], (limit + band)[maybe])]
+        # nothing before limit − band, so only the band is left to search; from limit − 4·band, since a query's
+        # box tests round at either end of its stretch and may miss a hit right there (seen with Embree)
+        unsure = maybe[~self.unoccluded_rays(origin32, dirs[maybe], (limit + band)[maybe], (limit - 4 * band)[maybe])]
         if len(unsure):
             t = self.hit_distance(np.broadcast_to(origin32, (len(unsure), 3)), dirs[unsure])
             seen[unsure] = t >= limit[unsure]
         return seen
 
     def unoccluded_rays(self, origin32: NDArray[np.float32], directions: NDArray[np.float32],
-                        tfar: NDArray[np.float64]) -> NDArray[np.bool_]:
-        """(k,) True where nothing is hit along each ray from ``origin32`` (local frame) closer than ``tfar``."""
+                        tfar: NDArray[np.float64], tnear: NDArray | None = None) -> NDArray[np.bool_]:
+        """(k,) True where nothing is hit along each ray from ``origin32`` (local frame) closer than ``tfar``.
+
+        tnear: where the caller already knows nothing is hit before it (an earlier query), so an engine with a range
+        query searches only from there (the answer is the same)."""
         t = self.hit_distance(np.broadcast_to(origin32, directions.shape), directions)
         return t >= tfar
 
-    def visible_features_reference(self, camera: Camera, R_world_camera: NDArray, C_world: NDArray) -> NDArray[np.int32]:
+    def visible_features_reference(self, camera: Camera, R_world_camera: NDArray, C_world: NDArray, *,
+                                   pixels: object = None) -> NDArray[np.int32]:
         """The brute-force form of :meth:`visible_features`: every feature tested, one first-hit ray per candidate.
 
-        Kept as the reference the indexed path is tested against.
+        Kept as the reference the indexed path is tested against (it takes, and ignores, the same ``pixels``, so it
+        can stand in for it).
         """
         fs = self.features
         if fs is None or len(fs) == 0:

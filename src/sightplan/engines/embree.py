@@ -14,8 +14,10 @@ from ..camera.models import Camera, EquirectangularCamera
 from ..errors import EngineError
 from . import kernels, rtc
 from .base import Engine
+from .featurecull import BIG_INRADIUS_M, big_triangles
 
 _UNBOUNDED = np.zeros(0, np.float32)  # no far limit on the rays (packets.first_hits)
+_NO_PRIMS = np.zeros(0, np.int32)  # the pixels' triangles not kept (packets.cast_pixels)
 
 try:  # keep the error until this engine is asked for
     from . import packets as _packets
@@ -40,11 +42,37 @@ class EmbreeEngine(Engine):
         super().__init__(scene, features, **kwargs)
         self._rtc = rtc.TriangleScene(self.local_vertices, scene.faces)
         self._empty = self._rtc.n_faces == 0
+        self._big: tuple[rtc.TriangleScene, NDArray[np.int32]] | None = None
 
     def close(self) -> None:
         super().close()
         self._rtc.release()
+        if self._big is not None:
+            self._big[0].release()
         self._empty = True
+
+    def _big_hit(self):
+        """first_hit in a second BVH of the scene's big triangles (walls, slabs, panes: :func:`big_triangles`),
+        built on first use: the first of them behind a window's bars or a railing proves a block of features hidden
+        where the bars' own triangles cannot."""
+        if self._big is None:
+            with self._index_lock:
+                if self._big is None:
+                    ids = big_triangles(self.local_vertices, self.scene.faces, BIG_INRADIUS_M)
+                    used, faces = np.unique(self.scene.faces[ids], return_inverse=True)
+                    self._big = (rtc.TriangleScene(self.local_vertices[used], faces.reshape(-1, 3)),
+                                 ids.astype(np.int32))
+        scene, ids = self._big
+        if scene.n_faces == 0:
+            return None
+
+        def hit(origins: NDArray[np.float32], directions: NDArray[np.float32]) -> NDArray[np.int32]:
+            out = np.full(len(directions), -1, np.int32)
+            _packets.first_hits(scene.handle, np.broadcast_to(np.asarray(origins, np.float32), directions.shape),
+                                np.asarray(directions, np.float32), out, rtc.packet_buffer(), _UNBOUNDED)
+            return np.where(out >= 0, ids[np.maximum(out, 0)], -1).astype(np.int32)
+
+        return hit
 
     def first_hit(self, origins: NDArray[np.float32], directions: NDArray[np.float32]) -> NDArray[np.int32]:
         out = np.full(len(directions), -1, np.int32)
@@ -55,8 +83,9 @@ class EmbreeEngine(Engine):
                             _UNBOUNDED)
         return out
 
-    def _chunk_caster(self, cam: Camera, R: NDArray, C: NDArray, max_rays: int):
+    def _chunk_caster(self, cam: Camera, R: NDArray, C: NDArray, max_rays: int, prims: NDArray | None = None):
         """Rays, packets and reduction fused in one compiled loop (:func:`.packets.cast_pixels`)."""
+        prims = _NO_PRIMS if prims is None else prims
         buf = rtc.packet_buffer()
         pending = np.zeros((32 * rtc.LANES, 6))  # hits on faces with ties, counted 256 at a time
         C32 = C.astype(np.float32)
@@ -71,12 +100,12 @@ class EmbreeEngine(Engine):
                 _packets.cast_pixels(self._rtc.handle, p0, p1, mode, cam.width, cols, rows, R, C32, C,
                                      self._face_normal, self._face_offset,
                                      self._face_element, *self._ties, self.d_max, count, depth, angle, buf,
-                                     pending)
+                                     pending, prims)
 
         return cast
 
     def unoccluded_rays(self, origin32: NDArray[np.float32], directions: NDArray[np.float32],
-                        tfar: NDArray[np.float32]) -> NDArray[np.bool_]:
+                        tfar: NDArray[np.float32], tnear: NDArray[np.float32] | None = None) -> NDArray[np.bool_]:
         out = np.zeros(len(directions), np.bool_)
         if len(directions) == 0:
             return out
@@ -85,15 +114,16 @@ class EmbreeEngine(Engine):
             return out
         origins = np.broadcast_to(np.asarray(origin32, np.float32), directions.shape)
         tfar = np.asarray(tfar, np.float32)
+        tnear = _UNBOUNDED if tnear is None else np.asarray(tnear, np.float32)
         starts = list(range(0, len(directions), max(4096, -(-len(directions) // self.threads))))
         if self._pool is None or len(starts) == 1:
-            _packets.unoccluded(self._rtc.handle, origins, directions, tfar, out, rtc.packet_buffer())
+            _packets.unoccluded(self._rtc.handle, origins, directions, tnear, tfar, out, rtc.packet_buffer())
             return out
 
         def part(s: int) -> None:
             e = min(s + (starts[1] - starts[0]), len(directions))
-            _packets.unoccluded(self._rtc.handle, origins[s:e], directions[s:e], tfar[s:e], out[s:e],
-                                rtc.packet_buffer())
+            _packets.unoccluded(self._rtc.handle, origins[s:e], directions[s:e], tnear[s:e] if len(tnear) else tnear,
+                                tfar[s:e], out[s:e], rtc.packet_buffer())
 
         list(self._pool.map(part, starts))
         return out

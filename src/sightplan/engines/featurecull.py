@@ -17,11 +17,28 @@ hits lies between the camera and a feature, with the feature at least
 triangle at least :data:`COVER_INSIDE_M` inside its edges, the feature's own ray could
 only report that triangle or something nearer: it is occluded, and needs no ray. The
 margins are many times the float32 rounding of a ray, so the set stays the same.
+
+Any triangle between the camera and a feature proves what it covers, so three sources
+of triangles are tried, cheapest first:
+
+- When the frame's own pixels were just cast (:meth:`Engine.observe`), a block takes the
+  triangle hit by the pixel its box's centre projects into (no ray at all), and a feature
+  the block's triangles leave unproven tries the triangle of its own pixel.
+- A block that triangle does not hide whole also takes the first *big* triangle along the
+  line to its centre (:func:`big_triangles`: walls, slabs, roofs, panes), from a second,
+  small BVH of those alone. Behind a window's glazing bars the bar a ray hits is too
+  narrow to hide a block of furniture; the pane behind it is not.
+
+Per block, the facing and covering tests run first over all its features, without a
+branch or a division (the compiler makes one vector loop of them); only the features
+left then take the distance, the projection and the pixel's triangle.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
+from dataclasses import dataclass
 
 import numba as nb
 import numpy as np
@@ -35,6 +52,8 @@ PARALLEL_BLOCKS = 2048  # blocks above which their tests are split over the engi
 COVER_BEHIND_M = 0.001  # a feature proven occluded lies this far beyond the covering triangle's plane (2× the tolerance)
 COVER_INSIDE_M = 1e-4  # and its sight line crosses the triangle this far inside its edges, plus COVER_INSIDE_REL × d
 COVER_INSIDE_REL = 1e-6
+BIG_INRADIUS_M = 0.1  # a triangle this wide (its inscribed circle's radius) is a big occluder (big_triangles)
+SETUP_CACHE = 512  # triangles set up per frame kept, by id modulo this: blocks and pixels hit the same few walls
 
 
 def _spread(v: NDArray[np.uint64]) -> NDArray[np.uint64]:
@@ -65,22 +84,24 @@ class FeatureIndex:
         else:
             order = np.zeros(0, np.int64)
         self.order = order.astype(np.int32)
-        self.points = np.ascontiguousarray(points[order])
-        self.normals = np.ascontiguousarray(normals[order])
+        points = np.asarray(points, np.float64)[order]
+        self.xyz = np.ascontiguousarray(points.T)  # (3, N): one array per axis, for the vector loop
+        self.nxyz = np.ascontiguousarray(np.asarray(normals, np.float64)[order].T)
         starts = np.arange(0, n, BLOCK)
         self.block_start = np.r_[starts, n].astype(np.int64)
         self.block_size = np.diff(self.block_start)
         if n:
-            self.block_lo = np.minimum.reduceat(self.points, starts, axis=0)
-            self.block_hi = np.maximum.reduceat(self.points, starts, axis=0)
+            self.block_lo = np.minimum.reduceat(points, starts, axis=0)
+            self.block_hi = np.maximum.reduceat(points, starts, axis=0)
         else:
             self.block_lo = self.block_hi = np.zeros((0, 3))
 
     def __len__(self) -> int:
-        return len(self.points)
+        return len(self.order)
 
     def candidates(self, C_world: NDArray, R: NDArray | None, width: int, height: int, fx: float, fy: float,
-                   cx: float, cy: float, d_max: float, pool=None, threads: int = 1, cover=None
+                   cx: float, cy: float, d_max: float, pool=None, threads: int = 1, cover: Occluders | None = None,
+                   pixels: tuple[NDArray[np.int32], float, float] | None = None
                    ) -> tuple[NDArray[np.int32], NDArray[np.float32], NDArray[np.float64]]:
         """Features that pass every test but occlusion: (k,) indices into the feature set, in the
         index's spatial order (neighbours together, so their sight lines make coherent packets),
@@ -89,15 +110,16 @@ class FeatureIndex:
         R: camera-to-world rotation of a pinhole camera (its columns are the camera axes), or
         None for a camera that sees every direction (equirectangular). pool, threads: an executor and its
         size, to test the blocks in as many parts (each part in order, so the result is the same).
-        cover: (first_hit, vertices, faces, centre) of the engine, to leave out the features a block's one ray
-        proves occluded (module docstring): first_hit(origins, directions) on float32 rays in the local frame
-        (world − centre), vertices in that frame.
+        cover: the engine's triangles, to leave out the features a triangle hit proves occluded (module
+        docstring). pixels: with cover and a pinhole R, (prims, sx, sy): the triangle each pixel of the frame
+        just cast hit ((h, w) int32, −1 for none), the image point (x, y) lying in pixel (int(x·sx), int(y·sy)).
         """
         C = np.asarray(C_world, np.float64)
         if R is None:
             planes = np.zeros((0, 3))
             pinhole = False
             R = np.eye(3)
+            pixels = None
         else:
             R = np.ascontiguousarray(R, np.float64)
             # the four side planes through C, inward normals in camera coordinates, then in world
@@ -105,27 +127,37 @@ class FeatureIndex:
             planes = cam_planes @ R.T
             pinhole = True
         keep = _cull_blocks(self.block_lo, self.block_hi, C, planes, d_max)
-        cover_prim = np.full(len(keep), -1, np.int32)
-        vertices, faces, centre = np.zeros((0, 3)), np.zeros((0, 3), np.int32), np.zeros(3)
-        if cover is not None and keep.any():
-            first_hit, vertices, faces, centre = cover
-            kept, rays = _block_rays(keep, self.block_lo, self.block_hi, C)
-            origin = np.broadcast_to((C - centre).astype(np.float32), rays.shape)
-            if pool is None or threads < 2 or len(rays) < PARALLEL_BLOCKS:
-                cover_prim[kept] = first_hit(origin, rays)
-            else:
-                cut = np.linspace(0, len(rays), threads + 1).astype(int).tolist()
-                cover_prim[kept] = np.concatenate(list(pool.map(lambda a, b: first_hit(origin[a:b], rays[a:b]),
-                                                                    cut[:-1], cut[1:])))
-
-        sizes = np.where(keep, self.block_size, 0)
+        prims, sx, sy = pixels if pixels is not None else (np.full((0, 0), -1, np.int32), 0.0, 0.0)
+        if cover is None:
+            vertices, faces, centre = np.zeros((0, 3)), np.zeros((0, 3), np.int32), np.zeros(3)
+        else:
+            vertices, faces, centre = cover.vertices, cover.faces, cover.centre
+        origin = (C - centre).astype(np.float32)
+        lo, hi = self.block_lo, self.block_hi
 
         def part(bounds: tuple[int, int]):
-            total = int(sizes[bounds[0]:bounds[1]].sum())
+            b0, b1 = bounds
+            blocks = np.flatnonzero(keep[b0:b1]) + b0
+            first, big = np.full(b1 - b0, -1, np.int32), np.full(b1 - b0, -1, np.int32)
+            tags, table = np.full(SETUP_CACHE, -1, np.int64), np.empty((SETUP_CACHE, 17))
+            if cover is not None and len(blocks):
+                # each block's triangle: the pixel its box's centre projects into, or a ray of its own
+                if len(prims):
+                    _block_pixels(blocks, b0, lo, hi, C, R, fx, fy, cx, cy, prims, sx, sy, first)
+                else:
+                    first[blocks - b0] = cover.first_hit(origin, _rays_to(blocks, lo, hi, C))
+                # then the first big triangle behind a block not hidden whole by it
+                is_open = np.empty(len(blocks), np.bool_)
+                _open(blocks, b0, first, vertices, faces, C, centre, lo, hi, tags, table, np.zeros(16), is_open)
+                blocks = blocks[is_open]
+                if cover.big_hit is not None and len(blocks):
+                    big[blocks - b0] = cover.big_hit(origin, _rays_to(blocks, lo, hi, C))
+            total = int(self.block_size[blocks].sum())
             idx, dirs, dist = np.empty(total, np.int32), np.empty((total, 3), np.float32), np.empty(total)
-            k = _filter(self.points, self.normals, self.block_start, keep, C, R, pinhole, float(width),
-                        float(height), float(fx), float(fy), float(cx), float(cy), d_max, *bounds, cover_prim,
-                        vertices, faces, centre, self.block_lo, self.block_hi, np.zeros(16), idx, dirs, dist)
+            k = _filter(self.xyz, self.nxyz, self.block_start, blocks, b0, first, big, C, R,
+                        pinhole, float(width), float(height), float(fx), float(fy), float(cx), float(cy), d_max,
+                        vertices, faces, centre, lo, hi, prims, float(sx), float(sy), np.zeros(16), np.zeros(16), tags,
+                        table, np.zeros(BLOCK, np.bool_), idx, dirs, dist)
             return idx[:k], dirs[:k], dist[:k]
 
         if pool is None or threads < 2 or len(keep) < PARALLEL_BLOCKS:
@@ -137,24 +169,56 @@ class FeatureIndex:
         return self.order[idx], dirs, dist
 
 
+@dataclass(frozen=True)
+class Occluders:
+    """An engine's triangles, for the proofs of :class:`FeatureIndex`: vertices (V, 3) in its local frame (world −
+    centre), faces (F, 3); first_hit(origins, directions): the triangle each float32 ray of the local frame hits
+    first (−1 for none); big_hit: the same among the :func:`big_triangles` only (their ids in faces), or None."""
+
+    first_hit: Callable[[NDArray[np.float32], NDArray[np.float32]], NDArray[np.int32]]
+    vertices: NDArray[np.float64]
+    faces: NDArray[np.int32]
+    centre: NDArray[np.float64]
+    big_hit: Callable[[NDArray[np.float32], NDArray[np.float32]], NDArray[np.int32]] | None = None
+
+
 @nb.njit(nogil=True, cache=True)
-def _block_rays(keep, lo, hi, C):
-    """The kept blocks whose box centre is not C, and the float32 unit directions from C to those centres."""
-    kept = np.empty(keep.shape[0], np.int64)
-    rays = np.empty((keep.shape[0], 3), np.float32)
+def big_triangles(vertices, faces, inradius):
+    """The ids of the triangles whose inscribed circle's radius is at least ``inradius``: the walls, slabs, roofs
+    and panes that hide most of what a frame does not see, few enough for a BVH of their own."""
+    out = np.empty(faces.shape[0], np.int64)
     n = 0
-    for b in range(keep.shape[0]):
-        if not keep[b]:
-            continue
+    for f in range(faces.shape[0]):
+        i, j, k = faces[f, 0], faces[f, 1], faces[f, 2]
+        u0, u1, u2 = vertices[j, 0] - vertices[i, 0], vertices[j, 1] - vertices[i, 1], vertices[j, 2] - vertices[i, 2]
+        w0, w1, w2 = vertices[k, 0] - vertices[i, 0], vertices[k, 1] - vertices[i, 1], vertices[k, 2] - vertices[i, 2]
+        n0, n1, n2 = u1 * w2 - u2 * w1, u2 * w0 - u0 * w2, u0 * w1 - u1 * w0
+        twice_area = math.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
+        v0, v1, v2 = w0 - u0, w1 - u1, w2 - u2
+        perimeter = (math.sqrt(u0 * u0 + u1 * u1 + u2 * u2) + math.sqrt(w0 * w0 + w1 * w1 + w2 * w2)
+                     + math.sqrt(v0 * v0 + v1 * v1 + v2 * v2))
+        if twice_area >= inradius * perimeter and twice_area > 0.0:  # r = 2·area / perimeter
+            out[n] = f
+            n += 1
+    return out[:n].copy()
+
+
+@nb.njit(nogil=True, cache=True)
+def _rays_to(blocks, lo, hi, C):
+    """(m, 3) float32 unit directions from C to the centres of the boxes of ``blocks`` (straight up for a centre at
+    C: any ray's triangle is only a candidate, proven or not by :func:`_covers`)."""
+    rays = np.empty((blocks.shape[0], 3), np.float32)
+    for n in range(blocks.shape[0]):
+        b = blocks[n]
         r0 = 0.5 * (lo[b, 0] + hi[b, 0]) - C[0]
         r1 = 0.5 * (lo[b, 1] + hi[b, 1]) - C[1]
         r2 = 0.5 * (lo[b, 2] + hi[b, 2]) - C[2]
         length = math.sqrt(r0 * r0 + r1 * r1 + r2 * r2)
         if length > 0.0:
-            kept[n] = b
             rays[n, 0], rays[n, 1], rays[n, 2] = r0 / length, r1 / length, r2 / length
-            n += 1
-    return kept[:n], rays[:n]
+        else:
+            rays[n, 0], rays[n, 1], rays[n, 2] = 0.0, 0.0, 1.0
+    return rays
 
 
 @nb.njit(nogil=True, cache=True)
@@ -189,46 +253,120 @@ def _cull_blocks(lo, hi, C, planes, d_max):
     return keep
 
 
-@no_refs
-def _filter(points, normals, block_start, keep, C, R, pinhole, width, height, fx, fy, cx, cy, d_max, b0, b1,
-            cover_prim, vertices, faces, centre, block_lo, block_hi, cover, idx, dirs, dist):
-    """The tests of METRICS.md §5.2 but occlusion, in float64 as the brute-force test does them, on the kept blocks
-    among b0..b1; features their block's covering triangle proves occluded are left out (:func:`_covered`). Writes
-    the features that pass into idx, dirs and dist (room for every feature of those blocks) and returns how many;
-    cover (16,): scratch."""
-    k = 0
-    for b in range(b0, b1):
-        if not keep[b]:
+@nb.njit(nogil=True, cache=True)
+def _block_pixels(blocks, b0, lo, hi, C, R, fx, fy, cx, cy, prims, sx, sy, out):
+    """out[b − b0] = the triangle hit by the pixel the centre of block b's box projects into (the nearest pixel
+    where it projects outside the image; left as it is where the centre lies behind the camera)."""
+    h, w = prims.shape
+    for b in blocks:
+        r0 = 0.5 * (lo[b, 0] + hi[b, 0]) - C[0]
+        r1 = 0.5 * (lo[b, 1] + hi[b, 1]) - C[1]
+        r2 = 0.5 * (lo[b, 2] + hi[b, 2]) - C[2]
+        zc = r0 * R[0, 2] + r1 * R[1, 2] + r2 * R[2, 2]
+        if not zc > 0.0:
             continue
-        covering = cover_prim[b] >= 0 and _cover_setup(vertices, faces, cover_prim[b], C, centre, cover)
-        if covering and _box_covered(cover, block_lo[b], block_hi[b], C):
-            continue  # every sight line into the block's box crosses the triangle: all its features are hidden
-        for i in range(block_start[b], block_start[b + 1]):
-            r0 = points[i, 0] - C[0]
-            r1 = points[i, 1] - C[1]
-            r2 = points[i, 2] - C[2]
-            if normals[i, 0] * r0 + normals[i, 1] * r1 + normals[i, 2] * r2 >= 0.0:
-                continue  # faces away from the camera
-            d = math.sqrt(r0 * r0 + r1 * r1 + r2 * r2)
-            if not (d <= d_max and d > 0.0):
+        x = (fx * (r0 * R[0, 0] + r1 * R[1, 0] + r2 * R[2, 0]) / zc + cx) * sx
+        y = (fy * (r0 * R[0, 1] + r1 * R[1, 1] + r2 * R[2, 1]) / zc + cy) * sy
+        out[b - b0] = prims[int(min(max(y, 0.0), h - 1.0)), int(min(max(x, 0.0), w - 1.0))]
+
+
+@no_refs
+def _open(blocks, b0, first, vertices, faces, C, centre, lo, hi, tags, table, cover, out):
+    """out[n] = whether the triangle first[b − b0] leaves block b = blocks[n] open: does not prove it hidden whole
+    (:func:`_box_covers`); cover (16,): scratch."""
+    for n in range(blocks.shape[0]):
+        b = blocks[n]
+        f = first[b - b0]
+        out[n] = not (f >= 0 and _cover_of(vertices, faces, f, C, centre, tags, table, cover)
+                      and _box_covers(cover, lo[b], hi[b], C, _box_inside(lo[b], hi[b], C)))
+
+
+@no_refs
+def _filter(xyz, nxyz, block_start, blocks, b0, first, big, C, R, pinhole, width, height, fx, fy, cx, cy, d_max,
+            vertices, faces, centre, block_lo, block_hi, prims, sx, sy, cover, cover2, tags, table, mask, idx, dirs,
+            dist):
+    """The tests of METRICS.md §5.2 but occlusion, in float64 as the brute-force test does them, on the features of
+    ``blocks``, leaving out those a triangle hit proves occluded (:func:`_covers`): their block's (first[b − b0],
+    big[b − b0]), then, where prims is not empty, their own pixel's. Writes the features that pass into idx, dirs
+    and dist (room for every feature of those blocks) and returns how many; cover, cover2 (16,), mask (BLOCK,) and
+    the cache of :func:`_cover_of`: scratch."""
+    C0, C1, C2 = C[0], C[1], C[2]
+    px, py, pz = xyz[0], xyz[1], xyz[2]
+    nx, ny, nz = nxyz[0], nxyz[1], nxyz[2]
+    k = 0
+    for b in blocks:
+        lo, hi = block_lo[b], block_hi[b]
+        inside = _box_inside(lo, hi, C)  # for every feature of the block (REL·d at its farthest)
+        f = big[b - b0]
+        if not (f >= 0 and _cover_of(vertices, faces, f, C, centre, tags, table, cover2)):
+            _no_cover(cover2)
+        elif _box_covers(cover2, lo, hi, C, inside):
+            continue  # every sight line into the block's box crosses the big triangle: all its features are hidden
+        f = first[b - b0]
+        if not (f >= 0 and _cover_of(vertices, faces, f, C, centre, tags, table, cover)):
+            _no_cover(cover)
+        # the edge tests of _covers divided by the plane's distance (> 0), for both triangles
+        c0, c1, c2, c3 = cover[0], cover[1], cover[2], cover[3]
+        e00, e01, e02, f0 = cover[4], cover[5], cover[6], (cover[7] + inside) / c3
+        e10, e11, e12, f1 = cover[8], cover[9], cover[10], (cover[11] + inside) / c3
+        e20, e21, e22, f2 = cover[12], cover[13], cover[14], (cover[15] + inside) / c3
+        u0, u1, u2, u3 = cover2[0], cover2[1], cover2[2], cover2[3]
+        m00, m01, m02, v0 = cover2[4], cover2[5], cover2[6], (cover2[7] + inside) / u3
+        m10, m11, m12, v1 = cover2[8], cover2[9], cover2[10], (cover2[11] + inside) / u3
+        m20, m21, m22, v2 = cover2[12], cover2[13], cover2[14], (cover2[15] + inside) / u3
+        s = block_start[b]
+        n = block_start[b + 1] - s
+        for j in range(n):  # one vector loop: no branch, no division
+            i = np.uint64(s + j)  # unsigned: no wraparound test, so contiguous loads
+            r0 = px[i] - C0
+            r1 = py[i] - C1
+            r2 = pz[i] - C2
+            along = c0 * r0 + c1 * r1 + c2 * r2
+            hidden = ((along - c3 >= COVER_BEHIND_M) & (e00 * r0 + e01 * r1 + e02 * r2 >= f0 * along)
+                      & (e10 * r0 + e11 * r1 + e12 * r2 >= f1 * along) & (e20 * r0 + e21 * r1 + e22 * r2 >= f2 * along))
+            along = u0 * r0 + u1 * r1 + u2 * r2
+            hidden2 = ((along - u3 >= COVER_BEHIND_M) & (m00 * r0 + m01 * r1 + m02 * r2 >= v0 * along)
+                       & (m10 * r0 + m11 * r1 + m12 * r2 >= v1 * along) & (m20 * r0 + m21 * r1 + m22 * r2 >= v2 * along))
+            mask[j] = (nx[i] * r0 + ny[i] * r1 + nz[i] * r2 < 0.0) & (not (hidden | hidden2))
+        for j in range(n):
+            idx[k] = s + j
+            k += mask[j]
+    # the features left: distance and projection, exactly as the reference tests them, and their pixel's triangle
+    h, w = prims.shape
+    last = -1
+    setup = False
+    q = 0
+    for t in range(k):
+        i = idx[t]
+        r0 = px[i] - C0
+        r1 = py[i] - C1
+        r2 = pz[i] - C2
+        d = math.sqrt(r0 * r0 + r1 * r1 + r2 * r2)
+        if not (d <= d_max and d > 0.0):
+            continue
+        if pinhole:
+            zc = r0 * R[0, 2] + r1 * R[1, 2] + r2 * R[2, 2]
+            if not zc > 0.0:
                 continue
-            if covering and _covered(cover, r0, r1, r2, d):
-                continue  # hidden whether it is in view or not
-            if pinhole:
-                zc = r0 * R[0, 2] + r1 * R[1, 2] + r2 * R[2, 2]
-                if not zc > 0.0:
-                    continue
-                x = fx * (r0 * R[0, 0] + r1 * R[1, 0] + r2 * R[2, 0]) / zc + cx
-                y = fy * (r0 * R[0, 1] + r1 * R[1, 1] + r2 * R[2, 1]) / zc + cy
-                if not (x >= 0.0 and x < width and y >= 0.0 and y < height):
-                    continue
-            idx[k] = i
-            dirs[k, 0] = r0 / d
-            dirs[k, 1] = r1 / d
-            dirs[k, 2] = r2 / d
-            dist[k] = d
-            k += 1
-    return k
+            x = fx * (r0 * R[0, 0] + r1 * R[1, 0] + r2 * R[2, 0]) / zc + cx
+            y = fy * (r0 * R[0, 1] + r1 * R[1, 1] + r2 * R[2, 1]) / zc + cy
+            if not (x >= 0.0 and x < width and y >= 0.0 and y < height):
+                continue
+            if h:
+                f = prims[min(int(y * sy), h - 1), min(int(x * sx), w - 1)]
+                if f >= 0:
+                    if f != last:
+                        last = f
+                        setup = _cover_of(vertices, faces, f, C, centre, tags, table, cover)
+                    if setup and _covers(cover, r0, r1, r2, COVER_INSIDE_M + COVER_INSIDE_REL * d):
+                        continue  # hidden behind the triangle its pixel hit
+        idx[q] = i
+        dirs[q, 0] = r0 / d
+        dirs[q, 1] = r1 / d
+        dirs[q, 2] = r2 / d
+        dist[q] = d
+        q += 1
+    return q
 
 
 @no_refs
@@ -274,39 +412,68 @@ def _cover_setup(vertices, faces, f, C, centre, out):
     return True
 
 
-@no_refs
-def _box_covered(cover, lo, hi, C):
-    """Whether :func:`_covered` holds for every point of the box lo..hi: it does at its eight corners, with the
-    margin of the farthest. Each of its tests is a half-space (the edge tests through C, since the sight line's
-    crossing of the plane is a central projection), so the corners decide."""
-    far = 0.0
-    for k in range(8):
-        r0 = (hi[0] if k & 1 else lo[0]) - C[0]
-        r1 = (hi[1] if k & 2 else lo[1]) - C[1]
-        r2 = (hi[2] if k & 4 else lo[2]) - C[2]
-        far = max(far, math.sqrt(r0 * r0 + r1 * r1 + r2 * r2))
-    for k in range(8):
-        r0 = (hi[0] if k & 1 else lo[0]) - C[0]
-        r1 = (hi[1] if k & 2 else lo[1]) - C[1]
-        r2 = (hi[2] if k & 4 else lo[2]) - C[2]
-        if not _covered(cover, r0, r1, r2, far):
-            return False
-    return True
+@per_ray
+def _cover_of(vertices, faces, f, C, centre, tags, table, cover):
+    """cover ← triangle f set up by :func:`_cover_setup`, through a direct-mapped cache (tags (SETUP_CACHE,), table
+    (SETUP_CACHE, 17): the set-up and whether it is valid): a set-up reads the triangle's corners from all over the
+    scene's arrays, a cache miss each. Returns whether it is valid."""
+    slot = f % tags.shape[0]
+    if tags[slot] != f:
+        tags[slot] = f
+        table[slot, 16] = 1.0 if _cover_setup(vertices, faces, f, C, centre, table[slot]) else 0.0
+    for j in range(16):
+        cover[j] = table[slot, j]
+    return table[slot, 16] > 0.0
 
 
 @per_ray
-def _covered(cover, r0, r1, r2, d):
-    """Whether the feature at r (relative to C, d = |r|) lies at least COVER_BEHIND_M beyond the triangle of
-    :func:`_cover_setup` and its sight line crosses the triangle at least COVER_INSIDE_M (+ COVER_INSIDE_REL·d)
-    inside each edge."""
+def _no_cover(cover):
+    """A cover that proves nothing: no point lies beyond its plane."""
+    for j in range(16):
+        cover[j] = 0.0
+    cover[3] = np.inf
+
+
+@per_ray
+def _box_inside(lo, hi, C):
+    """The inside margin of :func:`_covers` for the point of the box lo..hi farthest from C."""
+    s = 0.0
+    for a in range(3):
+        s += max(abs(lo[a] - C[a]), abs(hi[a] - C[a])) ** 2
+    return COVER_INSIDE_M + COVER_INSIDE_REL * math.sqrt(s)
+
+
+@per_ray
+def _box_covers(cover, lo, hi, C, inside):
+    """Whether :func:`_covers` holds for every point of the box lo..hi with margin ``inside``: it does at its eight
+    corners. Each of its tests is a half-space (the edge tests through C, since the sight line's crossing of the
+    plane is a central projection), so the corners decide."""
+    for k in range(8):
+        r0 = (hi[0] if k & 1 else lo[0]) - C[0]
+        r1 = (hi[1] if k & 2 else lo[1]) - C[1]
+        r2 = (hi[2] if k & 4 else lo[2]) - C[2]
+        if not _covers(cover, r0, r1, r2, inside):
+            return False
+    return True
+
+
+@no_refs
+def _box_covered(cover, lo, hi, C):
+    """Whether every point of the box lo..hi is proven hidden by the triangle of :func:`_cover_setup`."""
+    return _box_covers(cover, lo, hi, C, _box_inside(lo, hi, C))
+
+
+@per_ray
+def _covers(cover, r0, r1, r2, inside):
+    """Whether the point at r (relative to C) lies at least COVER_BEHIND_M beyond the triangle of
+    :func:`_cover_setup` and its sight line crosses the triangle at least ``inside`` inside each edge (the crossing
+    t·r, t = front / along, tested as m·r·front ≥ (offset + inside)·along, with along > 0, to avoid the division)."""
     along = cover[0] * r0 + cover[1] * r1 + cover[2] * r2
     if not along - cover[3] >= COVER_BEHIND_M:
         return False
-    t = cover[3] / along  # the sight line meets the plane at t·r
-    x0, x1, x2 = t * r0, t * r1, t * r2
-    inside = COVER_INSIDE_M + COVER_INSIDE_REL * d
     for k in range(3):
         j = 4 * k + 4
-        if cover[j] * x0 + cover[j + 1] * x1 + cover[j + 2] * x2 - cover[j + 3] < inside:
+        if not (cover[j] * r0 + cover[j + 1] * r1 + cover[j + 2] * r2) * cover[3] >= (cover[j + 3] + inside) * along:
             return False
     return True
+

@@ -716,9 +716,9 @@ class GLEngine(Engine):
         """Arbitrary rays are not frames: they go to the Embree engine."""
         return self._rays().first_hit(origins, directions)
 
-    def unoccluded_rays(self, origin32, directions, tfar):
+    def unoccluded_rays(self, origin32, directions, tfar, tnear=None):
         """Feature sight lines go to the Embree engine too (its occlusion query)."""
-        return self._rays().unoccluded_rays(origin32, directions, tfar)
+        return self._rays().unoccluded_rays(origin32, directions, tfar, tnear)
 
     # ------------------------------------------------------------------ views
     def _views(self, cam: Camera, R: NDArray):

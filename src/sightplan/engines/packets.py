@@ -55,8 +55,9 @@ def _reset_lanes(f, u):
 
 @nb.njit(nogil=True, _nrt=False)
 def cast_pixels(scene, p0, p1, mode, width, cols, rows, R, origin32, origin, face_normal, face_offset,
-                face_element, tie_ptr, tie_elem, tie_edge, d_max, count, depth_sum, angle_sum, buf, pending):
-    """Cast pixels p0..p1 (row-major) of one camera from ``origin`` and add their first hits to the sums.
+                face_element, tie_ptr, tie_elem, tie_edge, d_max, count, depth_sum, angle_sum, buf, pending, prims):
+    """Cast pixels p0..p1 (row-major) of one camera from ``origin`` and add their first hits to the sums; where
+    ``prims`` is not empty, prims[p] = the triangle pixel p hits (left as it is on a miss).
 
     cols, rows: the frame's :func:`sightplan.engines.kernels.direction_tables`. origin32: (3,) float32 camera
     centre in the scene's frame, as cast; origin: the same in float64, for the distances. Other arguments as
@@ -91,6 +92,8 @@ def cast_pixels(scene, p0, p1, mode, width, cols, rows, R, origin32, origin, fac
         for k in range(n):
             if u[_GEOM_ID + k] != _INVALID:
                 p = np.int64(u[_PRIM_ID + k])
+                if prims.shape[0]:
+                    prims[start + k] = p
                 d0, d1, d2 = np.float64(f[_DIR_X + k]), np.float64(f[_DIR_Y + k]), np.float64(f[_DIR_Z + k])
                 t, a = hit_sums(p, d0, d1, d2, origin, R, mode, face_normal, face_offset, face_element, d_max, count,
                                 depth_sum, angle_sum)
@@ -145,12 +148,16 @@ def first_hits(scene, origins, directions, out, buf, unbounded):
 
 
 @nb.njit(nogil=True, _nrt=False)
-def unoccluded(scene, origins, directions, tfar, out, buf):
-    """out[i] = True when nothing is hit along ray i before ``tfar[i]`` (``rtcOccluded8``); origins as :func:`first_hits`."""
+def unoccluded(scene, origins, directions, tnear, tfar, out, buf):
+    """out[i] = True when nothing is hit along ray i between ``tnear[i]`` and ``tfar[i]`` (``rtcOccluded8``, which
+    skips every box outside that stretch); tnear may be empty (0 for every ray); origins as :func:`first_hits`."""
     f, u, valid, addr, vaddr = _packet(buf)
     _reset_lanes(f, u)
     for start in range(0, directions.shape[0], LANES):
         n = _load(f, u, valid, origins, directions, tfar, start, directions.shape[0])
+        if tnear.shape[0]:
+            for k in range(n):
+                f[_TNEAR + k] = tnear[start + k]
         _occluded8(vaddr, scene, addr, 0)
         for k in range(n):
             # an occluded ray comes back with tfar = −inf
