@@ -303,3 +303,23 @@ def test_features_are_sampled_once_and_cached(duplex, tmp_path):
     assert len(list(tmp_path.glob("features-*.npz"))) == 2
     files[0].write_bytes(b"not a feature file")  # a damaged file is sampled again
     assert cached_features(duplex, 0.5, seed=2, cache_dir=tmp_path).key == a.key
+
+
+def test_one_ray_compiles_nothing_new(engine):
+    """The kernels that call Embree cannot be cached, so each compiles once per process and type of arguments; a
+    block of features with a single ray left once compiled them again in the middle of a frame (0.5 s). One ray,
+    one occlusion query, and many share the many-ray kernels, and give the same answers as within a batch."""
+    from sightplan.engines import packets
+
+    rng = np.random.default_rng(2)
+    dirs = rng.normal(size=(50, 3)).astype(np.float32)
+    dirs /= np.linalg.norm(dirs, axis=1)[:, None]
+    origin = (np.array([0.0, -8.0, 1.5]) - engine.centre).astype(np.float32)
+    many = engine.first_hit(origin, dirs)
+    free = engine.unoccluded_rays(origin, dirs, np.full(50, 5.0, np.float32))
+    compiled = (len(packets.first_hits.signatures), len(packets.unoccluded.signatures))
+    for i in range(3):
+        assert engine.first_hit(origin, dirs[i:i + 1]).tolist() == [many[i]]
+        assert engine.unoccluded_rays(origin, dirs[i:i + 1], np.array([5.0], np.float32)).tolist() == [free[i]]
+    assert (len(packets.first_hits.signatures), len(packets.unoccluded.signatures)) == compiled
+    assert (many >= 0).any() and (~free).any()

@@ -14,7 +14,7 @@ from ..camera.models import Camera, EquirectangularCamera
 from ..errors import EngineError
 from . import kernels, rtc
 from .base import Engine
-from .featurecull import BIG_INRADIUS_M, big_triangles
+from .featurecull import BIG_INRADIUS_M, BIG_SHARE_MAX, big_triangles
 
 _UNBOUNDED = np.zeros(0, np.float32)  # no far limit on the rays (packets.first_hits)
 _NO_PRIMS = np.zeros(0, np.int32)  # the pixels' triangles not kept (packets.cast_pixels)
@@ -29,6 +29,17 @@ except ImportError as exc:  # pragma: no cover - depends on the platform
 
 def available() -> bool:
     return _IMPORT_ERROR is None
+
+
+def _kernel_rays(origins: NDArray, directions: NDArray) -> tuple[NDArray[np.float32], NDArray[np.float32]]:
+    """(n, 3) float32 origins, a broadcast view where they are shared, and directions, for the kernels. These call
+    Embree by its address in the process, so numba cannot cache them: each is compiled once per process and type
+    of arguments. A broadcast view of one ray counts as contiguous, a type of its own, which cost a second compile
+    (0.5 s) in the middle of a frame; one ray goes as two."""
+    d = np.asarray(directions, np.float32)
+    if len(d) == 1:
+        d = np.repeat(d, 2, axis=0)
+    return np.broadcast_to(np.asarray(origins, np.float32), d.shape), d
 
 
 class EmbreeEngine(Engine):
@@ -59,6 +70,8 @@ class EmbreeEngine(Engine):
             with self._index_lock:
                 if self._big is None:
                     ids = big_triangles(self.local_vertices, self.scene.faces, BIG_INRADIUS_M)
+                    if len(ids) > BIG_SHARE_MAX * len(self.scene.faces):
+                        ids = ids[:0]  # the first hits are mostly big already: a second BVH would add little
                     used, faces = np.unique(self.scene.faces[ids], return_inverse=True)
                     self._big = (rtc.TriangleScene(self.local_vertices[used], faces.reshape(-1, 3)),
                                  ids.astype(np.int32))
@@ -67,21 +80,23 @@ class EmbreeEngine(Engine):
             return None
 
         def hit(origins: NDArray[np.float32], directions: NDArray[np.float32]) -> NDArray[np.int32]:
-            out = np.full(len(directions), -1, np.int32)
-            _packets.first_hits(scene.handle, np.broadcast_to(np.asarray(origins, np.float32), directions.shape),
-                                np.asarray(directions, np.float32), out, rtc.packet_buffer(), _UNBOUNDED)
-            return np.where(out >= 0, ids[np.maximum(out, 0)], -1).astype(np.int32)
+            n = len(directions)
+            o, d = _kernel_rays(origins, directions)
+            out = np.full(len(d), -1, np.int32)
+            if n:
+                _packets.first_hits(scene.handle, o, d, out, rtc.packet_buffer(), _UNBOUNDED)
+            return np.where(out >= 0, ids[np.maximum(out, 0)], -1).astype(np.int32)[:n]
 
         return hit
 
     def first_hit(self, origins: NDArray[np.float32], directions: NDArray[np.float32]) -> NDArray[np.int32]:
-        out = np.full(len(directions), -1, np.int32)
-        if self._empty or len(directions) == 0:
-            return out
-        o = np.broadcast_to(np.asarray(origins, np.float32), directions.shape)
-        _packets.first_hits(self._rtc.handle, o, np.asarray(directions, np.float32), out, rtc.packet_buffer(),
-                            _UNBOUNDED)
-        return out
+        n = len(directions)
+        if self._empty or n == 0:
+            return np.full(n, -1, np.int32)
+        o, d = _kernel_rays(origins, directions)
+        out = np.full(len(d), -1, np.int32)
+        _packets.first_hits(self._rtc.handle, o, d, out, rtc.packet_buffer(), _UNBOUNDED)
+        return out[:n]
 
     def _chunk_caster(self, cam: Camera, R: NDArray, C: NDArray, max_rays: int, prims: NDArray | None = None):
         """Rays, packets and reduction fused in one compiled loop (:func:`.packets.cast_pixels`)."""
@@ -112,18 +127,20 @@ class EmbreeEngine(Engine):
         if self._empty:
             out[:] = True
             return out
-        origins = np.broadcast_to(np.asarray(origin32, np.float32), directions.shape)
-        tfar = np.asarray(tfar, np.float32)
-        tnear = _UNBOUNDED if tnear is None else np.asarray(tnear, np.float32)
-        starts = list(range(0, len(directions), max(4096, -(-len(directions) // self.threads))))
-        if self._pool is None or len(starts) == 1:
+        n = len(directions)
+        origins, directions = _kernel_rays(origin32, directions)
+        tfar = np.resize(np.asarray(tfar, np.float32), len(directions))
+        tnear = _UNBOUNDED if tnear is None else np.resize(np.asarray(tnear, np.float32), len(directions))
+        out = np.zeros(len(directions), np.bool_)
+        step = max(4096, -(-n // self.threads))
+        cuts = [*range(0, n - step // 2, step), len(directions)] if n > step else [0, len(directions)]
+        if self._pool is None or len(cuts) == 2:
             _packets.unoccluded(self._rtc.handle, origins, directions, tnear, tfar, out, rtc.packet_buffer())
-            return out
+            return out[:n]
 
-        def part(s: int) -> None:
-            e = min(s + (starts[1] - starts[0]), len(directions))
+        def part(s: int, e: int) -> None:  # every part thousands of rays long
             _packets.unoccluded(self._rtc.handle, origins[s:e], directions[s:e], tnear[s:e] if len(tnear) else tnear,
                                 tfar[s:e], out[s:e], rtc.packet_buffer())
 
-        list(self._pool.map(part, starts))
+        list(self._pool.map(part, cuts[:-1], cuts[1:]))
         return out

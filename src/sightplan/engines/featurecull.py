@@ -53,6 +53,7 @@ COVER_BEHIND_M = 0.001  # a feature proven occluded lies this far beyond the cov
 COVER_INSIDE_M = 1e-4  # and its sight line crosses the triangle this far inside its edges, plus COVER_INSIDE_REL × d
 COVER_INSIDE_REL = 1e-6
 BIG_INRADIUS_M = 0.1  # a triangle this wide (its inscribed circle's radius) is a big occluder (big_triangles)
+BIG_SHARE_MAX = 0.25  # an engine keeps a BVH of the big triangles when they are at most this share of all
 SETUP_CACHE = 512  # triangles set up per frame kept, by id modulo this: blocks and pixels hit the same few walls
 
 
