@@ -54,7 +54,7 @@ COVER_INSIDE_M = 1e-4  # and its sight line crosses the triangle this far inside
 COVER_INSIDE_REL = 1e-6
 BIG_INRADIUS_M = 0.1  # a triangle this wide (its inscribed circle's radius) is a big occluder (big_triangles)
 BIG_SHARE_MAX = 0.25  # an engine keeps a BVH of the big triangles when they are at most this share of all
-SETUP_CACHE = 512  # triangles set up per frame kept, by id modulo this: blocks and pixels hit the same few walls
+SETUP_CACHE = 512  # triangles set up per frame kept (a power of 2), by id modulo this: blocks and pixels hit the same walls
 
 
 def _spread(v: NDArray[np.uint64]) -> NDArray[np.uint64]:
@@ -140,7 +140,8 @@ class FeatureIndex:
             b0, b1 = bounds
             blocks = np.flatnonzero(keep[b0:b1]) + b0
             first, big = np.full(b1 - b0, -1, np.int32), np.full(b1 - b0, -1, np.int32)
-            tags, table = np.full(SETUP_CACHE, -1, np.int64), np.empty((SETUP_CACHE, 17))
+            tags, table = np.full(SETUP_CACHE, -1, np.int64), np.empty((SETUP_CACHE + 1, 17))
+            _no_cover(table[SETUP_CACHE])  # the row of "no triangle": it proves nothing
             if cover is not None and len(blocks):
                 # each block's triangle: the pixel its box's centre projects into, or a ray of its own
                 if len(prims):
@@ -149,7 +150,7 @@ class FeatureIndex:
                     first[blocks - b0] = cover.first_hit(origin, _rays_to(blocks, lo, hi, C))
                 # then the first big triangle behind a block not hidden whole by it
                 is_open = np.empty(len(blocks), np.bool_)
-                _open(blocks, b0, first, vertices, faces, C, centre, lo, hi, tags, table, np.zeros(16), is_open)
+                _open(blocks, b0, first, vertices, faces, C, centre, lo, hi, tags, table, is_open)
                 blocks = blocks[is_open]
                 if cover.big_hit is not None and len(blocks):
                     big[blocks - b0] = cover.big_hit(origin, _rays_to(blocks, lo, hi, C))
@@ -157,8 +158,8 @@ class FeatureIndex:
             idx, dirs, dist = np.empty(total, np.int32), np.empty((total, 3), np.float32), np.empty(total)
             k = _filter(self.xyz, self.nxyz, self.block_start, blocks, b0, first, big, C, R,
                         pinhole, float(width), float(height), float(fx), float(fy), float(cx), float(cy), d_max,
-                        vertices, faces, centre, lo, hi, prims, float(sx), float(sy), np.zeros(16), np.zeros(16), tags,
-                        table, np.zeros(BLOCK, np.bool_), idx, dirs, dist)
+                        vertices, faces, centre, lo, hi, prims, float(sx), float(sy), tags, table,
+                        np.zeros(BLOCK, np.bool_), idx, dirs, dist)
             return idx[:k], dirs[:k], dist[:k]
 
         if pool is None or threads < 2 or len(keep) < PARALLEL_BLOCKS:
@@ -183,6 +184,20 @@ class Occluders:
     big_hit: Callable[[NDArray[np.float32], NDArray[np.float32]], NDArray[np.int32]] | None = None
 
 
+@per_ray
+def _is_big(vertices, faces, f, inradius):
+    """Whether triangle f's inscribed circle has a radius of at least ``inradius`` (r = 2·area / perimeter)."""
+    i, j, k = faces[f, 0], faces[f, 1], faces[f, 2]
+    u0, u1, u2 = vertices[j, 0] - vertices[i, 0], vertices[j, 1] - vertices[i, 1], vertices[j, 2] - vertices[i, 2]
+    w0, w1, w2 = vertices[k, 0] - vertices[i, 0], vertices[k, 1] - vertices[i, 1], vertices[k, 2] - vertices[i, 2]
+    n0, n1, n2 = u1 * w2 - u2 * w1, u2 * w0 - u0 * w2, u0 * w1 - u1 * w0
+    twice_area = math.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
+    v0, v1, v2 = w0 - u0, w1 - u1, w2 - u2
+    perimeter = (math.sqrt(u0 * u0 + u1 * u1 + u2 * u2) + math.sqrt(w0 * w0 + w1 * w1 + w2 * w2)
+                 + math.sqrt(v0 * v0 + v1 * v1 + v2 * v2))
+    return twice_area >= inradius * perimeter and twice_area > 0.0
+
+
 @nb.njit(nogil=True, cache=True)
 def big_triangles(vertices, faces, inradius):
     """The ids of the triangles whose inscribed circle's radius is at least ``inradius``: the walls, slabs, roofs
@@ -190,15 +205,7 @@ def big_triangles(vertices, faces, inradius):
     out = np.empty(faces.shape[0], np.int64)
     n = 0
     for f in range(faces.shape[0]):
-        i, j, k = faces[f, 0], faces[f, 1], faces[f, 2]
-        u0, u1, u2 = vertices[j, 0] - vertices[i, 0], vertices[j, 1] - vertices[i, 1], vertices[j, 2] - vertices[i, 2]
-        w0, w1, w2 = vertices[k, 0] - vertices[i, 0], vertices[k, 1] - vertices[i, 1], vertices[k, 2] - vertices[i, 2]
-        n0, n1, n2 = u1 * w2 - u2 * w1, u2 * w0 - u0 * w2, u0 * w1 - u1 * w0
-        twice_area = math.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
-        v0, v1, v2 = w0 - u0, w1 - u1, w2 - u2
-        perimeter = (math.sqrt(u0 * u0 + u1 * u1 + u2 * u2) + math.sqrt(w0 * w0 + w1 * w1 + w2 * w2)
-                     + math.sqrt(v0 * v0 + v1 * v1 + v2 * v2))
-        if twice_area >= inradius * perimeter and twice_area > 0.0:  # r = 2·area / perimeter
+        if _is_big(vertices, faces, f, inradius):
             out[n] = f
             n += 1
     return out[:n].copy()
@@ -272,25 +279,23 @@ def _block_pixels(blocks, b0, lo, hi, C, R, fx, fy, cx, cy, prims, sx, sy, out):
 
 
 @no_refs
-def _open(blocks, b0, first, vertices, faces, C, centre, lo, hi, tags, table, cover, out):
+def _open(blocks, b0, first, vertices, faces, C, centre, lo, hi, tags, table, out):
     """out[n] = whether the triangle first[b − b0] leaves block b = blocks[n] open: does not prove it hidden whole
-    (:func:`_box_covers`); cover (16,): scratch."""
+    (:func:`_box_covers`)."""
     for n in range(blocks.shape[0]):
         b = blocks[n]
-        f = first[b - b0]
-        out[n] = not (f >= 0 and _cover_of(vertices, faces, f, C, centre, tags, table, cover)
-                      and _box_covers(cover, lo[b], hi[b], C, _box_inside(lo[b], hi[b], C)))
+        cover = table[_cover_row(vertices, faces, first[b - b0], C, centre, tags, table)]
+        out[n] = not _box_covers(cover, lo[b], hi[b], C, _box_inside(lo[b], hi[b], C))
 
 
 @no_refs
 def _filter(xyz, nxyz, block_start, blocks, b0, first, big, C, R, pinhole, width, height, fx, fy, cx, cy, d_max,
-            vertices, faces, centre, block_lo, block_hi, prims, sx, sy, cover, cover2, tags, table, mask, idx, dirs,
-            dist):
+            vertices, faces, centre, block_lo, block_hi, prims, sx, sy, tags, table, mask, idx, dirs, dist):
     """The tests of METRICS.md §5.2 but occlusion, in float64 as the brute-force test does them, on the features of
     ``blocks``, leaving out those a triangle hit proves occluded (:func:`_covers`): their block's (first[b − b0],
     big[b − b0]), then, where prims is not empty, their own pixel's. Writes the features that pass into idx, dirs
-    and dist (room for every feature of those blocks) and returns how many; cover, cover2 (16,), mask (BLOCK,) and
-    the cache of :func:`_cover_of`: scratch."""
+    and dist (room for every feature of those blocks) and returns how many; mask (BLOCK,) and the cache of
+    :func:`_cover_row`: scratch."""
     C0, C1, C2 = C[0], C[1], C[2]
     px, py, pz = xyz[0], xyz[1], xyz[2]
     nx, ny, nz = nxyz[0], nxyz[1], nxyz[2]
@@ -298,14 +303,10 @@ def _filter(xyz, nxyz, block_start, blocks, b0, first, big, C, R, pinhole, width
     for b in blocks:
         lo, hi = block_lo[b], block_hi[b]
         inside = _box_inside(lo, hi, C)  # for every feature of the block (REL·d at its farthest)
-        f = big[b - b0]
-        if not (f >= 0 and _cover_of(vertices, faces, f, C, centre, tags, table, cover2)):
-            _no_cover(cover2)
-        elif _box_covers(cover2, lo, hi, C, inside):
+        cover2 = table[_cover_row(vertices, faces, big[b - b0], C, centre, tags, table)]
+        if _box_covers(cover2, lo, hi, C, inside):
             continue  # every sight line into the block's box crosses the big triangle: all its features are hidden
-        f = first[b - b0]
-        if not (f >= 0 and _cover_of(vertices, faces, f, C, centre, tags, table, cover)):
-            _no_cover(cover)
+        cover = table[_cover_row(vertices, faces, first[b - b0], C, centre, tags, table)]
         # the edge tests of _covers divided by the plane's distance (> 0), for both triangles
         c0, c1, c2, c3 = cover[0], cover[1], cover[2], cover[3]
         e00, e01, e02, f0 = cover[4], cover[5], cover[6], (cover[7] + inside) / c3
@@ -317,25 +318,39 @@ def _filter(xyz, nxyz, block_start, blocks, b0, first, big, C, R, pinhole, width
         m20, m21, m22, v2 = cover2[12], cover2[13], cover2[14], (cover2[15] + inside) / u3
         s = block_start[b]
         n = block_start[b + 1] - s
-        for j in range(n):  # one vector loop: no branch, no division
-            i = np.uint64(s + j)  # unsigned: no wraparound test, so contiguous loads
-            r0 = px[i] - C0
-            r1 = py[i] - C1
-            r2 = pz[i] - C2
-            along = c0 * r0 + c1 * r1 + c2 * r2
-            hidden = ((along - c3 >= COVER_BEHIND_M) & (e00 * r0 + e01 * r1 + e02 * r2 >= f0 * along)
-                      & (e10 * r0 + e11 * r1 + e12 * r2 >= f1 * along) & (e20 * r0 + e21 * r1 + e22 * r2 >= f2 * along))
-            along = u0 * r0 + u1 * r1 + u2 * r2
-            hidden2 = ((along - u3 >= COVER_BEHIND_M) & (m00 * r0 + m01 * r1 + m02 * r2 >= v0 * along)
-                       & (m10 * r0 + m11 * r1 + m12 * r2 >= v1 * along) & (m20 * r0 + m21 * r1 + m22 * r2 >= v2 * along))
-            mask[j] = (nx[i] * r0 + ny[i] * r1 + nz[i] * r2 < 0.0) & (not (hidden | hidden2))
+        if big[b - b0] >= 0:
+            for j in range(n):  # one vector loop: no branch, no division
+                i = np.uint64(s + j)  # unsigned: no wraparound test, so contiguous loads
+                r0 = px[i] - C0
+                r1 = py[i] - C1
+                r2 = pz[i] - C2
+                along = c0 * r0 + c1 * r1 + c2 * r2
+                hidden = ((along - c3 >= COVER_BEHIND_M) & (e00 * r0 + e01 * r1 + e02 * r2 >= f0 * along)
+                          & (e10 * r0 + e11 * r1 + e12 * r2 >= f1 * along)
+                          & (e20 * r0 + e21 * r1 + e22 * r2 >= f2 * along))
+                along = u0 * r0 + u1 * r1 + u2 * r2
+                hidden2 = ((along - u3 >= COVER_BEHIND_M) & (m00 * r0 + m01 * r1 + m02 * r2 >= v0 * along)
+                           & (m10 * r0 + m11 * r1 + m12 * r2 >= v1 * along)
+                           & (m20 * r0 + m21 * r1 + m22 * r2 >= v2 * along))
+                mask[j] = (nx[i] * r0 + ny[i] * r1 + nz[i] * r2 < 0.0) & (not (hidden | hidden2))
+        else:
+            for j in range(n):  # the same with the block's one triangle
+                i = np.uint64(s + j)
+                r0 = px[i] - C0
+                r1 = py[i] - C1
+                r2 = pz[i] - C2
+                along = c0 * r0 + c1 * r1 + c2 * r2
+                hidden = ((along - c3 >= COVER_BEHIND_M) & (e00 * r0 + e01 * r1 + e02 * r2 >= f0 * along)
+                          & (e10 * r0 + e11 * r1 + e12 * r2 >= f1 * along)
+                          & (e20 * r0 + e21 * r1 + e22 * r2 >= f2 * along))
+                mask[j] = (nx[i] * r0 + ny[i] * r1 + nz[i] * r2 < 0.0) & (not hidden)
         for j in range(n):
             idx[k] = s + j
             k += mask[j]
     # the features left: distance and projection, exactly as the reference tests them, and their pixel's triangle
     h, w = prims.shape
     last = -1
-    setup = False
+    cover = table[tags.shape[0]]
     q = 0
     for t in range(k):
         i = idx[t]
@@ -355,12 +370,11 @@ def _filter(xyz, nxyz, block_start, blocks, b0, first, big, C, R, pinhole, width
                 continue
             if h:
                 f = prims[min(int(y * sy), h - 1), min(int(x * sx), w - 1)]
-                if f >= 0:
-                    if f != last:
-                        last = f
-                        setup = _cover_of(vertices, faces, f, C, centre, tags, table, cover)
-                    if setup and _covers(cover, r0, r1, r2, COVER_INSIDE_M + COVER_INSIDE_REL * d):
-                        continue  # hidden behind the triangle its pixel hit
+                if f != last:
+                    last = f
+                    cover = table[_cover_row(vertices, faces, f, C, centre, tags, table)]
+                if _covers(cover, r0, r1, r2, COVER_INSIDE_M + COVER_INSIDE_REL * d):
+                    continue  # hidden behind the triangle its pixel hit
         idx[q] = i
         dirs[q, 0] = r0 / d
         dirs[q, 1] = r1 / d
@@ -414,17 +428,19 @@ def _cover_setup(vertices, faces, f, C, centre, out):
 
 
 @per_ray
-def _cover_of(vertices, faces, f, C, centre, tags, table, cover):
-    """cover ← triangle f set up by :func:`_cover_setup`, through a direct-mapped cache (tags (SETUP_CACHE,), table
-    (SETUP_CACHE, 17): the set-up and whether it is valid): a set-up reads the triangle's corners from all over the
-    scene's arrays, a cache miss each. Returns whether it is valid."""
-    slot = f % tags.shape[0]
+def _cover_row(vertices, faces, f, C, centre, tags, table):
+    """The row of ``table`` that holds triangle f set up by :func:`_cover_setup`, through a direct-mapped cache (tags
+    (2^k,) and the first 2^k rows of table (2^k + 1, 17): the set-up and whether it is valid): a set-up reads the
+    triangle's corners from all over the scene's arrays, a cache miss each. For f < 0 or a triangle that cannot be
+    set up, the last row, which :func:`_no_cover` filled."""
+    none = tags.shape[0]
+    if f < 0:
+        return none
+    slot = f & (none - 1)
     if tags[slot] != f:
         tags[slot] = f
         table[slot, 16] = 1.0 if _cover_setup(vertices, faces, f, C, centre, table[slot]) else 0.0
-    for j in range(16):
-        cover[j] = table[slot, j]
-    return table[slot, 16] > 0.0
+    return slot if table[slot, 16] > 0.0 else none
 
 
 @per_ray
