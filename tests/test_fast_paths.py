@@ -140,8 +140,9 @@ def test_the_first_big_triangle_behind_a_window_s_bars_proves_the_room_hidden():
 
 def test_the_triangles_the_frame_s_pixels_hit_prove_features_hidden():
     """A wall of 10 cm tiles 5 m north (each tile smaller than a block of features, none of them big): one ray per
-    block proves little, the half-tile each feature's own pixel hit (5 cm at scale 0.25) proves most of the room hidden. ``observe`` hands the
-    feature test its pixels' triangles; at every scale its set equals one ray per feature."""
+    block proves little, the half-tile each feature's own pixel hit (5 cm at scale 0.25) proves most of the room
+    hidden. ``observe`` hands the feature test its pixels' triangles; at every scale its set equals one ray per
+    feature."""
     from sightplan.observations.features import FeatureSet
     from test_engine_analytic import R_NORTH, build_scene, wall_y
 
