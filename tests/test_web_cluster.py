@@ -161,14 +161,14 @@ def test_cancelling_a_preparation_cancels_its_task_and_the_server_answers_meanwh
         while server.get(f"/api/jobs/{job_id}").json()["progress_done"] != 0.5:  # the worker's progress, relayed
             assert time.monotonic() < deadline
             time.sleep(0.05)
-        t0 = time.perf_counter()
+        # the server answers while the task is stuck on the worker (no time asserted: a busy machine stretches it)
         assert server.get("/api/projects").status_code == 200
-        assert time.perf_counter() - t0 < 1.0
+        assert server.get(f"/api/jobs/{job_id}").json()["status"] == "running" and not STOPPED.is_set()
         assert server.post(f"/api/jobs/{job_id}/cancel").status_code == 200
-        job = wait_job(server, job_id, timeout_s=10)
+        job = wait_job(server, job_id, timeout_s=60)
         assert job["status"] == "failed" and job["error"] == "cancelled"
-        assert STOPPED.wait(10)  # the task saw its cancellation at its next progress step
-        assert _gone(cluster[0].scheduler, "prepare_model-")
+        assert STOPPED.wait(60)  # the task saw its cancellation at its next progress step
+        assert _gone(cluster[0].scheduler, "prepare_model-", timeout_s=60)
     finally:
         RELEASE.set()
 
