@@ -121,26 +121,22 @@ class EmbreeEngine(Engine):
 
     def unoccluded_rays(self, origin32: NDArray[np.float32], directions: NDArray[np.float32],
                         tfar: NDArray[np.float32], tnear: NDArray[np.float32] | None = None) -> NDArray[np.bool_]:
-        out = np.zeros(len(directions), np.bool_)
-        if len(directions) == 0:
-            return out
-        if self._empty:
-            out[:] = True
-            return out
         n = len(directions)
+        if n == 0 or self._empty:
+            return np.full(n, self._empty, np.bool_)
         origins, directions = _kernel_rays(origin32, directions)
         tfar = np.resize(np.asarray(tfar, np.float32), len(directions))
         tnear = _UNBOUNDED if tnear is None else np.resize(np.asarray(tnear, np.float32), len(directions))
         out = np.zeros(len(directions), np.bool_)
         step = max(4096, -(-n // self.threads))
         cuts = [*range(0, n - step // 2, step), len(directions)] if n > step else [0, len(directions)]
-        if self._pool is None or len(cuts) == 2:
-            _packets.unoccluded(self._rtc.handle, origins, directions, tnear, tfar, out, rtc.packet_buffer())
-            return out[:n]
 
-        def part(s: int, e: int) -> None:  # every part thousands of rays long
+        def part(s: int, e: int) -> None:  # every part thousands of rays long, or the whole
             _packets.unoccluded(self._rtc.handle, origins[s:e], directions[s:e], tnear[s:e] if len(tnear) else tnear,
                                 tfar[s:e], out[s:e], rtc.packet_buffer())
 
-        list(self._pool.map(part, cuts[:-1], cuts[1:]))
-        return out
+        if self._pool is None or len(cuts) == 2:
+            part(0, len(directions))
+        else:
+            list(self._pool.map(part, cuts[:-1], cuts[1:]))
+        return out[:n]

@@ -318,32 +318,18 @@ def _filter(xyz, nxyz, block_start, blocks, b0, first, big, C, R, pinhole, width
         m20, m21, m22, v2 = cover2[12], cover2[13], cover2[14], (cover2[15] + inside) / u3
         s = block_start[b]
         n = block_start[b + 1] - s
-        if big[b - b0] >= 0:
-            for j in range(n):  # one vector loop: no branch, no division
-                i = np.uint64(s + j)  # unsigned: no wraparound test, so contiguous loads
-                r0 = px[i] - C0
-                r1 = py[i] - C1
-                r2 = pz[i] - C2
-                along = c0 * r0 + c1 * r1 + c2 * r2
-                hidden = ((along - c3 >= COVER_BEHIND_M) & (e00 * r0 + e01 * r1 + e02 * r2 >= f0 * along)
-                          & (e10 * r0 + e11 * r1 + e12 * r2 >= f1 * along)
-                          & (e20 * r0 + e21 * r1 + e22 * r2 >= f2 * along))
-                along = u0 * r0 + u1 * r1 + u2 * r2
-                hidden2 = ((along - u3 >= COVER_BEHIND_M) & (m00 * r0 + m01 * r1 + m02 * r2 >= v0 * along)
-                           & (m10 * r0 + m11 * r1 + m12 * r2 >= v1 * along)
-                           & (m20 * r0 + m21 * r1 + m22 * r2 >= v2 * along))
-                mask[j] = (nx[i] * r0 + ny[i] * r1 + nz[i] * r2 < 0.0) & (not (hidden | hidden2))
-        else:
-            for j in range(n):  # the same with the block's one triangle
-                i = np.uint64(s + j)
-                r0 = px[i] - C0
-                r1 = py[i] - C1
-                r2 = pz[i] - C2
-                along = c0 * r0 + c1 * r1 + c2 * r2
-                hidden = ((along - c3 >= COVER_BEHIND_M) & (e00 * r0 + e01 * r1 + e02 * r2 >= f0 * along)
-                          & (e10 * r0 + e11 * r1 + e12 * r2 >= f1 * along)
-                          & (e20 * r0 + e21 * r1 + e22 * r2 >= f2 * along))
-                mask[j] = (nx[i] * r0 + ny[i] * r1 + nz[i] * r2 < 0.0) & (not hidden)
+        for j in range(n):  # one vector loop: no branch, no division (without a big triangle, cover2 proves nothing)
+            i = np.uint64(s + j)  # unsigned: no wraparound test, so contiguous loads
+            r0 = px[i] - C0
+            r1 = py[i] - C1
+            r2 = pz[i] - C2
+            along = c0 * r0 + c1 * r1 + c2 * r2
+            hidden = ((along - c3 >= COVER_BEHIND_M) & (e00 * r0 + e01 * r1 + e02 * r2 >= f0 * along)
+                      & (e10 * r0 + e11 * r1 + e12 * r2 >= f1 * along) & (e20 * r0 + e21 * r1 + e22 * r2 >= f2 * along))
+            along = u0 * r0 + u1 * r1 + u2 * r2
+            hidden2 = ((along - u3 >= COVER_BEHIND_M) & (m00 * r0 + m01 * r1 + m02 * r2 >= v0 * along)
+                       & (m10 * r0 + m11 * r1 + m12 * r2 >= v1 * along) & (m20 * r0 + m21 * r1 + m22 * r2 >= v2 * along))
+            mask[j] = (nx[i] * r0 + ny[i] * r1 + nz[i] * r2 < 0.0) & (not (hidden | hidden2))
         for j in range(n):
             idx[k] = s + j
             k += mask[j]
@@ -472,12 +458,6 @@ def _box_covers(cover, lo, hi, C, inside):
         if not _covers(cover, r0, r1, r2, inside):
             return False
     return True
-
-
-@no_refs
-def _box_covered(cover, lo, hi, C):
-    """Whether every point of the box lo..hi is proven hidden by the triangle of :func:`_cover_setup`."""
-    return _box_covers(cover, lo, hi, C, _box_inside(lo, hi, C))
 
 
 @per_ray
