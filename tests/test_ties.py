@@ -214,7 +214,7 @@ def test_a_hit_two_millimetres_beyond_a_sliver_corner_is_not_tied():
         count = np.zeros(2, np.int64)
         kernels.accumulate_hits(np.array([0], np.int32), np.array([[0.0, 0.0, -1.0]], np.float32),
                                 x + np.array([0.0, 0.0, 3.0]), np.eye(3), kernels.MODE_PINHOLE, normals, np.zeros(2), fe,
-                                *ties, 1000.0, count, np.zeros(2), np.zeros(2))
+                                *ties, 1000.0, count, np.zeros(2), np.zeros(2), kernels.angle_memo())
         assert set(np.flatnonzero(count).tolist()) == owners, beyond
         assert all(edge @ np.r_[x, -1.0] >= -1e-3 for edge in ties[2][1, :3])  # each edge widened by 1 mm holds it
     for gap, tied in ((0.0009, True), (0.002, False)):
@@ -261,7 +261,7 @@ def test_the_cells_of_a_tie_table_hold_every_triangle_a_point_lies_on():
     """A tilted floor (element 0, two triangles) with 1,500 random triangles flush on it (small, slivers, and some
     long ones across it; elements 1–300): for 2,000 points on the floor, near vertices too, the elements the tie
     table's window finds equal those of a brute-force search in the floor's own 2-D coordinates (every triangle
-    whose in-plane distance to the point is at most 1 mm)."""
+    whose in-plane distance to the point is at most 1 mm), one point at a time and in batches."""
     from sightplan.engines import kernels
 
     def cross(a, b):  # of 2-D vectors
@@ -303,6 +303,7 @@ def test_the_cells_of_a_tie_table_hold_every_triangle_a_point_lies_on():
 
     small = flat[faces[2:]]
     checked = 0
+    pending, expected = [], np.zeros(301, np.int64)
     for p in points:
         f = 0 if cross(floor[2] - floor[0], p - floor[0]) <= 0 else 1
         x = origin + p[0] * e1 + p[1] * e2
@@ -310,11 +311,20 @@ def test_the_cells_of_a_tie_table_hold_every_triangle_a_point_lies_on():
         if ptr[f] < ptr[f + 1]:
             start, stop, s = kernels.tie_window(ptr, edge, f, *x)
             found = {kernels.tied_owner(elem, edge, j, start, s, *x) for j in range(start, stop)} - {-1}
+            pending.append([f, *x, 1.0, 1.0])
         near = ((small.min(axis=1) - 0.002 <= p) & (p <= small.max(axis=1) + 0.002)).all(axis=1)  # boxes first
         reference = {int(fe[2 + i]) for i in np.flatnonzero(near) if distance(p, small[i]) <= 1e-3}
         assert found == reference, p
+        expected[list(reference)] += 1
         checked += len(reference)
     assert checked > 1500
+    # the batched count keeps the last window while the points stay between its entries: as a camera's rows of
+    # pixels (the points sorted along the floor) and in random order, it counts what the brute force found
+    pending = np.array(pending)
+    for order in (np.lexsort((pending[:, 1], np.round(pending[:, 2], 1))), rng.permutation(len(pending))):
+        count = np.zeros(301, np.int64)
+        kernels.add_pending_ties(pending[order], len(order), fe, ptr, elem, edge, count, np.zeros(301), np.zeros(301))
+        assert count.tolist() == expected.tolist()
 
 
 def test_a_scene_at_a_date_keeps_the_pairs_of_the_elements_that_stand(duplex):

@@ -242,6 +242,7 @@ class Engine(ABC):
         to ``prims`` when given. This one makes the rays, asks :meth:`first_hit` and reduces; an engine may fuse the
         three (the Embree engine does)."""
         buf = np.empty((max_rays, 3), np.float32)
+        memo = kernels.angle_memo()
         C32 = C.astype(np.float32)
         mode = kernels.MODE_EQUIRECT if isinstance(cam, EquirectangularCamera) else kernels.MODE_PINHOLE
 
@@ -252,7 +253,7 @@ class Engine(ABC):
             if prims is not None:
                 prims[p0:p1] = prim
             kernels.accumulate_hits(prim, dirs, C, R, mode, self._face_normal, self._face_offset, self._face_element,
-                                    *self._ties, self.d_max, count, depth, angle)
+                                    *self._ties, self.d_max, count, depth, angle, memo)
 
         return cast
 

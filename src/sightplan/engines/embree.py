@@ -103,6 +103,7 @@ class EmbreeEngine(Engine):
         prims = _NO_PRIMS if prims is None else prims
         buf = rtc.packet_buffer()
         pending = np.zeros((32 * rtc.LANES, 6))  # hits on faces with ties, counted 256 at a time
+        memo = kernels.angle_memo()
         C32 = C.astype(np.float32)
         if isinstance(cam, EquirectangularCamera):
             mode, fx, fy, cx, cy = kernels.MODE_EQUIRECT, 1.0, 1.0, 0.0, 0.0
@@ -115,7 +116,7 @@ class EmbreeEngine(Engine):
                 _packets.cast_pixels(self._rtc.handle, p0, p1, mode, cam.width, cols, rows, R, C32, C,
                                      self._face_normal, self._face_offset,
                                      self._face_element, *self._ties, self.d_max, count, depth, angle, buf,
-                                     pending, prims)
+                                     pending, prims, memo)
 
         return cast
 

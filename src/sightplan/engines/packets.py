@@ -18,7 +18,7 @@ import numba as nb
 import numpy as np
 
 from . import rtc
-from .kernels import add_pending_ties, hit_sums, table_direction
+from .kernels import add_pending_ties, hit_sums, pixel_direction
 
 LANES = rtc.LANES
 _intersect8 = rtc.intersect8
@@ -55,7 +55,7 @@ def _reset_lanes(f, u):
 
 @nb.njit(nogil=True, _nrt=False)
 def cast_pixels(scene, p0, p1, mode, width, cols, rows, R, origin32, origin, face_normal, face_offset,
-                face_element, tie_ptr, tie_elem, tie_edge, d_max, count, depth_sum, angle_sum, buf, pending, prims):
+                face_element, tie_ptr, tie_elem, tie_edge, d_max, count, depth_sum, angle_sum, buf, pending, prims, memo):
     """Cast pixels p0..p1 (row-major) of one camera from ``origin`` and add their first hits to the sums; where
     ``prims`` is not empty, prims[p] = the triangle pixel p hits (left as it is on a miss).
 
@@ -72,11 +72,17 @@ def cast_pixels(scene, p0, p1, mode, width, cols, rows, R, origin32, origin, fac
         f[_ORG_Y + k] = origin32[1]
         f[_ORG_Z + k] = origin32[2]
     m = 0  # hits waiting in ``pending``
+    col = p0 % width  # the column and row of the next pixel, kept without a division per pixel
+    row = p0 // width
     for start in range(p0, p1, LANES):
         n = min(LANES, p1 - start)
         for k in range(LANES):
             if k < n:
-                x, y, z = table_direction(mode, start + k, width, cols, rows, R)
+                x, y, z = pixel_direction(mode, col, row, cols, rows, R)
+                col += 1
+                if col == width:
+                    col = 0
+                    row += 1
                 f[_DIR_X + k] = x
                 f[_DIR_Y + k] = y
                 f[_DIR_Z + k] = z
@@ -96,7 +102,7 @@ def cast_pixels(scene, p0, p1, mode, width, cols, rows, R, origin32, origin, fac
                     prims[start + k] = p
                 d0, d1, d2 = np.float64(f[_DIR_X + k]), np.float64(f[_DIR_Y + k]), np.float64(f[_DIR_Z + k])
                 t, a = hit_sums(p, d0, d1, d2, origin, R, mode, face_normal, face_offset, face_element, d_max, count,
-                                depth_sum, angle_sum)
+                                depth_sum, angle_sum, memo)
                 if t >= 0.0 and tie_ptr[p] != tie_ptr[p + 1]:  # on a face with ties: later, with others
                     pending[m, 0] = p
                     pending[m, 1] = origin[0] + t * d0
