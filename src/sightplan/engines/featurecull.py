@@ -306,16 +306,17 @@ def _filter(xyz, nxyz, block_start, blocks, b0, first, big, C, R, pinhole, width
         cover2 = table[_cover_row(vertices, faces, big[b - b0], C, centre, tags, table)]
         if _box_covers(cover2, lo, hi, C, inside):
             continue  # every sight line into the block's box crosses the big triangle: all its features are hidden
-        cover = table[_cover_row(vertices, faces, first[b - b0], C, centre, tags, table)]
-        # the edge tests of _covers divided by the plane's distance (> 0), for both triangles
-        c0, c1, c2, c3 = cover[0], cover[1], cover[2], cover[3]
-        e00, e01, e02, f0 = cover[4], cover[5], cover[6], (cover[7] + inside) / c3
-        e10, e11, e12, f1 = cover[8], cover[9], cover[10], (cover[11] + inside) / c3
-        e20, e21, e22, f2 = cover[12], cover[13], cover[14], (cover[15] + inside) / c3
+        # the edge tests of _covers divided by the plane's distance (> 0), for both triangles; the big one's read
+        # before the first one is fetched, which may take its row of the cache (ids equal modulo its size)
         u0, u1, u2, u3 = cover2[0], cover2[1], cover2[2], cover2[3]
         m00, m01, m02, v0 = cover2[4], cover2[5], cover2[6], (cover2[7] + inside) / u3
         m10, m11, m12, v1 = cover2[8], cover2[9], cover2[10], (cover2[11] + inside) / u3
         m20, m21, m22, v2 = cover2[12], cover2[13], cover2[14], (cover2[15] + inside) / u3
+        cover = table[_cover_row(vertices, faces, first[b - b0], C, centre, tags, table)]
+        c0, c1, c2, c3 = cover[0], cover[1], cover[2], cover[3]
+        e00, e01, e02, f0 = cover[4], cover[5], cover[6], (cover[7] + inside) / c3
+        e10, e11, e12, f1 = cover[8], cover[9], cover[10], (cover[11] + inside) / c3
+        e20, e21, e22, f2 = cover[12], cover[13], cover[14], (cover[15] + inside) / c3
         s = block_start[b]
         n = block_start[b + 1] - s
         for j in range(n):  # one vector loop: no branch, no division (without a big triangle, cover2 proves nothing)
