@@ -59,27 +59,36 @@ def test_culled_features_equal_the_brute_force_test(duplex, engine, split, monke
     assert seen > 2000  # the frames really see features
 
 
-def test_one_ray_per_block_proves_the_features_behind_a_wall_hidden():
+SITE_FAR_AWAY = np.array([512345.6, 5412345.7, 120.0])  # projected coordinates (UTM metres), as IFC sites give them
+
+
+@pytest.mark.parametrize("origin", [np.zeros(3), SITE_FAR_AWAY], ids=["at the origin", "5,400 km from it"])
+def test_one_ray_per_block_proves_the_features_behind_a_wall_hidden(origin):
     """A 20 × 10 m wall (two triangles) 5 m north of the cameras and a post before it; 30,000 features behind the
     wall, some seen past its edges, some within a millimetre of its back, and 3,000 before it. The features each
     block's one ray proves hidden (at least 1 mm beyond the triangle it hits, the sight line 0.1 mm inside its
-    edges) cast no ray of their own; the set seen is still exactly that of one ray per feature."""
+    edges) cast no ray of their own; the set seen is still exactly that of one ray per feature. The same far from
+    the origin, where a float32 coordinate's step is half a metre: the per-feature pass takes its points relative
+    to their block."""
     from sightplan.observations.features import FeatureSet
     from test_engine_analytic import R_NORTH, build_scene, wall_y
 
-    scene = build_scene([wall_y(5.0, -10.0, 10.0, -5.0, 5.0, 0), wall_y(3.0, -0.5, 0.5, -5.0, 5.0, 1)], 2)
+    x, y, z = origin
+    scene = build_scene([wall_y(y + 5.0, x - 10.0, x + 10.0, z - 5.0, z + 5.0, 0),
+                         wall_y(y + 3.0, x - 0.5, x + 0.5, z - 5.0, z + 5.0, 1)], 2)
     rng = np.random.default_rng(3)
     behind = rng.uniform([-14.0, 5.0005, -7.0], [14.0, 12.0, 7.0], (30000, 3))
     behind[:2000, 1] = 5.0 + rng.uniform(0.0002, 0.0015, 2000)  # on its back face, within the proof's margin or not
     before = rng.uniform([-6.0, 1.0, -3.0], [6.0, 4.9, 3.0], (3000, 3))
-    points = np.concatenate([behind, before])
+    local = np.concatenate([behind, before])
+    points = local + origin
     normals = np.tile([0.0, -1.0, 0.0], (len(points), 1))
     fs = FeatureSet(points, normals, np.zeros(len(points), np.int8), np.full(len(points), -1, np.int32), {})
     camera = PinholeCamera(640, 480, 400, 400, 320, 240, "wide")
     with make_engine("embree", scene, fs, threads=1) as engine:
         cover = engine.occluders
         for C in ([0.0, 0.0, 0.0], [3.0, -2.0, 1.0], [-2.0, -8.0, -2.0]):
-            C = np.asarray(C)
+            C = np.asarray(C) + origin
             fast = engine.visible_features(camera, R_NORTH, C)
             np.testing.assert_array_equal(fast, engine.visible_features_reference(camera, R_NORTH, C))
             args = (C, R_NORTH, camera.width, camera.height, camera.fx, camera.fy, camera.cx, camera.cy, engine.d_max)
@@ -88,10 +97,10 @@ def test_one_ray_per_block_proves_the_features_behind_a_wall_hidden():
             proven = every - rays
             assert rays <= every and not proven & set(fast.tolist())
             assert set(fast.tolist()) & set(range(30000)) and set(fast.tolist()) & set(range(30000, 33000))
-            deep = {i for i in every if i < 30000 and points[i, 1] > 5.0015}  # behind the wall by more than 1.5 mm
+            deep = {i for i in every if i < 30000 and local[i, 1] > 5.0015}  # behind the wall by more than 1.5 mm
             hidden_deep = deep - set(fast.tolist())
             assert len(proven & hidden_deep) > 0.7 * len(hidden_deep), (len(proven), len(hidden_deep))
-            assert not proven & {i for i in every if i < 2000 and points[i, 1] < 5.001}  # nearer than 1 mm: rays
+            assert not proven & {i for i in every if i < 2000 and local[i, 1] < 5.001}  # nearer than 1 mm: rays
 
 
 def _behind_and_before(rng, n_behind, y_wall, half_x, half_z):
@@ -250,6 +259,48 @@ def test_frustum_candidates_equal_the_per_feature_tests():
         np.testing.assert_array_equal(ids[order], np.flatnonzero(ok))
         np.testing.assert_allclose(dist[order], d[ok])
         np.testing.assert_allclose(dirs[order], rel[ok] / d[ok, None], atol=1e-6)
+
+
+@pytest.mark.parametrize("origin", [np.zeros(3), SITE_FAR_AWAY], ids=["at the origin", "5,400 km from it"])
+def test_features_whose_sight_line_grazes_their_surface_face_the_camera_as_the_brute_force_test_says(origin):
+    """The per-feature pass tests facing in float32, which cannot decide n·r within its rounding of zero; it keeps
+    those features for the float64 test. 20,000 features around 30 cameras, each normal at right angles to the
+    sight line from one of them, tipped by at most 10⁻⁶ either way (or not at all): the candidates are exactly the
+    features that pass the brute-force tests, some of the grazing ones in, some out."""
+    rng = np.random.default_rng(11)
+    n = 20000
+    pts = rng.uniform(-20, 20, (n, 3)) + origin
+    nrm = rng.normal(size=(n, 3))
+    nrm /= np.linalg.norm(nrm, axis=1)[:, None]
+    from test_engine_analytic import R_NORTH
+
+    index = None
+    for k in range(30):
+        C = rng.uniform(-30, 30, 3) + origin
+        R = R_from_gimbal(rng.uniform(0, 360), rng.uniform(-90, 30))[0]
+        if index is None:  # the normals graze the sight lines from this first camera, 80 m south, seeing them all
+            C, R = origin + [0.0, -80.0, 0.0], R_NORTH
+            r = pts - C
+            r /= np.linalg.norm(r, axis=1)[:, None]
+            nrm -= np.einsum("ij,ij->i", nrm, r)[:, None] * r
+            nrm /= np.linalg.norm(nrm, axis=1)[:, None]
+            tip = rng.choice([-1e-6, -1e-8, -1e-10, 0.0, 1e-10, 1e-8, 1e-6], n)
+            nrm = nrm + tip[:, None] * r
+            nrm /= np.linalg.norm(nrm, axis=1)[:, None]
+            index = FeatureIndex(pts, nrm)
+        ids, dirs, dist = index.candidates(C, R, CAMERA.width, CAMERA.height, CAMERA.fx, CAMERA.fy, CAMERA.cx,
+                                           CAMERA.cy, 1000.0)
+        rel = pts - C
+        cam = rel @ R
+        with np.errstate(divide="ignore", invalid="ignore"):
+            x = CAMERA.fx * cam[:, 0] / cam[:, 2] + CAMERA.cx
+            y = CAMERA.fy * cam[:, 1] / cam[:, 2] + CAMERA.cy
+        facing = (nrm[:, 0] * rel[:, 0] + nrm[:, 1] * rel[:, 1]) + nrm[:, 2] * rel[:, 2] < 0  # as the reference sums it
+        ok = facing & (cam[:, 2] > 0) & (x >= 0) & (x < CAMERA.width) & (y >= 0) & (y < CAMERA.height)
+        np.testing.assert_array_equal(np.sort(ids), np.flatnonzero(ok))
+        if k == 0:
+            inside = (cam[:, 2] > 0) & (x >= 0) & (x < CAMERA.width) & (y >= 0) & (y < CAMERA.height)
+            assert inside.all() and 0.3 * n < ok.sum() < 0.7 * n
 
 
 def test_stability_metrics_equal_with_the_brute_force_feature_test(duplex, features, monkeypatch):

@@ -368,7 +368,10 @@ class Engine(ABC):
             return np.zeros(0, np.int32)
         rel = fs.points - C_world
         dist = np.linalg.norm(rel, axis=1)
-        ok = (np.einsum("ij,ij->i", fs.normals, rel) < 0) & (dist <= self.d_max) & (dist > 0)
+        # n·r summed left to right as the indexed test sums it: where the sight line lies in the feature's surface
+        # (n·r rounds to either side of 0), both decide alike
+        n = fs.normals
+        ok = ((n[:, 0] * rel[:, 0] + n[:, 1] * rel[:, 1]) + n[:, 2] * rel[:, 2] < 0) & (dist <= self.d_max) & (dist > 0)
         if isinstance(camera, PinholeCamera):
             cam = rel @ R_world_camera  # camera-frame coordinates, (N, 3)
             zc = cam[:, 2]

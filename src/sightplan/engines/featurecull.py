@@ -30,8 +30,12 @@ of triangles are tried, cheapest first:
   narrow to hide a block of furniture; the pane behind it is not.
 
 Per block, the facing and covering tests run first over all its features, without a
-branch or a division (the compiler makes one vector loop of them); only the features
-left then take the distance, the projection and the pixel's triangle.
+branch or a division (the compiler makes one vector loop of them), in float32 on the
+features' offsets from their block's corner: eight at a time where float64 gives four.
+Each test carries a slack larger than its rounding, so it keeps every feature it cannot
+decide; the few whose facing it cannot call take the float64 test. Only the features
+left then take the distance, the projection and the pixel's triangle, in float64 as the
+brute-force test does.
 """
 
 from __future__ import annotations
@@ -54,6 +58,7 @@ COVER_INSIDE_M = 1e-4  # and its sight line crosses the triangle this far inside
 COVER_INSIDE_REL = 1e-6
 BIG_INRADIUS_M = 0.1  # a triangle this wide (its inscribed circle's radius) is a big occluder (big_triangles)
 BIG_SHARE_MAX = 0.25  # an engine keeps a BVH of the big triangles when they are at most this share of all
+F32_SLACK_REL = 2e-6  # the vector pass's float32 tests carry this × the block's farthest distance of slack (_block_planes)
 SETUP_CACHE = 512  # triangles set up per frame kept (a power of 2), by id modulo this: blocks and pixels hit the same walls
 
 
@@ -86,8 +91,8 @@ class FeatureIndex:
             order = np.zeros(0, np.int64)
         self.order = order.astype(np.int32)
         points = np.asarray(points, np.float64)[order]
-        self.xyz = np.ascontiguousarray(points.T)  # (3, N): one array per axis, for the vector loop
-        self.nxyz = np.ascontiguousarray(np.asarray(normals, np.float64)[order].T)
+        self.xyz = np.ascontiguousarray(points.T)  # (3, N) float64: the exact tests of the features the vector pass keeps
+        self.normals = np.ascontiguousarray(normals, np.float64)  # in the set's order: the few facing tests left unsure
         starts = np.arange(0, n, BLOCK)
         self.block_start = np.r_[starts, n].astype(np.int64)
         self.block_size = np.diff(self.block_start)
@@ -96,6 +101,13 @@ class FeatureIndex:
             self.block_hi = np.maximum.reduceat(points, starts, axis=0)
         else:
             self.block_lo = self.block_hi = np.zeros((0, 3))
+        # the vector pass's float32 copies, one array per axis: each point relative to its block's lower corner (small
+        # numbers, so rounding stays far below the proofs' margins however far the site lies from the origin)
+        self.offsets, self.n32 = np.empty((3, n), np.float32), np.empty((3, n), np.float32)
+        block_of = np.repeat(np.arange(len(starts)), self.block_size)
+        for a in range(3):
+            self.offsets[a] = points[:, a] - self.block_lo[block_of, a]
+            self.n32[a] = self.normals[order, a]
 
     def __len__(self) -> int:
         return len(self.order)
@@ -156,10 +168,10 @@ class FeatureIndex:
                     big[blocks - b0] = cover.big_hit(origin, _rays_to(blocks, lo, hi, C))
             total = int(self.block_size[blocks].sum())
             idx, dirs, dist = np.empty(total, np.int32), np.empty((total, 3), np.float32), np.empty(total)
-            k = _filter(self.xyz, self.nxyz, self.block_start, blocks, b0, first, big, C, R,
-                        pinhole, float(width), float(height), float(fx), float(fy), float(cx), float(cy), d_max,
-                        vertices, faces, centre, lo, hi, prims, float(sx), float(sy), tags, table,
-                        np.zeros(BLOCK, np.bool_), idx, dirs, dist)
+            k = _filter(self.xyz, self.offsets, self.n32, self.normals, self.order, self.block_start, blocks, b0,
+                        first, big, C, R, pinhole, float(width), float(height), float(fx), float(fy), float(cx),
+                        float(cy), d_max, vertices, faces, centre, lo, hi, prims, float(sx), float(sy), tags, table,
+                        np.zeros(BLOCK, np.int8), np.empty(32, np.float32), idx, dirs, dist)
             return idx[:k], dirs[:k], dist[:k]
 
         if pool is None or threads < 2 or len(keep) < PARALLEL_BLOCKS:
@@ -289,52 +301,77 @@ def _open(blocks, b0, first, vertices, faces, C, centre, lo, hi, tags, table, ou
 
 
 @no_refs
-def _filter(xyz, nxyz, block_start, blocks, b0, first, big, C, R, pinhole, width, height, fx, fy, cx, cy, d_max,
-            vertices, faces, centre, block_lo, block_hi, prims, sx, sy, tags, table, mask, idx, dirs, dist):
-    """The tests of METRICS.md §5.2 but occlusion, in float64 as the brute-force test does them, on the features of
-    ``blocks``, leaving out those a triangle hit proves occluded (:func:`_covers`): their block's (first[b − b0],
-    big[b − b0]), then, where prims is not empty, their own pixel's. Writes the features that pass into idx, dirs
-    and dist (room for every feature of those blocks) and returns how many; mask (BLOCK,) and the cache of
-    :func:`_cover_row`: scratch."""
+def _filter(xyz, offsets, n32, normals, order, block_start, blocks, b0, first, big, C, R, pinhole, width, height, fx, fy,
+            cx, cy, d_max, vertices, faces, centre, block_lo, block_hi, prims, sx, sy, tags, table, mask, plane, idx, dirs,
+            dist):
+    """The tests of METRICS.md §5.2 but occlusion on the features of ``blocks``, leaving out those a triangle hit proves
+    occluded (:func:`_covers`): their block's (first[b − b0], big[b − b0]), then, where prims is not empty, their own
+    pixel's. Writes the features that pass into idx, dirs and dist (room for every feature of those blocks) and
+    returns how many. Scratch: mask (BLOCK,) int8, plane (32,) float32 and the cache of
+    :func:`_cover_row`.
+
+    Two passes. The vector pass runs over all the blocks' features in float32 (:func:`_block_planes`) and keeps
+    those that face the camera and that neither block triangle proves hidden; its slack makes it keep, never drop,
+    a feature its rounding cannot decide, and a feature whose facing it cannot call takes the brute-force test's
+    own. The second pass tests those kept in float64 as the brute-force test does: distance and projection, and
+    their pixel's triangle."""
     C0, C1, C2 = C[0], C[1], C[2]
-    px, py, pz = xyz[0], xyz[1], xyz[2]
-    nx, ny, nz = nxyz[0], nxyz[1], nxyz[2]
+    ox, oy, oz = offsets[0], offsets[1], offsets[2]
+    mx, my, mz = n32[0], n32[1], n32[2]
     k = 0
     for b in blocks:
         lo, hi = block_lo[b], block_hi[b]
         inside = _box_inside(lo, hi, C)  # for every feature of the block (REL·d at its farthest)
-        cover2 = table[_cover_row(vertices, faces, big[b - b0], C, centre, tags, table)]
-        if _box_covers(cover2, lo, hi, C, inside):
+        big_row = _cover_row(vertices, faces, big[b - b0], C, centre, tags, table)
+        if _box_covers(table[big_row], lo, hi, C, inside):
             continue  # every sight line into the block's box crosses the big triangle: all its features are hidden
-        # the edge tests of _covers divided by the plane's distance (> 0), for both triangles; the big one's read
-        # before the first one is fetched, which may take its row of the cache (ids equal modulo its size)
-        u0, u1, u2, u3 = cover2[0], cover2[1], cover2[2], cover2[3]
-        m00, m01, m02, v0 = cover2[4], cover2[5], cover2[6], (cover2[7] + inside) / u3
-        m10, m11, m12, v1 = cover2[8], cover2[9], cover2[10], (cover2[11] + inside) / u3
-        m20, m21, m22, v2 = cover2[12], cover2[13], cover2[14], (cover2[15] + inside) / u3
-        cover = table[_cover_row(vertices, faces, first[b - b0], C, centre, tags, table)]
-        c0, c1, c2, c3 = cover[0], cover[1], cover[2], cover[3]
-        e00, e01, e02, f0 = cover[4], cover[5], cover[6], (cover[7] + inside) / c3
-        e10, e11, e12, f1 = cover[8], cover[9], cover[10], (cover[11] + inside) / c3
-        e20, e21, e22, f2 = cover[12], cover[13], cover[14], (cover[15] + inside) / c3
+        # the big triangle's planes before the first one is fetched, which may take its row of the cache
+        far = (inside - COVER_INSIDE_M) / COVER_INSIDE_REL
+        _block_planes(table[big_row], inside, far, plane, 0)
+        _block_planes(table[_cover_row(vertices, faces, first[b - b0], C, centre, tags, table)], inside, far, plane, 16)
+        u0, u1, u2, u3 = plane[0], plane[1], plane[2], plane[3]
+        g00, g01, g02, t0 = plane[4], plane[5], plane[6], plane[7]
+        g10, g11, g12, t1 = plane[8], plane[9], plane[10], plane[11]
+        g20, g21, g22, t2 = plane[12], plane[13], plane[14], plane[15]
+        v0, v1, v2, v3 = plane[16], plane[17], plane[18], plane[19]
+        h00, h01, h02, s0 = plane[20], plane[21], plane[22], plane[23]
+        h10, h11, h12, s1 = plane[24], plane[25], plane[26], plane[27]
+        h20, h21, h22, s2 = plane[28], plane[29], plane[30], plane[31]
+        facing = np.float32(F32_SLACK_REL * far)
+        q0, q1, q2 = np.float32(lo[0] - C0), np.float32(lo[1] - C1), np.float32(lo[2] - C2)
         s = block_start[b]
         n = block_start[b + 1] - s
-        for j in range(n):  # one vector loop: no branch, no division (without a big triangle, cover2 proves nothing)
+        for j in range(n):  # one vector loop: no branch, no division (a missing triangle's row proves nothing)
             i = np.uint64(s + j)  # unsigned: no wraparound test, so contiguous loads
-            r0 = px[i] - C0
-            r1 = py[i] - C1
-            r2 = pz[i] - C2
-            along = c0 * r0 + c1 * r1 + c2 * r2
-            hidden = ((along - c3 >= COVER_BEHIND_M) & (e00 * r0 + e01 * r1 + e02 * r2 >= f0 * along)
-                      & (e10 * r0 + e11 * r1 + e12 * r2 >= f1 * along) & (e20 * r0 + e21 * r1 + e22 * r2 >= f2 * along))
-            along = u0 * r0 + u1 * r1 + u2 * r2
-            hidden2 = ((along - u3 >= COVER_BEHIND_M) & (m00 * r0 + m01 * r1 + m02 * r2 >= v0 * along)
-                       & (m10 * r0 + m11 * r1 + m12 * r2 >= v1 * along) & (m20 * r0 + m21 * r1 + m22 * r2 >= v2 * along))
-            mask[j] = (nx[i] * r0 + ny[i] * r1 + nz[i] * r2 < 0.0) & (not (hidden | hidden2))
+            r0 = q0 + ox[i]
+            r1 = q1 + oy[i]
+            r2 = q2 + oz[i]
+            hidden = ((u0 * r0 + u1 * r1 + u2 * r2 >= u3) & (g00 * r0 + g01 * r1 + g02 * r2 >= t0)
+                      & (g10 * r0 + g11 * r1 + g12 * r2 >= t1) & (g20 * r0 + g21 * r1 + g22 * r2 >= t2))
+            hidden2 = ((v0 * r0 + v1 * r1 + v2 * r2 >= v3) & (h00 * r0 + h01 * r1 + h02 * r2 >= s0)
+                       & (h10 * r0 + h11 * r1 + h12 * r2 >= s1) & (h20 * r0 + h21 * r1 + h22 * r2 >= s2))
+            along = mx[i] * r0 + my[i] * r1 + mz[i] * r2
+            shown = not (hidden | hidden2)
+            near = (along < facing) & (along >= -facing) & shown  # its float32 facing test too close to call
+            mask[j] = ((along < -facing) & shown) + 2 * near
+        seen = 0
+        k0 = k
         for j in range(n):
             idx[k] = s + j
-            k += mask[j]
+            k += mask[j] & 1
+            seen |= mask[j]
+        if seen & 2:  # rare: a feature whose float32 facing test is too close to call, decided as the brute force does
+            k = k0
+            for j in range(n):
+                i = np.uint64(s + j)
+                if mask[j] == 2:
+                    o = order[i]
+                    r0, r1, r2 = xyz[0, i] - C0, xyz[1, i] - C1, xyz[2, i] - C2
+                    mask[j] = normals[o, 0] * r0 + normals[o, 1] * r1 + normals[o, 2] * r2 < 0.0
+                idx[k] = s + j
+                k += mask[j]
     # the features left: distance and projection, exactly as the reference tests them, and their pixel's triangle
+    px, py, pz = xyz[0], xyz[1], xyz[2]
     h, w = prims.shape
     last = -1
     cover = table[tags.shape[0]]
@@ -369,6 +406,28 @@ def _filter(xyz, nxyz, block_start, blocks, b0, first, big, C, R, pinhole, width
         dist[q] = d
         q += 1
     return q
+
+
+@per_ray
+def _block_planes(cover, inside, far, out, o):
+    """The tests of :func:`_covers` with margin ``inside`` for the points of a box at most ``far`` from C, as the
+    float32 vector pass runs them, into out[o:o + 16]: the plane's normal and the least distance along it (0–3), then
+    per edge k a vector g and a bound t (4k + 4 … 4k + 7) such that g·r ≥ t implies that edge's test holds.
+
+    The edge test m·r·front ≥ (offset + inside)·along is (m − f·n)·r ≥ 0 with f = (offset + inside) / front. In float32,
+    a point r taken relative to its block's corner, and a dot product with a vector of length at most 1 + |f|, are each
+    within 11·2⁻²⁴·far of their exact values (times 1 + |f|), so every bound carries F32_SLACK_REL·far, three times that:
+    a float32 test that holds implies the exact one. A "no triangle" row (front infinite) gives tests that never hold."""
+    slack = F32_SLACK_REL * far
+    out[o], out[o + 1], out[o + 2] = cover[0], cover[1], cover[2]
+    out[o + 3] = cover[3] + COVER_BEHIND_M + slack
+    for e in range(3):
+        f = (cover[4 * e + 7] + inside) / cover[3]
+        j = o + 4 * e + 4
+        out[j] = cover[4 * e + 4] - f * cover[0]
+        out[j + 1] = cover[4 * e + 5] - f * cover[1]
+        out[j + 2] = cover[4 * e + 6] - f * cover[2]
+        out[j + 3] = slack * (1.0 + abs(f))
 
 
 @no_refs
