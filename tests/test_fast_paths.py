@@ -261,12 +261,14 @@ def test_frustum_candidates_equal_the_per_feature_tests():
         np.testing.assert_allclose(dirs[order], rel[ok] / d[ok, None], atol=1e-6)
 
 
-@pytest.mark.parametrize("origin", [np.zeros(3), SITE_FAR_AWAY], ids=["at the origin", "5,400 km from it"])
-def test_features_whose_sight_line_grazes_their_surface_face_the_camera_as_the_brute_force_test_says(origin):
+@pytest.mark.parametrize("origin, length", [(np.zeros(3), 1.0), (SITE_FAR_AWAY, 1.0), (np.zeros(3), 100.0)],
+                         ids=["at the origin", "5,400 km from it", "normals 100 long"])
+def test_features_whose_sight_line_grazes_their_surface_face_the_camera_as_the_brute_force_test_says(origin, length):
     """The per-feature pass tests facing in float32, which cannot decide n·r within its rounding of zero; it keeps
     those features for the float64 test. 20,000 features around 30 cameras, each normal at right angles to the
     sight line from one of them, tipped by at most 10⁻⁶ either way (or not at all): the candidates are exactly the
-    features that pass the brute-force tests, some of the grazing ones in, some out."""
+    features that pass the brute-force tests, some of the grazing ones in, some out. The same with normals of
+    length 100 (a feature set read from a file need not hold unit normals; the tests depend only on their sign)."""
     rng = np.random.default_rng(11)
     n = 20000
     pts = rng.uniform(-20, 20, (n, 3)) + origin
@@ -286,7 +288,7 @@ def test_features_whose_sight_line_grazes_their_surface_face_the_camera_as_the_b
             nrm /= np.linalg.norm(nrm, axis=1)[:, None]
             tip = rng.choice([-1e-6, -1e-8, -1e-10, 0.0, 1e-10, 1e-8, 1e-6], n)
             nrm = nrm + tip[:, None] * r
-            nrm /= np.linalg.norm(nrm, axis=1)[:, None]
+            nrm *= length / np.linalg.norm(nrm, axis=1)[:, None]
             index = FeatureIndex(pts, nrm)
         ids, dirs, dist = index.candidates(C, R, CAMERA.width, CAMERA.height, CAMERA.fx, CAMERA.fy, CAMERA.cx,
                                            CAMERA.cy, 1000.0)
@@ -301,6 +303,58 @@ def test_features_whose_sight_line_grazes_their_surface_face_the_camera_as_the_b
         if k == 0:
             inside = (cam[:, 2] > 0) & (x >= 0) & (x < CAMERA.width) & (y >= 0) & (y < CAMERA.height)
             assert inside.all() and 0.3 * n < ok.sum() < 0.7 * n
+
+
+def test_features_a_hair_from_the_camera_face_it_as_the_brute_force_test_says():
+    """Blocks of features within 10⁻¹⁶ to 10⁻¹² m of the camera, their normals at right angles to their sight lines
+    give or take 10⁻⁶: the float32 pass's slack shrinks with the block's distance and does not vanish, so the
+    candidates are exactly the features that face the camera."""
+    rng = np.random.default_rng(2)
+    C = np.array([0.3, 0.7, 0.1])
+    for reach in (1e-16, 1e-15, 1e-14, 1e-12):
+        pts = C + rng.uniform(-reach, reach, (64 * 50, 3))
+        r = pts - C  # some points round to C itself: seen by no test
+        length = np.linalg.norm(r, axis=1)[:, None]
+        r = np.divide(r, length, out=np.zeros_like(r), where=length > 0)
+        nrm = rng.normal(size=pts.shape)
+        nrm -= np.einsum("ij,ij->i", nrm, r)[:, None] * r
+        nrm += rng.choice([-1e-6, -1e-7, 0.0, 1e-7, 1e-6], len(pts))[:, None] * r
+        nrm /= np.linalg.norm(nrm, axis=1)[:, None]
+        ids, _, _ = FeatureIndex(pts, nrm).candidates(C, None, 0, 0, 1.0, 1.0, 0.0, 0.0, 1000.0)
+        rel = pts - C
+        facing = ((nrm[:, 0] * rel[:, 0] + nrm[:, 1] * rel[:, 1]) + nrm[:, 2] * rel[:, 2] < 0) & (rel.any(axis=1))
+        np.testing.assert_array_equal(np.sort(ids), np.flatnonzero(facing))
+        assert 0.3 * len(pts) < facing.sum() < 0.7 * len(pts)
+
+
+@pytest.mark.parametrize("origin", [np.zeros(3), SITE_FAR_AWAY], ids=["at the origin", "5,400 km from it"])
+def test_a_camera_a_hair_before_a_wall_sees_what_the_reference_sees(origin):
+    """A tilted 10 × 10 m wall and 20,000 features behind it, seen by a 360° camera 10⁻⁷ to 10⁻¹⁰ m before it. Once
+    its float32 origin and the wall's float32 corners are rounded, a ray may start beyond the wall and see what lies
+    behind it; the reference's rays do. So a triangle that near the camera's plane proves nothing, and the set seen
+    is the reference's, whatever it holds."""
+    from sightplan.observations.features import FeatureSet
+    from test_engine_analytic import R_NORTH, Rect, build_scene
+
+    rng = np.random.default_rng(3)
+    e1, e2 = np.array([0.6, 0.8, 0.0]) * 5, np.array([-0.48, 0.36, 0.8]) * 5
+    normal = np.cross(e1, e2) / np.linalg.norm(np.cross(e1, e2))
+    c = origin + [1.3, 2.1, 0.7]
+    scene = build_scene([Rect(c, e1, e2, 0)], 1)
+    n = 20000
+    pts = (c + rng.uniform(-1, 1, (n, 1)) * e1 + rng.uniform(-1, 1, (n, 1)) * e2
+           + rng.uniform(0.002, 3, (n, 1)) * normal)
+    fs = FeatureSet(pts, np.tile(-normal, (n, 1)), np.zeros(n, np.int8), np.full(n, -1, np.int32), {})
+    camera = EquirectangularCamera(256, 128, "pano")
+    seen = []
+    with make_engine("embree", scene, fs, threads=1) as engine:
+        for gap in (1e-7, 1e-8, 1e-9, 1e-10):
+            for _ in range(4):
+                C = c + rng.uniform(-0.9, 0.9) * e1 + rng.uniform(-0.9, 0.9) * e2 - gap * normal
+                fast = engine.visible_features(camera, R_NORTH, C)
+                np.testing.assert_array_equal(fast, engine.visible_features_reference(camera, R_NORTH, C))
+                seen.append(len(fast))
+    assert max(seen) > 0  # some rays do start beyond the wall
 
 
 def test_stability_metrics_equal_with_the_brute_force_feature_test(duplex, features, monkeypatch):

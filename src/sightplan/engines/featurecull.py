@@ -56,9 +56,11 @@ PARALLEL_BLOCKS = 2048  # blocks above which their tests are split over the engi
 COVER_BEHIND_M = 0.001  # a feature proven occluded lies this far beyond the covering triangle's plane (2× the tolerance)
 COVER_INSIDE_M = 1e-4  # and its sight line crosses the triangle this far inside its edges, plus COVER_INSIDE_REL × d
 COVER_INSIDE_REL = 1e-6
+COVER_FRONT_REL = 1e-6  # a triangle proves nothing from a camera nearer its plane than this × their distances from the centre
 BIG_INRADIUS_M = 0.1  # a triangle this wide (its inscribed circle's radius) is a big occluder (big_triangles)
 BIG_SHARE_MAX = 0.25  # an engine keeps a BVH of the big triangles when they are at most this share of all
 F32_SLACK_REL = 2e-6  # the vector pass's float32 tests carry this × the block's farthest distance of slack (_block_planes)
+F32_SLACK_M = 1e-30  # and this much, for a block so near C that float32 no longer holds its relative precision
 SETUP_CACHE = 512  # triangles set up per frame kept (a power of 2), by id modulo this: blocks and pixels hit the same walls
 
 
@@ -93,6 +95,9 @@ class FeatureIndex:
         points = np.asarray(points, np.float64)[order]
         self.xyz = np.ascontiguousarray(points.T)  # (3, N) float64: the exact tests of the features the vector pass keeps
         self.normals = np.ascontiguousarray(normals, np.float64)  # in the set's order: the few facing tests left unsure
+        length = np.linalg.norm(self.normals, axis=1) if n else np.zeros(0)
+        length = length[np.isfinite(length)]
+        self.normal_scale = float(length.max()) if len(length) else 0.0  # the facing slack's unit (1 for unit normals)
         starts = np.arange(0, n, BLOCK)
         self.block_start = np.r_[starts, n].astype(np.int64)
         self.block_size = np.diff(self.block_start)
@@ -168,10 +173,11 @@ class FeatureIndex:
                     big[blocks - b0] = cover.big_hit(origin, _rays_to(blocks, lo, hi, C))
             total = int(self.block_size[blocks].sum())
             idx, dirs, dist = np.empty(total, np.int32), np.empty((total, 3), np.float32), np.empty(total)
-            k = _filter(self.xyz, self.offsets, self.n32, self.normals, self.order, self.block_start, blocks, b0,
-                        first, big, C, R, pinhole, float(width), float(height), float(fx), float(fy), float(cx),
-                        float(cy), d_max, vertices, faces, centre, lo, hi, prims, float(sx), float(sy), tags, table,
-                        np.zeros(BLOCK, np.int8), np.empty(32, np.float32), idx, dirs, dist)
+            k = _filter(self.xyz, self.offsets, self.n32, self.normals, self.normal_scale, self.order,
+                        self.block_start, blocks, b0, first, big, C, R, pinhole, float(width), float(height),
+                        float(fx), float(fy), float(cx), float(cy), d_max, vertices, faces, centre, lo, hi, prims,
+                        float(sx), float(sy), tags, table, np.zeros(BLOCK, np.int8), np.empty(32, np.float32), idx,
+                        dirs, dist)
             return idx[:k], dirs[:k], dist[:k]
 
         if pool is None or threads < 2 or len(keep) < PARALLEL_BLOCKS:
@@ -301,9 +307,9 @@ def _open(blocks, b0, first, vertices, faces, C, centre, lo, hi, tags, table, ou
 
 
 @no_refs
-def _filter(xyz, offsets, n32, normals, order, block_start, blocks, b0, first, big, C, R, pinhole, width, height, fx, fy,
-            cx, cy, d_max, vertices, faces, centre, block_lo, block_hi, prims, sx, sy, tags, table, mask, plane, idx, dirs,
-            dist):
+def _filter(xyz, offsets, n32, normals, normal_scale, order, block_start, blocks, b0, first, big, C, R, pinhole, width,
+            height, fx, fy, cx, cy, d_max, vertices, faces, centre, block_lo, block_hi, prims, sx, sy, tags, table, mask,
+            plane, idx, dirs, dist):
     """The tests of METRICS.md §5.2 but occlusion on the features of ``blocks``, leaving out those a triangle hit proves
     occluded (:func:`_covers`): their block's (first[b − b0], big[b − b0]), then, where prims is not empty, their own
     pixel's. Writes the features that pass into idx, dirs and dist (room for every feature of those blocks) and
@@ -321,12 +327,12 @@ def _filter(xyz, offsets, n32, normals, order, block_start, blocks, b0, first, b
     k = 0
     for b in blocks:
         lo, hi = block_lo[b], block_hi[b]
-        inside = _box_inside(lo, hi, C)  # for every feature of the block (REL·d at its farthest)
+        far = _box_far(lo, hi, C)
+        inside = COVER_INSIDE_M + COVER_INSIDE_REL * far  # for every feature of the block (REL·d at its farthest)
         big_row = _cover_row(vertices, faces, big[b - b0], C, centre, tags, table)
         if _box_covers(table[big_row], lo, hi, C, inside):
             continue  # every sight line into the block's box crosses the big triangle: all its features are hidden
         # the big triangle's planes before the first one is fetched, which may take its row of the cache
-        far = (inside - COVER_INSIDE_M) / COVER_INSIDE_REL
         _block_planes(table[big_row], inside, far, plane, 0)
         _block_planes(table[_cover_row(vertices, faces, first[b - b0], C, centre, tags, table)], inside, far, plane, 16)
         u0, u1, u2, u3 = plane[0], plane[1], plane[2], plane[3]
@@ -337,7 +343,7 @@ def _filter(xyz, offsets, n32, normals, order, block_start, blocks, b0, first, b
         h00, h01, h02, s0 = plane[20], plane[21], plane[22], plane[23]
         h10, h11, h12, s1 = plane[24], plane[25], plane[26], plane[27]
         h20, h21, h22, s2 = plane[28], plane[29], plane[30], plane[31]
-        facing = np.float32(F32_SLACK_REL * far)
+        facing = np.float32((F32_SLACK_REL * far + F32_SLACK_M) * normal_scale)
         q0, q1, q2 = np.float32(lo[0] - C0), np.float32(lo[1] - C1), np.float32(lo[2] - C2)
         s = block_start[b]
         n = block_start[b + 1] - s
@@ -417,24 +423,30 @@ def _block_planes(cover, inside, far, out, o):
     The edge test m·r·front ≥ (offset + inside)·along is (m − f·n)·r ≥ 0 with f = (offset + inside) / front. In float32,
     a point r taken relative to its block's corner, and a dot product with a vector of length at most 1 + |f|, are each
     within 11·2⁻²⁴·far of their exact values (times 1 + |f|), so every bound carries F32_SLACK_REL·far, three times that:
-    a float32 test that holds implies the exact one. A "no triangle" row (front infinite) gives tests that never hold."""
-    slack = F32_SLACK_REL * far
+    a float32 test that holds implies the exact one; F32_SLACK_M more keeps that true where float32 loses its relative
+    precision. A "no triangle" row (front infinite), and an edge whose vector would leave float32's range, give tests
+    that never hold."""
+    slack = F32_SLACK_REL * far + F32_SLACK_M
     out[o], out[o + 1], out[o + 2] = cover[0], cover[1], cover[2]
     out[o + 3] = cover[3] + COVER_BEHIND_M + slack
     for e in range(3):
         f = (cover[4 * e + 7] + inside) / cover[3]
         j = o + 4 * e + 4
-        out[j] = cover[4 * e + 4] - f * cover[0]
-        out[j + 1] = cover[4 * e + 5] - f * cover[1]
-        out[j + 2] = cover[4 * e + 6] - f * cover[2]
-        out[j + 3] = slack * (1.0 + abs(f))
+        if abs(f) * far < 1e30:
+            out[j] = cover[4 * e + 4] - f * cover[0]
+            out[j + 1] = cover[4 * e + 5] - f * cover[1]
+            out[j + 2] = cover[4 * e + 6] - f * cover[2]
+            out[j + 3] = slack * (1.0 + abs(f))
+        else:  # beyond float32's range (or NaN): a test that never holds
+            out[j], out[j + 1], out[j + 2], out[j + 3] = 0.0, 0.0, 0.0, np.inf
 
 
 @no_refs
 def _cover_setup(vertices, faces, f, C, centre, out):
     """Triangle f as seen from C, into ``out`` (16,), relative to C: its unit normal turned away from C (0–2), C's
     distance to its plane (3), then per edge k its inward in-plane unit normal m_k (4k + 4 … 4k + 6) and offset
-    m_k·(a_k − C) (4k + 7). False where C lies in the plane or the triangle is degenerate."""
+    m_k·(a_k − C) (4k + 7). False where the triangle is degenerate or C lies within COVER_FRONT_REL × (C's and the
+    triangle's distances from the centre) of its plane."""
     l0, l1, l2 = C[0] - centre[0], C[1] - centre[1], C[2] - centre[2]
     i, j, k = faces[f, 0], faces[f, 1], faces[f, 2]
     a0, a1, a2 = vertices[i, 0] - l0, vertices[i, 1] - l1, vertices[i, 2] - l2  # the corners relative to C
@@ -450,7 +462,10 @@ def _cover_setup(vertices, faces, f, C, centre, out):
     front = n0 * a0 + n1 * a1 + n2 * a2  # the plane's distance from C along n
     if front < 0.0:
         n0, n1, n2, front = -n0, -n1, -n2, -front
-    if not front > 0.0:
+    # a camera this near the plane may lie on its other side once a ray's float32 origin and the triangle's float32
+    # corners are rounded (the frame's rays and the reference's are): no proof from it
+    reach = math.sqrt(l0 * l0 + l1 * l1 + l2 * l2) + max(_length(vertices[i]), _length(vertices[j]), _length(vertices[k]))
+    if not front > COVER_FRONT_REL * reach:
         return False
     out[0], out[1], out[2], out[3] = n0, n1, n2, front
     for e in range(3):  # edge p → q, r the third corner
@@ -471,6 +486,12 @@ def _cover_setup(vertices, faces, f, C, centre, out):
         out[4 * e + 4], out[4 * e + 5], out[4 * e + 6] = m0, m1, m2
         out[4 * e + 7] = m0 * p0 + m1 * p1 + m2 * p2
     return True
+
+
+@per_ray
+def _length(v):
+    """The length of the 3-vector v."""
+    return math.sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2])
 
 
 @per_ray
@@ -498,12 +519,18 @@ def _no_cover(cover):
 
 
 @per_ray
-def _box_inside(lo, hi, C):
-    """The inside margin of :func:`_covers` for the point of the box lo..hi farthest from C."""
+def _box_far(lo, hi, C):
+    """The distance from C to the box lo..hi's farthest corner."""
     s = 0.0
     for a in range(3):
         s += max(abs(lo[a] - C[a]), abs(hi[a] - C[a])) ** 2
-    return COVER_INSIDE_M + COVER_INSIDE_REL * math.sqrt(s)
+    return math.sqrt(s)
+
+
+@per_ray
+def _box_inside(lo, hi, C):
+    """The inside margin of :func:`_covers` for the point of the box lo..hi farthest from C."""
+    return COVER_INSIDE_M + COVER_INSIDE_REL * _box_far(lo, hi, C)
 
 
 @per_ray
