@@ -1,4 +1,6 @@
-"""The feature test on real sizes: `python benchmarks/features.py` (`--model duplex`, `--frames N`, `--no-reference`).
+"""The feature test on real sizes: `python benchmarks/features.py` (`--model M`, `--frames N`, `--no-reference`).
+
+M: any model of `benchmarks/speed.py` (default the restaurant; `duplex`, `campus-1M` built in memory, ...).
 
 On the drone rings of `benchmarks/speed.py` (Phantom 4 Pro at scale 0.25), per frame: the blocks of features the view
 frustum keeps, the features that pass the geometric tests (each would cast a ray without a proof of occlusion), those
@@ -20,9 +22,8 @@ import numpy as np
 from run import cell_plan
 from sightplan.engines import featurecull
 from sightplan.engines.embree import EmbreeEngine
-from sightplan.model.load import load_model
 from sightplan.observations.features import cached_features
-from speed import frame_rays, model_path
+from speed import frame_rays, load
 
 HERE = Path(__file__).resolve().parent
 
@@ -55,7 +56,7 @@ def main() -> None:
     p.add_argument("--no-reference", action="store_true", help="do not compare with one ray per feature")
     p.add_argument("--out", default=str(HERE / "features.json"))
     args = p.parse_args()
-    scene, _ = load_model(model_path(args.model))
+    scene = load(args.model, None)  # the campus models are built in memory
     features = cached_features(scene, 1.0, 0)
     engine = EmbreeEngine(scene, features)
     plan = cell_plan(scene, "drone", args.frames)

@@ -74,7 +74,7 @@ def model_path(name: str) -> str | None:
     raise ValueError(f"unknown model {name!r}")
 
 
-def load(name: str, cache_dir: Path):
+def load(name: str, cache_dir: Path | None):
     if name.startswith("campus-"):
         from large import campus_scene  # benchmarks/large.py: columns of 100 triangles
 

@@ -328,7 +328,7 @@ def _filter(xyz, offsets, n32, normals, normal_scale, order, block_start, blocks
     for b in blocks:
         lo, hi = block_lo[b], block_hi[b]
         far = _box_far(lo, hi, C)
-        inside = COVER_INSIDE_M + COVER_INSIDE_REL * far  # for every feature of the block (REL·d at its farthest)
+        inside = _inside_at(far)  # for every feature of the block
         big_row = _cover_row(vertices, faces, big[b - b0], C, centre, tags, table)
         if _box_covers(table[big_row], lo, hi, C, inside):
             continue  # every sight line into the block's box crosses the big triangle: all its features are hidden
@@ -403,7 +403,7 @@ def _filter(xyz, offsets, n32, normals, normal_scale, order, block_start, blocks
                 if f != last:
                     last = f
                     cover = table[_cover_row(vertices, faces, f, C, centre, tags, table)]
-                if _covers(cover, r0, r1, r2, COVER_INSIDE_M + COVER_INSIDE_REL * d):
+                if _covers(cover, r0, r1, r2, _inside_at(d)):
                     continue  # hidden behind the triangle its pixel hit
         idx[q] = i
         dirs[q, 0] = r0 / d
@@ -528,9 +528,15 @@ def _box_far(lo, hi, C):
 
 
 @per_ray
+def _inside_at(d):
+    """The inside margin of :func:`_covers` for a point at distance d from C (and any nearer)."""
+    return COVER_INSIDE_M + COVER_INSIDE_REL * d
+
+
+@per_ray
 def _box_inside(lo, hi, C):
     """The inside margin of :func:`_covers` for the point of the box lo..hi farthest from C."""
-    return COVER_INSIDE_M + COVER_INSIDE_REL * _box_far(lo, hi, C)
+    return _inside_at(_box_far(lo, hi, C))
 
 
 @per_ray
