@@ -48,7 +48,9 @@ def test_speed_times_the_feature_test_inside_observe(duplex, scripts):
 
 def test_features_counts_the_rays_each_proof_leaves(duplex, scripts):
     """`features.frame_counts` on a Duplex frame: the rays left shrink from the candidates to the proofs without
-    pixels and to those with them, and the set with the pixels is the reference's."""
+    pixels and to those with them, and the set with the pixels is the reference's. `features.hidden_reasons` sorts
+    the same rays: those it counts seen are the reference's set, and no seen feature's own first triangle proves it
+    hidden (the proof is sound on Embree's own hits)."""
     from sightplan.observations.features import sample_features
 
     _, features, cell_plan = scripts
@@ -57,6 +59,10 @@ def test_features_counts_the_rays_each_proof_leaves(duplex, scripts):
         cam, R, C = plan.camera_of(0), plan.R_world_camera[0], plan.C_world[0]
         pixels = features.frame_pixels(engine, cam, R, C)
         row = features.frame_counts(engine, cam, R, C, pixels)
-        np.testing.assert_array_equal(engine.visible_features(cam, R, C, pixels=pixels),
-                                      engine.visible_features_reference(cam, R, C))
+        reasons = features.hidden_reasons(engine, cam, R, C, pixels)
+        reference = engine.visible_features_reference(cam, R, C)
+        np.testing.assert_array_equal(engine.visible_features(cam, R, C, pixels=pixels), reference)
     assert row["blocks_kept"] > 0 and row["candidates"] >= row["rays_alone"] and row["candidates"] > row["rays"]
+    assert reasons["rays"] == row["rays"] and reasons["seen"] == len(reference) > 0 and reasons["hidden"] > 0
+    assert reasons["own_hit_seen"] == 0
+    assert 0 < reasons["own_hit"] <= reasons["hidden"] and reasons["own_pixel_is_hit"] <= reasons["hidden"]
